@@ -1,0 +1,111 @@
+"""The ``vibrissa`` command line: each verb parses its arguments and calls a library function."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from typing import Dict, List, Optional
+
+from .core.errors import VibrissaError
+from .core.models import MODELS
+from .core.profiles import PROFILE_PARAMETERS, make_profile
+from .core.scan import run_scan, scan_grid
+from .scan_io import write_events_json, write_scan_csv
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse that reports a bad argument in one line and exits with status 2."""
+
+    def error(self, message):  # noqa: D401 - argparse API
+        self.exit(2, f"{self.prog}: error: {message}\n")
+
+
+def _finite(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"{text!r} must be finite")
+    return value
+
+
+def _positive(text: str) -> float:
+    value = _finite(text)
+    if value <= 0.0:
+        raise argparse.ArgumentTypeError(f"{text!r} must be > 0")
+    return value
+
+
+def _param(text: str):
+    key, sep, value = text.partition("=")
+    if not sep or not key:
+        raise argparse.ArgumentTypeError(f"{text!r} is not NAME=VALUE (e.g. p0=0.3)")
+    return key.strip(), _finite(value)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(prog="vibrissa", description="Virtual whisker: exact quasistatic elastica scans.")
+    sub = parser.add_subparsers(dest="verb", required=True, parser_class=_Parser)
+    scan = sub.add_parser(
+        "scan",
+        help="sweep the foot along the x-axis past an obstacle and write the states",
+        description="Sweep the whisker's foot along the x-axis (heading +y) past a convex obstacle. "
+        "Dimensionless units: length L, force EI/L^2, moment EI/L.",
+    )
+    names = ", ".join(f"{p} ({', '.join(ks)})" for p, ks in PROFILE_PARAMETERS.items())
+    scan.add_argument("--profile", required=True, choices=sorted(PROFILE_PARAMETERS), help=f"obstacle: {names}")
+    scan.add_argument("--param", action="append", type=_param, default=[], metavar="NAME=VALUE",
+                      help="profile parameter, repeatable (e.g. --param p0=0.3 --param k=1)")
+    scan.add_argument("--model", default="elastica", choices=sorted(MODELS), help="whisker model")
+    scan.add_argument("--from", dest="x_from", type=_finite, required=True, help="first foot position x0")
+    scan.add_argument("--to", dest="x_to", type=_finite, required=True, help="last foot position x0 (inclusive)")
+    scan.add_argument("--step", type=_positive, required=True, help="grid spacing of x0 (> 0)")
+    scan.add_argument("--back", action="store_true", help="append the sweep back to --from")
+    scan.add_argument("--csv", required=True, help="output CSV ('-' for standard output)")
+    scan.add_argument("--events", help="output events JSON")
+    scan.set_defaults(func=_cmd_scan)
+    return parser
+
+
+def _params(pairs: List) -> Dict[str, float]:
+    out: Dict[str, float] = {}
+    for key, value in pairs:
+        if key in out:
+            raise VibrissaError(f"parameter {key} given twice")
+        out[key] = value
+    return out
+
+
+def _cmd_scan(args) -> int:
+    try:
+        profile = make_profile(args.profile, _params(args.param))
+        grid = scan_grid(args.x_from, args.x_to, args.step, args.back)
+    except VibrissaError as exc:
+        print(f"vibrissa scan: error: {exc}", file=sys.stderr)
+        return 2
+    try:
+        result = run_scan(profile, grid, model=args.model)
+    except VibrissaError as exc:
+        print(f"vibrissa scan: error: {exc}", file=sys.stderr)
+        return 2 if isinstance(exc, ValueError) else 1
+    if args.csv == "-":
+        write_scan_csv(result.states, sys.stdout)
+    else:
+        with open(args.csv, "w", newline="") as stream:
+            write_scan_csv(result.states, stream)
+    if args.events:
+        with open(args.events, "w") as stream:
+            write_events_json(result.events, stream)
+    return 0
+
+
+def main(argv: Optional[List[str]] = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    return args.func(args)
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,194 @@
+"""Whisker models behind one interface: the equations of a contact branch in the contact frame.
+
+The tracker (:mod:`.tracker`) follows equilibria of a model against a profile. It works in the
+*contact frame*: foot at the origin, undeformed whisker along +y, and mirrored (x -> -x) when the
+whisker bends counter-clockwise, so that every model only ever solves the clockwise case (paper
+§2, WH1). A contact branch is described by two unknowns ``z = (alpha, mu)`` where ``alpha`` is the
+profile slope at the contact (contact frame); the tracker solves
+
+    load_point(phase, z) = Q(alpha)    (the whisker's contact point lies on the profile)
+
+where Q is the profile point of slope alpha. Each model says which inequalities bound each phase
+(:meth:`events`) and what happens when one becomes an equality (:meth:`transition`).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Dict, Tuple
+
+import numpy as np
+
+from .elastica import family, family_centerline, family_domain_ok
+from .errors import ModelAssumptionError
+from .state import FootPose, Phase, WhiskerState
+
+HALF_PI = 0.5 * math.pi
+
+
+class ElasticaModel:
+    """The inextensible Euler-Bernoulli elastica clamped at the foot (paper §2).
+
+    Unknowns: phase 1 (tangential) ``z = (alpha, lam)`` with lam = 1/sqrt(f); phase 2 (tip)
+    ``z = (alpha, gamma)`` with gamma = pi/2 - phi(1), the tip's rotation.
+    """
+
+    name = "elastica"
+
+    # -- branch equations ------------------------------------------------------------------
+    def load_point(self, phase: Phase, z) -> Tuple[float, float, float, float, float, float]:
+        """Contact point on the whisker and its Jacobian: (Px, Py, dPx/dz0, dPx/dz1, dPy/dz0, dPy/dz1)."""
+        alpha, mu = z
+        ca, sa = math.cos(alpha), math.sin(alpha)
+        if phase == Phase.TANGENTIAL:
+            fam = family(alpha, HALF_PI - alpha)
+            A, N = fam.A, fam.N
+            # d/dalpha along gamma = pi/2 - alpha (delta = 0): (A' - N) a + (A + N') n, N' = -A/2
+            ga = fam.A_a - fam.A_g - N
+            gn = A + fam.N_a - fam.N_g
+            cx = A * ca - N * sa
+            cy = A * sa + N * ca
+            return (
+                mu * cx,
+                mu * cy,
+                mu * (ga * ca - gn * sa),
+                cx,
+                mu * (ga * sa + gn * ca),
+                cy,
+            )
+        fam = family(alpha, mu)
+        A, N, S = fam.A, fam.N, fam.S
+        cx = A * ca - N * sa
+        cy = A * sa + N * ca
+        # C_alpha = (A_a - N) a + (A + N_a) n ; C_gamma = A_g a + N_g n ; P = C / S
+        ua, un = fam.A_a - N, A + fam.N_a
+        cax, cay = ua * ca - un * sa, ua * sa + un * ca
+        cgx, cgy = fam.A_g * ca - fam.N_g * sa, fam.A_g * sa + fam.N_g * ca
+        inv = 1.0 / S
+        inv2 = inv * inv
+        return (
+            cx * inv,
+            cy * inv,
+            (cax * S - cx * fam.S_a) * inv2,
+            (cgx * S - cx * fam.S_g) * inv2,
+            (cay * S - cy * fam.S_a) * inv2,
+            (cgy * S - cy * fam.S_g) * inv2,
+        )
+
+    def valid(self, phase: Phase, z) -> bool:
+        """Whether ``z`` lies where the branch equations are defined."""
+        alpha, mu = z
+        if not (math.isfinite(alpha) and math.isfinite(mu)):
+            return False
+        if phase == Phase.TANGENTIAL:
+            return -HALF_PI < alpha < HALF_PI and mu > 0.0
+        return family_domain_ok(alpha, mu)
+
+    def events(self, phase: Phase, z) -> Dict[str, float]:
+        """Functions that are positive inside the phase; a zero is an event.
+
+        phase 1: ``tip`` = 1 - s1 (the contact reaches the tip, paper eq. 13);
+        phase 2: ``tangential`` = delta = phi(1) - alpha (the tip becomes tangent to the profile),
+        ``wh1`` = gamma/2 + alpha (kappa(0) -> 0: an inflection would appear, WH1 fails).
+        """
+        alpha, mu = z
+        if phase == Phase.TANGENTIAL:
+            fam = family(alpha, HALF_PI - alpha, False)
+            return {"tip": 1.0 - mu * fam.S}
+        return {"tangential": HALF_PI - alpha - mu, "wh1": 0.5 * mu + alpha}
+
+    def transition(self, phase: Phase, event: str, z) -> Tuple[Phase, Tuple[float, float]]:
+        """The phase and unknowns on the other side of ``event``."""
+        alpha, mu = z
+        if phase == Phase.TANGENTIAL and event == "tip":
+            return Phase.TIP, (alpha, HALF_PI - alpha)
+        if phase == Phase.TIP and event == "tangential":
+            fam = family(alpha, HALF_PI - alpha, False)
+            return Phase.TANGENTIAL, (alpha, 1.0 / fam.S)
+        if event == "wh1":
+            raise ModelAssumptionError(
+                "the base moment would change sign (an inflection point would appear): the whisker "
+                "leaves the model's working hypothesis WH1 here; this branch is not modelled"
+            )
+        raise AssertionError(f"no transition for event {event!r} in phase {phase!r}")
+
+    def touch_start(self, alpha0: float, penetration: float) -> Tuple[Phase, Tuple[float, float]]:
+        """Guess of the tip-contact branch just after first touch.
+
+        Linear beam theory: a tip force f along (sin a, -cos a) deflects the tip by f sin(a)/3
+        along x and rotates it by f sin(a)/2; the tip must take up the straight whisker's
+        ``penetration`` along the normal.
+        """
+        sa = math.sin(alpha0)
+        f = 3.0 * penetration / (sa * sa)
+        return Phase.TIP, (alpha0, max(0.5 * f * sa, 1e-300))
+
+    def tip_rotation(self, phase: Phase, z) -> float:
+        """gamma = pi/2 - phi(1) (contact frame); small values mean the force is nearly zero."""
+        return HALF_PI - z[0] if phase == Phase.TANGENTIAL else z[1]
+
+    # -- results ---------------------------------------------------------------------------
+    def contact_quantities(self, phase: Phase, z):
+        """(f, m0, s1, tip_slope, tip_offset) in the contact frame; tip_offset = tip - contact."""
+        alpha, mu = z
+        if phase == Phase.TANGENTIAL:
+            fam = family(alpha, HALF_PI - alpha, False)
+            s1 = mu * fam.S
+            free = 1.0 - s1
+            return 1.0 / (mu * mu), -fam.A / mu, s1, alpha, (free * math.cos(alpha), free * math.sin(alpha))
+        fam = family(alpha, mu, False)
+        return fam.S * fam.S, -fam.A * fam.S, 1.0, HALF_PI - mu, (0.0, 0.0)
+
+    def centerline_contact_frame(self, phase: Phase, z, n: int) -> np.ndarray:
+        alpha, mu = z
+        s = np.linspace(0.0, 1.0, n)
+        if phase == Phase.TANGENTIAL:
+            gamma = HALF_PI - alpha
+            sqrt_f = 1.0 / mu
+            s1 = mu * family(alpha, gamma, False).S
+        else:
+            gamma = mu
+            sqrt_f = family(alpha, gamma, False).S
+            s1 = 1.0
+        loaded = s <= s1
+        pts = np.empty((n, 2))
+        pts[loaded] = family_centerline(alpha, gamma, sqrt_f, s[loaded])
+        if not loaded.all():
+            p1 = family_centerline(alpha, gamma, sqrt_f, [s1])[0]
+            rest = s[~loaded] - s1
+            pts[~loaded, 0] = p1[0] + rest * math.cos(alpha)
+            pts[~loaded, 1] = p1[1] + rest * math.sin(alpha)
+        return pts
+
+
+MODELS = {"elastica": ElasticaModel}
+
+
+def make_model(name: str):
+    from .errors import ParameterError
+
+    if name not in MODELS:
+        raise ParameterError(f"unknown model {name!r}; allowed: {', '.join(MODELS)}")
+    return MODELS[name]()
+
+
+def to_world(pose: FootPose, side: int, pts: np.ndarray) -> np.ndarray:
+    """Contact-frame points -> world: mirror by ``side``, rotate by heading - pi/2, translate."""
+    beta = pose.heading - HALF_PI
+    c, s = math.cos(beta), math.sin(beta)
+    x = pts[:, 0] * (side if side else 1)
+    y = pts[:, 1]
+    return np.column_stack((pose.x + c * x - s * y, pose.y + s * x + c * y))
+
+
+def centerline_of(state: WhiskerState, n: int = 101) -> np.ndarray:
+    """Sample a state's centerline (world frame), ``n`` >= 2 points from foot to tip."""
+    n = int(n)
+    if n < 2:
+        raise ValueError(f"n = {n} points: need at least 2")
+    if state.phase == Phase.FREE:
+        s = np.linspace(0.0, 1.0, n)
+        return to_world(state.pose, 1, np.column_stack((np.zeros(n), s)))
+    model = make_model(state.model)
+    phase, z = Phase(int(state.shape[0])), (state.shape[1], state.shape[2])
+    return to_world(state.pose, state.side, model.centerline_contact_frame(phase, z, n))

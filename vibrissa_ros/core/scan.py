@@ -1,0 +1,61 @@
+"""Quasistatic scans along the paper's foot line: the x0 grid and the run over it."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Tuple
+
+import numpy as np
+
+from .errors import ParameterError
+from .profiles import ConvexProfile
+from .state import Event, WhiskerState
+from .tracker import QuasistaticTracker
+
+
+@dataclass(frozen=True)
+class ScanResult:
+    """States in scan order (one per grid point) and the events crossed between them."""
+
+    states: Tuple[WhiskerState, ...]
+    events: Tuple[Event, ...]
+
+
+def scan_grid(x_from: float, x_to: float, step: float, back: bool = False) -> np.ndarray:
+    """Foot positions from ``x_from`` to ``x_to`` inclusive, spaced by ``step`` (> 0).
+
+    Points are computed as x_from +- i*step (no accumulated rounding); ``x_to`` ends the grid even
+    when the span is not a multiple of the step. ``back`` appends the way back to ``x_from``.
+    """
+    for name, value in (("from", x_from), ("to", x_to), ("step", step)):
+        if not math.isfinite(value):
+            raise ParameterError(f"--{name} = {value!r} must be a finite number")
+    if not step > 0.0:
+        raise ParameterError(f"--step = {step!r} must be > 0")
+    span = abs(x_to - x_from)
+    n = int(math.floor(span / step * (1.0 + 1e-12)))
+    if n > 50_000_000:
+        raise ParameterError(f"--step = {step!r} gives {n} grid points; at most 50,000,000 are allowed")
+    sign = 1.0 if x_to >= x_from else -1.0
+    grid = x_from + sign * step * np.arange(n + 1)
+    if abs(grid[-1] - x_to) > 1e-12 * max(1.0, span):
+        grid = np.append(grid, x_to)
+    else:
+        grid[-1] = x_to
+    if back:
+        grid = np.concatenate((grid, grid[-2::-1]))
+    return grid
+
+
+def run_scan(profile: ConvexProfile, grid, model="elastica") -> ScanResult:
+    """Place the whisker at the first grid point (straight, free) and step through the grid."""
+    grid = np.asarray(grid, dtype=float)
+    tracker = QuasistaticTracker(profile, float(grid[0]), model=model)
+    states = [tracker.state]
+    events = []
+    for x0 in grid[1:]:
+        result = tracker.step(float(x0))
+        states.append(result.state)
+        events.extend(result.events)
+    return ScanResult(tuple(states), tuple(events))

@@ -1,0 +1,135 @@
+"""Immutable values the core returns: foot poses, whisker states, events.
+
+Frame ("world", the paper's frame for a scan): the obstacle is placed in it; a foot pose is the
+position of the whisker's base and the heading of the undeformed whisker. The paper's set-up is
+the foot at (x0, 0) with heading pi/2 (whisker along +y). Units: length L, force EI/L^2 (elastica)
+or c/L (rigid model), moment EI/L (or c).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from enum import IntEnum
+from typing import Optional, Tuple
+
+import numpy as np
+
+from .errors import InvalidPoseError
+
+HALF_PI = 0.5 * math.pi
+
+
+class Phase(IntEnum):
+    """Contact phase (paper §2): 0 free, 1 tangential contact at s1 < 1, 2 tip contact."""
+
+    FREE = 0
+    TANGENTIAL = 1
+    TIP = 2
+
+
+@dataclass(frozen=True)
+class FootPose:
+    """Planar pose of the whisker's base: position (x, y) [L] and heading [rad] of the undeformed
+    whisker, counter-clockwise from +x. The paper's scan is ``FootPose(x0, 0.0, pi/2)``."""
+
+    x: float
+    y: float = 0.0
+    heading: float = HALF_PI
+
+    def __post_init__(self):
+        for key in ("x", "y", "heading"):
+            value = getattr(self, key)
+            try:
+                value = float(value)
+            except (TypeError, ValueError):
+                raise InvalidPoseError(f"foot pose {key} = {value!r} is not a number") from None
+            if not math.isfinite(value):
+                raise InvalidPoseError(f"foot pose {key} = {value!r} must be finite")
+            object.__setattr__(self, key, value)
+
+
+@dataclass(frozen=True)
+class Event:
+    """Something that happened during a step, located by root finding on the equilibrium branch.
+
+    ``kind`` is ``touch`` (first contact), ``phase`` (tangential <-> tip), ``snap`` (the branch
+    folds: criterion (c) of paper §2.2, the whisker jumps) or ``release`` (the contact force
+    returns to zero and the whisker leaves the obstacle smoothly).
+    """
+
+    kind: str
+    from_phase: Phase
+    to_phase: Phase
+    pose: FootPose
+    alpha: Optional[float] = None
+
+    @property
+    def x0(self) -> float:
+        return self.pose.x
+
+
+@dataclass(frozen=True)
+class WhiskerState:
+    """One quasistatic equilibrium of the whisker (all quantities dimensionless, world frame).
+
+    Attributes
+    ----------
+    phase : Phase
+    pose : FootPose
+    side : int
+        +1 when bent clockwise (contact on the obstacle's flank to the right of the whisker,
+        kappa <= 0), -1 when bent counter-clockwise, 0 when free.
+    alpha : float or None
+        Profile slope at the contact point [rad] (world frame).
+    s1 : float or None
+        Arc length of the contact point on the whisker (1 in phase 2).
+    tip_slope : float
+        phi(1), the whisker's slope at its tip [rad] (world frame).
+    f : float
+        Magnitude of the contact force.
+    fx, fy : float
+        Force of the obstacle on the whisker, f (sin alpha, -cos alpha) (world frame).
+    m0 : float
+        Bending moment at the base, kappa(0) = moment of the contact force about the foot,
+        counter-clockwise positive (negative when bent clockwise).
+    contact : (float, float) or None
+        Contact point (xi(alpha), eta(alpha)) (world frame).
+    tip : (float, float)
+        Position of the whisker's tip (world frame).
+    """
+
+    phase: Phase
+    pose: FootPose
+    side: int
+    alpha: Optional[float]
+    s1: Optional[float]
+    tip_slope: float
+    f: float
+    fx: float
+    fy: float
+    m0: float
+    contact: Optional[Tuple[float, float]]
+    tip: Tuple[float, float]
+    # internal description of the shape for centerline sampling (contact-frame variables)
+    shape: Tuple[float, ...] = ()
+    model: str = "elastica"
+
+    @property
+    def x0(self) -> float:
+        return self.pose.x
+
+    def centerline(self, n: int = 101) -> np.ndarray:
+        """``n`` points of the whisker's centerline from foot to tip, shape (n, 2), world frame."""
+        from .models import centerline_of
+
+        return centerline_of(self, n)
+
+
+@dataclass(frozen=True)
+class StepResult:
+    """What a tracker step returns: the new state and the events crossed, in order."""
+
+    state: WhiskerState
+    events: Tuple[Event, ...]
+    substeps: int = 0

@@ -1,0 +1,701 @@
+"""Quasistatic tracking: follow the whisker's equilibrium while the foot moves.
+
+A :class:`QuasistaticTracker` holds the current equilibrium. :meth:`QuasistaticTracker.step`
+moves the foot along the straight path (position and heading interpolated linearly) from the
+current pose to a new one and follows the equilibrium branch continuously:
+
+* free (phase 0): the straight whisker moves until its tip touches the profile; the touch is found
+  by conservative advancement on the tip's distance to the obstacle and refined by root finding;
+* in contact: pseudo-arclength continuation of the model's branch equations in (z, tau), where
+  tau is the path parameter in units of L. Small steps take a fast path (one tangent predictor and
+  Newton at the target). Events are found where a phase inequality becomes an equality, where the
+  branch folds (tau reaches a local maximum: paper §2.2 criterion (c)) or where the contact force
+  returns to zero, and each is located by root finding on the branch;
+* at a fold the whisker snaps to the equilibrium that exists beyond it: straight and free, or in
+  contact on the other flank when a straight whisker would cut into the obstacle.
+
+Errors leave the tracker's state unchanged: a step is computed on locals and committed at the end.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import List, Optional, Tuple
+
+import numpy as np
+from scipy.optimize import brentq, minimize_scalar
+
+from .errors import ConvergenceError, InvalidPoseError, ModelAssumptionError, ParameterError
+from .models import ElasticaModel, make_model
+from .profiles import ConvexProfile, PlacedProfile
+from .state import Event, FootPose, Phase, StepResult, WhiskerState
+
+HALF_PI = 0.5 * math.pi
+_TWO_PI = 2.0 * math.pi
+
+#: largest change of the unknowns a fast step may make without the careful continuation
+_FAST_STEP = 0.02
+#: largest pseudo-arclength step of the careful continuation
+_H_MAX = 0.02
+_H_MIN = 1e-13
+_NEWTON_TOL = 1e-12
+_EVENT_XTOL = 1e-15
+
+
+@dataclass(frozen=True)
+class TrackerOptions:
+    """Numerical settings of the tracker (defaults give events to ~1e-12 and states to ~1e-14)."""
+
+    fast_step: float = _FAST_STEP
+    max_arclength_step: float = _H_MAX
+    newton_tol: float = _NEWTON_TOL
+
+
+class _Path:
+    """The straight path of the foot from pose p0 (t = 0) to pose p1 (t = 1)."""
+
+    __slots__ = ("p0", "p1", "x0", "y0", "h0", "dx", "dy", "dh", "length")
+
+    def __init__(self, p0: FootPose, p1: FootPose):
+        self.p0 = p0
+        self.x0, self.y0, self.h0 = p0.x, p0.y, p0.heading
+        self.dx = p1.x - p0.x
+        self.dy = p1.y - p0.y
+        dh = math.remainder(p1.heading - p0.heading, _TWO_PI)  # shortest rotation
+        self.dh = dh
+        self.p1 = FootPose(p1.x, p1.y, p0.heading + dh) if dh != p1.heading - p0.heading else p1
+        self.length = math.hypot(self.dx, self.dy) + abs(dh)  # bound on the tip's path length
+
+    def pose(self, t: float) -> FootPose:
+        if t <= 0.0:
+            return self.p0
+        if t >= 1.0:
+            return self.p1
+        return FootPose(self.x0 + t * self.dx, self.y0 + t * self.dy, self.h0 + t * self.dh)
+
+    def frame(self, t: float) -> Tuple[float, float, float]:
+        return self.x0 + t * self.dx, self.y0 + t * self.dy, self.h0 + t * self.dh - HALF_PI
+
+
+class _Contact:
+    """Mutable bookkeeping of a contact branch during one step (never escapes a step)."""
+
+    __slots__ = ("phase", "side", "z", "t")
+
+    def __init__(self, phase, side, z, t):
+        self.phase, self.side, self.z, self.t = phase, side, z, t
+
+
+class QuasistaticTracker:
+    """Follows the quasistatic equilibrium of a whisker scanning a convex obstacle.
+
+    Parameters
+    ----------
+    profile : ConvexProfile
+        The obstacle (world frame).
+    pose : FootPose or float
+        Where the whisker is placed, straight and free; a float is the paper's x0 (foot at (x0, 0),
+        heading pi/2). Raises :class:`InvalidPoseError` if the straight whisker cuts the obstacle.
+    model : str or model instance
+        ``"elastica"`` (paper §2).
+    """
+
+    def __init__(self, profile: ConvexProfile, pose=2.0, model="elastica", options=None):
+        if not isinstance(profile, ConvexProfile):
+            raise ParameterError(f"profile must be a ConvexProfile, got {type(profile).__name__}")
+        self.profile = profile
+        self.model = make_model(model) if isinstance(model, str) else model
+        self.options = options or TrackerOptions()
+        pose = _as_pose(pose)
+        self._check_straight_free(pose, what="the initial pose")
+        self._pose = pose
+        self._contact: Optional[_Contact] = None
+        self._alpha_hint = 0.0
+        self._state = self._free_state(pose)
+
+    # -- public ------------------------------------------------------------------------------
+    @property
+    def state(self) -> WhiskerState:
+        """The current equilibrium."""
+        return self._state
+
+    @property
+    def pose(self) -> FootPose:
+        return self._pose
+
+    def step(self, pose) -> StepResult:
+        """Move the foot along the straight path to ``pose`` and follow the equilibrium.
+
+        Returns the new state and the events crossed. On any error the tracker keeps its state.
+        """
+        target = _as_pose(pose)
+        path = _Path(self._pose, target)
+        contact = None
+        if self._contact is not None:
+            c = self._contact
+            contact = _Contact(c.phase, c.side, c.z, 0.0)
+        events: List[Event] = []
+        substeps = 0
+        t = 0.0
+        if path.length == 0.0:
+            return StepResult(self._state, (), 0)
+        while True:
+            if contact is None:
+                t_touch = self._find_touch(path, t)
+                if t_touch is None:
+                    break
+                started = self._start_contact(path, t_touch)
+                if started is None:
+                    break
+                contact, ev = started
+                events.append(ev)
+                continue
+            outcome = self._follow(path, contact)
+            substeps += outcome[2]
+            kind = outcome[0]
+            if kind == "target":
+                break
+            if kind == "phase":
+                name = outcome[1]
+                old = contact.phase
+                new_phase, new_z = self.model.transition(old, name, contact.z)
+                events.append(self._event("phase", old, new_phase, path, contact))
+                contact = _Contact(new_phase, contact.side, new_z, contact.t)
+            elif kind == "release":
+                ev = Event("release", contact.phase, Phase.FREE, path.pose(outcome[1]), None)
+                events.append(ev)
+                t = outcome[1]
+                contact = None
+            elif kind == "fold":
+                contact, t, ev = self._snap(path, contact)
+                events.append(ev)
+        final_pose = path.p1
+        if contact is None:
+            state = self._free_state(final_pose)
+        else:
+            state = self._contact_state(final_pose, contact.phase, contact.side, contact.z)
+        # commit
+        self._pose = final_pose
+        self._contact = None if contact is None else _Contact(contact.phase, contact.side, contact.z, 0.0)
+        self._state = state
+        return StepResult(state, tuple(events), substeps)
+
+    # -- free whisker ------------------------------------------------------------------------
+    def _base_frame_point(self, x: float, y: float):
+        prof = self.profile
+        if isinstance(prof, PlacedProfile):
+            c, s = math.cos(prof.rotation), math.sin(prof.rotation)
+            dx, dy = x - prof.x, y - prof.y
+            return prof.base, c * dx + s * dy, -s * dx + c * dy
+        return prof, x, y
+
+    def _gap(self, x: float, y: float) -> float:
+        """Signed height of the point below the profile, in the profile's own frame (> 0 outside).
+
+        The obstacle is the region above its lower boundary curve (for closed shapes: the strip
+        above the lower arc)."""
+        base, u, v = self._base_frame_point(x, y)
+        try:
+            a = base.alpha_at_x(u)
+        except ParameterError:
+            return math.inf
+        return base.point(a)[1] - v
+
+    @staticmethod
+    def _tip(pose: FootPose) -> Tuple[float, float]:
+        return pose.x + math.cos(pose.heading), pose.y + math.sin(pose.heading)
+
+    def _tip_gap(self, path: _Path, t: float) -> float:
+        return self._gap(*self._tip(path.pose(t)))
+
+    def _distance(self, x: float, y: float) -> float:
+        """Euclidean distance from a point outside the obstacle to the profile curve."""
+        prof = self.profile
+
+        def g(a):
+            px, py = prof.point(a)
+            return (x - px) * math.cos(a) + (y - py) * math.sin(a)
+
+        lo, hi = prof.alpha_min + 1e-12, prof.alpha_max - 1e-12
+        a = min(max(self._alpha_hint, lo), hi)
+        # safeguarded Newton from the last nearest point
+        for _ in range(30):
+            px, py = prof.point(a)
+            ca, sa = math.cos(a), math.sin(a)
+            ga = (x - px) * ca + (y - py) * sa
+            dg = -prof.radius_of_curvature(a) + (y - py) * ca - (x - px) * sa
+            if dg >= 0.0:
+                break
+            step = ga / dg
+            a_new = a - step
+            if not (lo < a_new < hi):
+                break
+            a = a_new
+            if abs(step) < 1e-13:
+                self._alpha_hint = a
+                px, py = prof.point(a)
+                return math.hypot(x - px, y - py)
+        glo, ghi = g(lo), g(hi)
+        if glo > 0.0 > ghi:
+            a = brentq(g, lo, hi, xtol=1e-14)
+            self._alpha_hint = a
+            px, py = prof.point(a)
+            return math.hypot(x - px, y - py)
+        # the nearest point is an end of the curve (finite ends only)
+        ends = [prof.point(lo), prof.point(hi)]
+        return min(math.hypot(x - px, y - py) for px, py in ends)
+
+    def _rod_clearance(self, pose: FootPose) -> float:
+        """Smallest gap along the straight whisker (convex in s: bounded scalar minimization)."""
+        c, s = math.cos(pose.heading), math.sin(pose.heading)
+        fun = lambda u: self._gap(pose.x + u * c, pose.y + u * s)  # noqa: E731
+        g0, g1 = fun(0.0), fun(1.0)
+        res = minimize_scalar(fun, bounds=(0.0, 1.0), method="bounded", options={"xatol": 1e-10})
+        return min(g0, g1, float(res.fun))
+
+    def _check_straight_free(self, pose: FootPose, what: str) -> None:
+        if self._gap(pose.x, pose.y) <= 0.0:
+            raise InvalidPoseError(f"{what} puts the whisker's foot inside the obstacle")
+        if self._rod_clearance(pose) <= 0.0:
+            raise InvalidPoseError(
+                f"{what} puts the straight whisker inside the obstacle ({self.profile.describe()}); "
+                "place it where the straight whisker is free"
+            )
+
+    def _find_touch(self, path: _Path, t: float) -> Optional[float]:
+        """First t in [t, 1] where the straight whisker's tip reaches the profile (None: no touch).
+
+        Conservative advancement: the tip moves at most ``path.length`` per unit t, so it cannot
+        reach the obstacle before t + distance / length; near contact the sign change of the
+        signed gap is bracketed and refined with brentq.
+        """
+        speed = path.length
+        eps = 1e-10
+        for _ in range(10000):
+            gap = self._tip_gap(path, t)
+            if gap <= 0.0:
+                return t
+            dist = self._distance(*self._tip(path.pose(t)))
+            if dist <= eps:
+                t_b = min(1.0, t + 8.0 * eps / speed)
+                if self._tip_gap(path, t_b) < 0.0:
+                    return brentq(lambda u: self._tip_gap(path, u), t, t_b, xtol=1e-16, rtol=1e-15)
+                if t_b >= 1.0:
+                    break
+                t = t_b
+                continue
+            t_next = t + dist / speed
+            if t_next >= 1.0:
+                break
+            t = t_next
+        else:
+            raise ConvergenceError("touch search did not terminate")
+        end_gap = self._tip_gap(path, 1.0)
+        if end_gap < 0.0:  # grazing tolerance: the crossing lies in the last sliver
+            return brentq(lambda u: self._tip_gap(path, u), t, 1.0, xtol=1e-16, rtol=1e-15)
+        if path.dh != 0.0 and self._rod_clearance(path.p1) <= 0.0:
+            raise ModelAssumptionError(
+                "the side of the straight whisker would meet the obstacle before its tip: "
+                "not covered by the model (the profile is not a graph over the whisker's normal)"
+            )
+        return None
+
+    def _start_contact(self, path: _Path, t_touch: float) -> Optional[Tuple[_Contact, Event]]:
+        pose = path.pose(t_touch)
+        tx, ty = self._tip(pose)
+        base, u, _ = self._base_frame_point(tx, ty)
+        alpha_w = base.alpha_at_x(u) + (self.profile.rotation if isinstance(self.profile, PlacedProfile) else 0.0)
+        alpha_f = math.remainder(alpha_w - (pose.heading - HALF_PI), _TWO_PI)
+        if not abs(alpha_f) < HALF_PI:
+            raise ModelAssumptionError(
+                f"first touch where the profile slope relative to the whisker is {alpha_f!r} rad: the "
+                "profile is not a graph over the whisker's normal there"
+            )
+        if abs(alpha_f) < 1e-9:
+            raise ModelAssumptionError(
+                "the tip touches the profile head-on (contact force along the whisker's axis): "
+                "the buckling that follows is not modelled"
+            )
+        side = 1 if alpha_f > 0.0 else -1
+        alpha_c = abs(alpha_f)
+        event = Event("touch", Phase.FREE, Phase.TIP, pose, alpha_w)
+        # first contact state a small way along the path, from linear beam theory
+        tau_left = (1.0 - t_touch) * path.length
+        if tau_left <= 1e-13:
+            return None  # the step ends where the tip touches: zero force, still free
+        h = min(tau_left, 1e-3)
+        for _ in range(40):
+            t_s = 1.0 if h == tau_left else t_touch + h / path.length
+            pen = -self._tip_gap(path, t_s) * math.cos(alpha_c)
+            if pen > 0.0:
+                phase, z = self.model.touch_start(alpha_c, pen)
+                z = self._newton_fixed_t(path, phase, side, z, t_s)
+                if z is not None:
+                    return _Contact(phase, side, z, t_s), event
+            h *= 0.25
+        return None  # the tip only grazes the profile
+
+    # -- contact branch ----------------------------------------------------------------------
+    def _profile_cf(self, path: _Path, side: int, alpha: float, t: float):
+        """Profile point of contact-frame slope alpha at path parameter t, with d/dalpha, d/dt."""
+        X, Y, beta = path.frame(t)
+        aw = side * alpha + beta
+        prof = self.profile
+        if not prof.alpha_min < aw < prof.alpha_max:
+            raise ModelAssumptionError(
+                f"the contact would move to profile slope {aw!r} rad, outside the profile "
+                f"({prof.describe()})"
+            )
+        px, py = prof.point(aw)
+        rho = prof.radius_of_curvature(aw)
+        c, s = math.cos(beta), math.sin(beta)
+        dx, dy = px - X, py - Y
+        qx = side * (c * dx + s * dy)
+        qy = -s * dx + c * dy
+        ca, sa = math.cos(alpha), math.sin(alpha)
+        qax, qay = rho * ca, rho * sa
+        db = path.dh
+        mx = side * (c * path.dx + s * path.dy)
+        my = -s * path.dx + c * path.dy
+        qtx = side * db * (rho * ca + qy) - mx
+        qty = side * db * (rho * sa - qx) - my
+        return qx, qy, qax, qay, qtx, qty
+
+    def _residual(self, path, phase, side, z, t):
+        """R = P(z) - Q(alpha, t) and its Jacobian rows w.r.t. (z0, z1, tau)."""
+        px, py, p00, p01, p10, p11 = self.model.load_point(phase, z)
+        qx, qy, qax, qay, qtx, qty = self._profile_cf(path, side, z[0], t)
+        inv_len = 1.0 / path.length
+        return (
+            (px - qx, py - qy),
+            (p00 - qax, p01, -qtx * inv_len),
+            (p10 - qay, p11, -qty * inv_len),
+        )
+
+    def _newton_fixed_t(self, path, phase, side, z, t, jac_out=None):
+        """Newton on the branch equations at fixed t; None if it does not converge."""
+        model = self.model
+        z0, z1 = z
+        tol = self.options.newton_tol
+        for _ in range(12):
+            if not model.valid(phase, (z0, z1)):
+                return None
+            try:
+                (r0, r1), a, b = self._residual(path, phase, side, (z0, z1), t)
+            except (ValueError, ZeroDivisionError):
+                return None
+            det = a[0] * b[1] - a[1] * b[0]
+            if det == 0.0 or not math.isfinite(det):
+                return None
+            d0 = -(r0 * b[1] - r1 * a[1]) / det
+            d1 = -(a[0] * r1 - b[0] * r0) / det
+            z0 += d0
+            z1 += d1
+            if jac_out is not None:
+                jac_out[:] = (a, b)
+            if abs(d0) <= tol * max(1.0, abs(z0)) and abs(d1) <= tol * max(1.0, abs(z1)):
+                return (z0, z1) if model.valid(phase, (z0, z1)) else None
+        return None
+
+    def _jacobian(self, path, phase, side, Y):
+        (r0, r1), a, b = self._residual(path, phase, side, (Y[0], Y[1]), Y[2] / path.length)
+        return np.array([r0, r1]), np.array([a, b])
+
+    @staticmethod
+    def _tangent(J: np.ndarray, previous=None) -> np.ndarray:
+        T = np.cross(J[0], J[1])
+        T /= np.linalg.norm(T)
+        if previous is None:
+            if T[2] < 0.0:
+                T = -T
+        elif T @ previous < 0.0:
+            T = -T
+        return T
+
+    def _events_of(self, phase, z):
+        return self.model.events(phase, z)
+
+    def _follow(self, path: _Path, contact: _Contact):
+        """Follow the contact branch from contact.t towards t = 1.
+
+        Returns (kind, detail, substeps) with kind 'target', 'phase' (detail: event name),
+        'fold' or 'release' (detail: t); ``contact`` is updated in place to the located point.
+        """
+        phase, side = contact.phase, contact.side
+        tau_end = path.length
+        Y = np.array([contact.z[0], contact.z[1], contact.t * path.length])
+        R, J = self._jacobian(path, phase, side, Y)
+        T = self._tangent(J)
+        ev_a = self._events_of(phase, contact.z)
+        # -- fast path: tangent predictor to the target and Newton at fixed t ----------------
+        if J[0, 0] * J[1, 1] - J[0, 1] * J[1, 0] != 0.0 and T[2] > 0.0:
+            dtau = tau_end - Y[2]
+            dz = -np.linalg.solve(J[:, :2], J[:, 2]) * dtau
+            if abs(dz[0]) + abs(dz[1]) < self.options.fast_step:
+                jac = [None, None]
+                z = self._newton_fixed_t(path, phase, side, (Y[0] + dz[0], Y[1] + dz[1]), 1.0, jac)
+                if z is not None and abs(z[0] - Y[0]) + abs(z[1] - Y[1]) < self.options.fast_step:
+                    ev_b = self._events_of(phase, z)
+                    det_b = jac[0][0] * jac[1][1] - jac[0][1] * jac[1][0]
+                    det_a = J[0, 0] * J[1, 1] - J[0, 1] * J[1, 0]
+                    if all(ev_b[k] > 0.0 for k in ev_b if ev_a[k] > 0.0) and det_a * det_b > 0.0:
+                        contact.z, contact.t = z, 1.0
+                        return "target", None, 1
+        # -- careful path: pseudo-arclength continuation --------------------------------------
+        h = min(self.options.max_arclength_step, max(tau_end - Y[2], 1e-6))
+        steps = 0
+        while True:
+            steps += 1
+            if steps > 200000:
+                raise ConvergenceError("continuation did not reach the target pose")
+            Yp = Y + h * T
+            Yn = self._corrector(path, phase, side, Yp, T, h)
+            if Yn is None:
+                released = self._check_release(path, phase, contact, Y, Yp)
+                if released is not None:
+                    return "release", released, steps
+                h *= 0.5
+                if h < _H_MIN:
+                    raise ConvergenceError(
+                        f"lost the equilibrium branch (phase {int(phase)}) near t = {Y[2] / path.length!r}"
+                    )
+                continue
+            Rn, Jn = self._jacobian(path, phase, side, Yn)
+            Tn = self._tangent(Jn, T)
+            zn = (Yn[0], Yn[1])
+            ev_b = self._events_of(phase, zn)
+            found = []  # (kind, name)
+            fold = T[2] > 0.0 >= Tn[2]
+            if fold:
+                found.append(("fold", None))
+            for k, v in ev_b.items():
+                if v <= 0.0 < ev_a[k]:
+                    found.append(("phase", k))
+            if Yn[2] >= tau_end and not fold:
+                found.append(("target", None))
+            elif fold and max(Y[2], Yn[2]) >= tau_end - 1e-300:
+                pass  # the fold's location decides whether the target comes first
+            if found:
+                kind, name, Ystar = self._locate(path, phase, side, Y, Yn, T, Tn, found, tau_end)
+                contact.z = (float(Ystar[0]), float(Ystar[1]))
+                contact.t = min(float(Ystar[2]) / path.length, 1.0)
+                if kind == "target":
+                    z = self._newton_fixed_t(path, phase, side, contact.z, 1.0)
+                    if z is None:
+                        raise ConvergenceError("could not settle on the target pose")
+                    contact.z, contact.t = z, 1.0
+                return kind, name, steps
+            Y, T, ev_a = Yn, Tn, ev_b
+            h = min(self.options.max_arclength_step, h * 1.5)
+
+    def _corrector(self, path, phase, side, Yp, T, h):
+        """Newton on [R(Y) = 0, T.(Y - Yp) = 0]; None when it fails or strays from the predictor."""
+        Y = Yp.copy()
+        for it in range(8):
+            if not self.model.valid(phase, (Y[0], Y[1])):
+                return None
+            try:
+                R, J = self._jacobian(path, phase, side, Y)
+            except (ValueError, ZeroDivisionError):
+                return None
+            M = np.vstack((J, T))
+            rhs = np.array([R[0], R[1], T @ (Y - Yp)])
+            try:
+                d = np.linalg.solve(M, -rhs)
+            except np.linalg.LinAlgError:
+                return None
+            if not np.all(np.isfinite(d)):
+                return None
+            Y = Y + d
+            if np.max(np.abs(d)) <= self.options.newton_tol * max(1.0, np.max(np.abs(Y))):
+                if np.linalg.norm(Y - Yp) > 0.5 * h + 1e-12 or not self.model.valid(phase, (Y[0], Y[1])):
+                    return None
+                return Y
+        return None
+
+    def _solve_at(self, path, phase, side, i, p, guess):
+        """Point of the branch with component i fixed to p (Newton on the other two)."""
+        Y = guess.copy()
+        Y[i] = p
+        others = [j for j in range(3) if j != i]
+        for _ in range(30):
+            if not self.model.valid(phase, (Y[0], Y[1])):
+                raise ConvergenceError("event location left the branch's domain")
+            R, J = self._jacobian(path, phase, side, Y)
+            d = np.linalg.solve(J[:, others], -R)
+            Y[others] += d
+            if np.max(np.abs(d)) <= 1e-15 * max(1.0, np.max(np.abs(Y))):
+                break
+        return Y
+
+    def _locate(self, path, phase, side, Ya, Yb, Ta, Tb, found, tau_end):
+        """Locate the earliest of the events found between branch points Ya and Yb.
+
+        The branch between them is parametrized by the component of the chord that changes most
+        (never tau when the branch folds in between), and each event function is solved for with
+        brentq on that parameter.
+        """
+        chord = Yb - Ya
+        has_fold = any(kind == "fold" for kind, _ in found)
+        candidates = [0, 1] if has_fold else [0, 1, 2]
+        i = max(candidates, key=lambda j: abs(chord[j]))
+        pa, pb = Ya[i], Yb[i]
+        xtol = _EVENT_XTOL * max(1.0, abs(pa))
+
+        def point(p):
+            frac = (p - pa) / (pb - pa)
+            return self._solve_at(path, phase, side, i, p, Ya + frac * chord)
+
+        def tau_slope(p):
+            _, J = self._jacobian(path, phase, side, point(p))
+            return self._tangent(J, Ta)[2]
+
+        kinds = {name: kind for kind, name in found}
+        if has_fold:
+            ends = {pa: Ta[2], pb: Tb[2]}
+            p_fold = brentq(lambda p: ends[p] if p in ends else tau_slope(p), pa, pb, xtol=xtol, rtol=1e-15)
+            Yb = point(p_fold)
+            pb = p_fold
+            found = [(k, n) for k, n in found if k == "phase"]
+            if Yb[2] >= tau_end:
+                found.append(("target", None))
+        best = (1.0, "fold", None, pb) if has_fold else None
+        for kind, name in found:
+            if kind == "target":
+                g = lambda Y: Y[2] - tau_end  # noqa: E731
+            else:
+                g = lambda Y, name=name: self._events_of(phase, (Y[0], Y[1]))[name]  # noqa: E731
+            ga, gb = g(Ya), g(Yb)
+            if ga == 0.0:
+                p_star = pa
+            elif gb == 0.0 or ga * gb > 0.0:
+                if ga * gb > 0.0:
+                    continue
+                p_star = pb
+            else:
+                ends = {pa: ga, pb: gb}  # endpoint values as bracketed, not re-solved
+                p_star = brentq(lambda p: ends[p] if p in ends else g(point(p)), pa, pb, xtol=xtol, rtol=1e-15)
+            frac = (p_star - pa) / (pb - pa) if pb != pa else 0.0
+            if best is None or frac < best[0]:
+                best = (frac, kind, name, p_star)
+        if best is None:
+            raise ConvergenceError(f"could not locate event(s) {sorted(kinds)}")
+        _, kind, name, p_star = best
+        return kind, name, point(p_star)
+
+    def _check_release(self, path, phase, contact, Y, Yp):
+        """Near zero force the branch ends at the straight whisker touching the profile."""
+        gamma = self.model.tip_rotation(phase, (Y[0], Y[1]))
+        if gamma > 1e-2 or Yp[2] <= Y[2]:
+            return None
+        t_a = Y[2] / path.length
+        t_b = min(1.0, Yp[2] / path.length)
+        if t_b <= t_a:
+            return None
+        g_a, g_b = self._tip_gap(path, t_a), self._tip_gap(path, t_b)
+        if g_a < 0.0 <= g_b:
+            if g_b == 0.0:
+                return t_b
+            return brentq(lambda u: self._tip_gap(path, u), t_a, t_b, xtol=1e-16, rtol=1e-15)
+        return None
+
+    # -- snapping ------------------------------------------------------------------------------
+    def _snap(self, path: _Path, contact: _Contact):
+        """At a fold: the whisker jumps to the equilibrium that exists beyond it."""
+        t = contact.t
+        pose = path.pose(t)
+        from_phase = contact.phase
+        tx, ty = self._tip(pose)
+        if self._rod_clearance(pose) > 0.0:
+            ev = Event("snap", from_phase, Phase.FREE, pose, self._world_alpha(pose, contact))
+            return None, t, ev
+        # the straight whisker would cut the obstacle: find the contact on the other side by
+        # approaching this pose from a free pose further along the direction of travel
+        new = self._approach_from_free(pose, path, contact.side)
+        ev = Event("snap", from_phase, new.phase, pose, self._world_alpha(pose, contact))
+        new.t = t
+        return new, t, ev
+
+    def _approach_from_free(self, pose: FootPose, path: _Path, side: int) -> _Contact:
+        ux, uy = path.dx, path.dy
+        norm = math.hypot(ux, uy)
+        if norm == 0.0:  # pure rotation: move sideways, to the side the whisker snapped towards
+            beta = pose.heading - HALF_PI
+            ux, uy, norm = -side * math.cos(beta), -side * math.sin(beta), 1.0
+        ux, uy = ux / norm, uy / norm
+        d = 0.25
+        while d < 1e3:
+            start = FootPose(pose.x + d * ux, pose.y + d * uy, pose.heading)
+            if self._gap(start.x, start.y) > 0.0 and self._rod_clearance(start) > 0.0:
+                break
+            d *= 2.0
+        else:
+            raise ModelAssumptionError("no free whisker pose found to settle the snap")
+        helper = QuasistaticTracker(self.profile, start, self.model, self.options)
+        result = helper.step(pose)
+        if any(e.kind == "snap" for e in result.events) or helper._contact is None:
+            raise ModelAssumptionError("no equilibrium in contact exists after the snap at this pose")
+        c = helper._contact
+        return _Contact(c.phase, c.side, c.z, 0.0)
+
+    # -- results -------------------------------------------------------------------------------
+    def _world_alpha(self, pose: FootPose, contact: _Contact) -> float:
+        return contact.side * contact.z[0] + pose.heading - HALF_PI
+
+    def _event(self, kind, old, new, path, contact):
+        pose = path.pose(contact.t)
+        return Event(kind, old, new, pose, self._world_alpha(pose, contact))
+
+    def _free_state(self, pose: FootPose) -> WhiskerState:
+        tip = self._tip(pose)
+        return WhiskerState(
+            phase=Phase.FREE,
+            pose=pose,
+            side=0,
+            alpha=None,
+            s1=None,
+            tip_slope=pose.heading,
+            f=0.0,
+            fx=0.0,
+            fy=0.0,
+            m0=0.0,
+            contact=None,
+            tip=tip,
+            shape=(),
+            model=self.model.name,
+        )
+
+    def _contact_state(self, pose: FootPose, phase: Phase, side: int, z) -> WhiskerState:
+        f, m0_c, s1, phi1_c, (ox, oy) = self.model.contact_quantities(phase, z)
+        beta = pose.heading - HALF_PI
+        alpha_w = side * z[0] + beta
+        cx, cy = self.profile.point(alpha_w)
+        c, s = math.cos(beta), math.sin(beta)
+        ox = side * ox
+        tip = (cx + c * ox - s * oy, cy + s * ox + c * oy)
+        tip_slope = beta + (phi1_c if side > 0 else math.pi - phi1_c)
+        return WhiskerState(
+            phase=phase,
+            pose=pose,
+            side=side,
+            alpha=alpha_w,
+            s1=s1,
+            tip_slope=tip_slope,
+            f=f,
+            fx=f * math.sin(alpha_w),
+            fy=-f * math.cos(alpha_w),
+            m0=side * m0_c,
+            contact=(cx, cy),
+            tip=tip,
+            shape=(float(int(phase)), float(z[0]), float(z[1])),
+            model=self.model.name,
+        )
+
+
+def _as_pose(pose) -> FootPose:
+    if isinstance(pose, FootPose):
+        return pose
+    if isinstance(pose, (int, float, np.floating)):
+        return FootPose(float(pose), 0.0, HALF_PI)
+    raise InvalidPoseError(f"a foot pose must be a FootPose or the paper's x0, got {pose!r}")
