@@ -395,7 +395,7 @@ class QuasistaticTracker:
             if jac_out is not None:
                 jac_out[:] = (a, b)
             if abs(d0) <= tol * max(1.0, abs(z0)) and abs(d1) <= tol * max(1.0, abs(z1)):
-                return (z0, z1) if model.valid(phase, (z0, z1)) else None
+                return (float(z0), float(z1)) if model.valid(phase, (z0, z1)) else None
         return None
 
     def _jacobian(self, path, phase, side, Y):
