@@ -35,6 +35,18 @@ class ElasticaModel:
 
     name = "elastica"
 
+    def __init__(self):
+        self._memo_key = None
+        self._memo = None
+
+    def _values(self, alpha: float, gamma: float):
+        """Value-only family, remembered for the last arguments (events and results of one state)."""
+        key = (alpha, gamma)
+        if key != self._memo_key:
+            self._memo = family(alpha, gamma, False)
+            self._memo_key = key
+        return self._memo
+
     # -- branch equations ------------------------------------------------------------------
     def load_point(self, phase: Phase, z) -> Tuple[float, float, float, float, float, float]:
         """Contact point on the whisker and its Jacobian: (Px, Py, dPx/dz0, dPx/dz1, dPy/dz0, dPy/dz1)."""
@@ -93,7 +105,7 @@ class ElasticaModel:
         """
         alpha, mu = z
         if phase == Phase.TANGENTIAL:
-            fam = family(alpha, HALF_PI - alpha, False)
+            fam = self._values(alpha, HALF_PI - alpha)
             return {"tip": 1.0 - mu * fam.S}
         return {"tangential": HALF_PI - alpha - mu, "wh1": 0.5 * mu + alpha}
 
@@ -103,7 +115,7 @@ class ElasticaModel:
         if phase == Phase.TANGENTIAL and event == "tip":
             return Phase.TIP, (alpha, HALF_PI - alpha)
         if phase == Phase.TIP and event == "tangential":
-            fam = family(alpha, HALF_PI - alpha, False)
+            fam = self._values(alpha, HALF_PI - alpha)
             return Phase.TANGENTIAL, (alpha, 1.0 / fam.S)
         if event == "wh1":
             raise ModelAssumptionError(
@@ -132,11 +144,11 @@ class ElasticaModel:
         """(f, m0, s1, tip_slope, tip_offset) in the contact frame; tip_offset = tip - contact."""
         alpha, mu = z
         if phase == Phase.TANGENTIAL:
-            fam = family(alpha, HALF_PI - alpha, False)
+            fam = self._values(alpha, HALF_PI - alpha)
             s1 = mu * fam.S
             free = 1.0 - s1
             return 1.0 / (mu * mu), -fam.A / mu, s1, alpha, (free * math.cos(alpha), free * math.sin(alpha))
-        fam = family(alpha, mu, False)
+        fam = self._values(alpha, mu)
         return fam.S * fam.S, -fam.A * fam.S, 1.0, HALF_PI - mu, (0.0, 0.0)
 
     def centerline_contact_frame(self, phase: Phase, z, n: int) -> np.ndarray:

@@ -79,12 +79,16 @@ class _Path:
 
 
 class _Contact:
-    """Mutable bookkeeping of a contact branch during one step (never escapes a step)."""
+    """Mutable bookkeeping of a contact branch during one step.
 
-    __slots__ = ("phase", "side", "z", "t")
+    ``jac`` optionally holds dR/dz (a00, a01, a10, a11) at (z, pose(t)), from the last Newton
+    iteration; it is path independent and seeds the next step's predictor.
+    """
 
-    def __init__(self, phase, side, z, t):
-        self.phase, self.side, self.z, self.t = phase, side, z, t
+    __slots__ = ("phase", "side", "z", "t", "jac")
+
+    def __init__(self, phase, side, z, t, jac=None):
+        self.phase, self.side, self.z, self.t, self.jac = phase, side, z, t, jac
 
 
 class QuasistaticTracker:
@@ -134,7 +138,7 @@ class QuasistaticTracker:
         contact = None
         if self._contact is not None:
             c = self._contact
-            contact = _Contact(c.phase, c.side, c.z, 0.0)
+            contact = _Contact(c.phase, c.side, c.z, 0.0, c.jac)
         events: List[Event] = []
         substeps = 0
         t = 0.0
@@ -177,7 +181,9 @@ class QuasistaticTracker:
             state = self._contact_state(final_pose, contact.phase, contact.side, contact.z)
         # commit
         self._pose = final_pose
-        self._contact = None if contact is None else _Contact(contact.phase, contact.side, contact.z, 0.0)
+        self._contact = (
+            None if contact is None else _Contact(contact.phase, contact.side, contact.z, 0.0, contact.jac)
+        )
         self._state = state
         return StepResult(state, tuple(events), substeps)
 
@@ -424,24 +430,15 @@ class QuasistaticTracker:
         """
         phase, side = contact.phase, contact.side
         tau_end = path.length
+        # -- fast path: tangent predictor to the target and Newton at fixed t ----------------
+        fast = self._fast_step(path, contact)
+        if fast:
+            return "target", None, 1
+        contact.jac = None
         Y = np.array([contact.z[0], contact.z[1], contact.t * path.length])
         R, J = self._jacobian(path, phase, side, Y)
         T = self._tangent(J)
         ev_a = self._events_of(phase, contact.z)
-        # -- fast path: tangent predictor to the target and Newton at fixed t ----------------
-        if J[0, 0] * J[1, 1] - J[0, 1] * J[1, 0] != 0.0 and T[2] > 0.0:
-            dtau = tau_end - Y[2]
-            dz = -np.linalg.solve(J[:, :2], J[:, 2]) * dtau
-            if abs(dz[0]) + abs(dz[1]) < self.options.fast_step:
-                jac = [None, None]
-                z = self._newton_fixed_t(path, phase, side, (Y[0] + dz[0], Y[1] + dz[1]), 1.0, jac)
-                if z is not None and abs(z[0] - Y[0]) + abs(z[1] - Y[1]) < self.options.fast_step:
-                    ev_b = self._events_of(phase, z)
-                    det_b = jac[0][0] * jac[1][1] - jac[0][1] * jac[1][0]
-                    det_a = J[0, 0] * J[1, 1] - J[0, 1] * J[1, 0]
-                    if all(ev_b[k] > 0.0 for k in ev_b if ev_a[k] > 0.0) and det_a * det_b > 0.0:
-                        contact.z, contact.t = z, 1.0
-                        return "target", None, 1
         # -- careful path: pseudo-arclength continuation --------------------------------------
         h = min(self.options.max_arclength_step, max(tau_end - Y[2], 1e-6))
         steps = 0
@@ -488,6 +485,43 @@ class QuasistaticTracker:
                 return kind, name, steps
             Y, T, ev_a = Yn, Tn, ev_b
             h = min(self.options.max_arclength_step, h * 1.5)
+
+    def _fast_step(self, path: _Path, contact: _Contact) -> bool:
+        """One tangent predictor to t = 1 and Newton there, accepted only when nothing can have
+        happened in between: a small change, no event function changed sign and the branch did
+        not turn (det dR/dz keeps its sign). Pure Python floats: this is the hot path."""
+        if contact.t != 0.0:
+            return False
+        phase, side, (z0, z1) = contact.phase, contact.side, contact.z
+        jac = contact.jac
+        if jac is None:
+            (_, _), a, b = self._residual(path, phase, side, (z0, z1), 0.0)
+            jac = (a[0], a[1], b[0], b[1])
+        a00, a01, a10, a11 = jac
+        det_a = a00 * a11 - a01 * a10
+        if det_a == 0.0 or not math.isfinite(det_a):
+            return False
+        qtx, qty = self._profile_cf(path, side, z0, 0.0)[4:]
+        # dz/dt = -(dR/dz)^-1 dR/dt with dR/dt = -dQ/dt
+        d0 = (a11 * qtx - a01 * qty) / det_a
+        d1 = (a00 * qty - a10 * qtx) / det_a
+        if abs(d0) + abs(d1) >= self.options.fast_step:
+            return False
+        out = [None, None]
+        z = self._newton_fixed_t(path, phase, side, (z0 + d0, z1 + d1), 1.0, out)
+        if z is None or abs(z[0] - z0) + abs(z[1] - z1) >= self.options.fast_step:
+            return False
+        a, b = out
+        det_b = a[0] * b[1] - a[1] * b[0]
+        if det_a * det_b <= 0.0:
+            return False
+        ev_a = self._events_of(phase, (z0, z1))
+        ev_b = self._events_of(phase, z)
+        for key, value in ev_b.items():
+            if value <= 0.0 < ev_a[key]:
+                return False
+        contact.z, contact.t, contact.jac = z, 1.0, (a[0], a[1], b[0], b[1])
+        return True
 
     def _corrector(self, path, phase, side, Yp, T, h):
         """Newton on [R(Y) = 0, T.(Y - Yp) = 0]; None when it fails or strays from the predictor."""
