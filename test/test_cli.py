@@ -109,3 +109,32 @@ def test_module_entry_point_runs_the_same_command(tmp_path):
     proc = subprocess.run([sys.executable, "-m", "vibrissa_ros", "scan"], capture_output=True, text=True, timeout=60)
     assert proc.returncode == 2
     assert len(proc.stderr.strip().splitlines()) == 1
+
+
+def test_model_rigid_follows_the_same_contract(tmp_path, capsys):
+    csv_path, ev_path = tmp_path / "r.csv", tmp_path / "r.json"
+    code, _, err = _run(["scan", "--profile", "parabola", "--param", "p0=0.6", "--model", "rigid", "--from", "2",
+                         "--to", "-2", "--step", "0.01", "--csv", str(csv_path), "--events", str(ev_path)], capsys)
+    assert code == 0, err
+    assert csv_path.read_text().splitlines()[0] == ",".join(CSV_COLUMNS)
+    events = json.loads(ev_path.read_text())
+    assert [(e["kind"], e["to_phase"]) for e in events] == [("touch", 2), ("snap", 0)]
+    assert events[1]["x0"] == pytest.approx(-1.2360068169203338, abs=1e-10)
+
+
+def test_model_both_writes_both_models_in_the_same_units(tmp_path, capsys):
+    csv_path, ev_path = tmp_path / "scan.csv", tmp_path / "events.json"
+    args = ["scan", "--profile", "catenary", "--param", "p0=0.5", "--param", "c=0.6", "--model", "both",
+            "--from", "2", "--to", "-2", "--step", "0.05", "--csv", str(csv_path), "--events", str(ev_path)]
+    assert _run(args, capsys)[0] == 0
+    el = list(csv.DictReader(csv_path.open()))
+    rg = list(csv.DictReader((tmp_path / "scan.rigid.csv").open()))
+    assert [r["x0"] for r in el] == [r["x0"] for r in rg]
+    assert json.loads((tmp_path / "events.rigid.json").read_text())[0]["kind"] == "touch"
+    # rigid in EI units with c = 3 EI/L: the same as --model rigid --spring-stiffness 3
+    alone = tmp_path / "alone.csv"
+    assert _run(args[:7] + ["--model", "rigid", "--spring-stiffness", "3", "--from", "2", "--to", "-2",
+                            "--step", "0.05", "--csv", str(alone)], capsys)[0] == 0
+    assert alone.read_text() == (tmp_path / "scan.rigid.csv").read_text()
+    code, _, err = _run(args[:-4] + ["--csv", "-"], capsys)
+    assert code == 2 and "two CSV files" in err

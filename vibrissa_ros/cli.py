@@ -8,7 +8,7 @@ import sys
 from typing import Dict, List, Optional
 
 from .core.errors import VibrissaError
-from .core.models import MODELS
+from .core.models import MODELS, make_model
 from .core.profiles import PROFILE_PARAMETERS, make_profile
 from .core.scan import run_scan, scan_grid
 from .scan_io import write_events_json, write_scan_csv
@@ -58,7 +58,13 @@ def build_parser() -> argparse.ArgumentParser:
     scan.add_argument("--profile", required=True, choices=sorted(PROFILE_PARAMETERS), help=f"obstacle: {names}")
     scan.add_argument("--param", action="append", type=_param, default=[], metavar="NAME=VALUE",
                       help="profile parameter, repeatable (e.g. --param p0=0.3 --param k=1)")
-    scan.add_argument("--model", default="elastica", choices=sorted(MODELS), help="whisker model")
+    scan.add_argument("--model", default="elastica", choices=sorted(MODELS) + ["both"],
+                      help="whisker model: elastica (paper §2), rigid (paper §3) or both side by side")
+    scan.add_argument("--spring-stiffness", type=_positive, default=None, metavar="K",
+                      help="rigid model: pivot stiffness c = K*EI/L; its forces and moments are then "
+                      "written in the elastica's units (EI/L^2, EI/L). Without it the rigid model is "
+                      "written in the paper's §3 units (c/L, c). Default with --model both: 3, the "
+                      "stiffness that matches the elastica's small-deflection tip stiffness")
     scan.add_argument("--from", dest="x_from", type=_finite, required=True, help="first foot position x0")
     scan.add_argument("--to", dest="x_to", type=_finite, required=True, help="last foot position x0 (inclusive)")
     scan.add_argument("--step", type=_positive, required=True, help="grid spacing of x0 (> 0)")
@@ -78,26 +84,45 @@ def _params(pairs: List) -> Dict[str, float]:
     return out
 
 
+def rigid_output_path(path: str) -> str:
+    """Where ``--model both`` writes the rigid model's file: ``scan.csv`` -> ``scan.rigid.csv``."""
+    stem, dot, ext = path.rpartition(".")
+    return f"{stem}.rigid.{ext}" if dot and "/" not in ext else f"{path}.rigid"
+
+
 def _cmd_scan(args) -> int:
     try:
         profile = make_profile(args.profile, _params(args.param))
         grid = scan_grid(args.x_from, args.x_to, args.step, args.back)
+        if args.model == "both" and args.csv == "-":
+            raise VibrissaError("--model both writes two CSV files: give --csv a file name, not '-'")
+        if args.spring_stiffness is not None and args.model == "elastica":
+            raise VibrissaError("--spring-stiffness applies to --model rigid or both, not elastica")
+        stiffness = args.spring_stiffness or (3.0 if args.model == "both" else 1.0)
+        runs = []
+        for name in (["elastica", "rigid"] if args.model == "both" else [args.model]):
+            model = make_model(name, stiffness=stiffness) if name == "rigid" else make_model(name)
+            suffix = args.model == "both" and name == "rigid"
+            csv_path = rigid_output_path(args.csv) if suffix else args.csv
+            events_path = rigid_output_path(args.events) if (suffix and args.events) else args.events
+            runs.append((model, csv_path, events_path))
     except VibrissaError as exc:
         print(f"vibrissa scan: error: {exc}", file=sys.stderr)
         return 2
-    try:
-        result = run_scan(profile, grid, model=args.model)
-    except VibrissaError as exc:
-        print(f"vibrissa scan: error: {exc}", file=sys.stderr)
-        return 2 if isinstance(exc, ValueError) else 1
-    if args.csv == "-":
-        write_scan_csv(result.states, sys.stdout)
-    else:
-        with open(args.csv, "w", newline="") as stream:
-            write_scan_csv(result.states, stream)
-    if args.events:
-        with open(args.events, "w") as stream:
-            write_events_json(result.events, stream)
+    for model, csv_path, events_path in runs:
+        try:
+            result = run_scan(profile, grid, model=model)
+        except VibrissaError as exc:
+            print(f"vibrissa scan: error: {model.name} model: {exc}", file=sys.stderr)
+            return 2 if isinstance(exc, ValueError) else 1
+        if csv_path == "-":
+            write_scan_csv(result.states, sys.stdout)
+        else:
+            with open(csv_path, "w", newline="") as stream:
+                write_scan_csv(result.states, stream)
+        if events_path:
+            with open(events_path, "w") as stream:
+                write_events_json(result.events, stream)
     return 0
 
 

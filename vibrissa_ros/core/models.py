@@ -34,6 +34,8 @@ class ElasticaModel:
     """
 
     name = "elastica"
+    #: near zero force the branch ends where the straight whisker touches (located on the pose)
+    release_by_gap = True
 
     def __init__(self):
         self._memo_key = None
@@ -173,15 +175,107 @@ class ElasticaModel:
         return pts
 
 
-MODELS = {"elastica": ElasticaModel}
+class RigidModel:
+    """The rigid one-link whisker on a torsional spring at the foot (paper §3).
+
+    Units of the paper's §3: length L, moment c (the spring's stiffness), force c/L. With
+    ``stiffness`` = k the reported f, fx, fy and m0 are multiplied by k, i.e. expressed in units of
+    EI when c = k EI/L (k = 3 matches the elastica's small-deflection tip stiffness).
+
+    Unknowns: mode 1 (tangential, rod slope phi = alpha) ``z = (alpha, s1)``; mode 2 (tip)
+    ``z = (alpha, gamma)`` with gamma = pi/2 - phi, the rod's rotation from upright. Geometry
+    (paper §3): s1 (cos phi, sin phi) is the contact point relative to the foot. Statics: the spring
+    moment pi/2 - phi balances the contact force's moment f s1 cos(phi - alpha), so
+    f = (pi/2 - alpha)/s1 in mode 1 and f = gamma / cos(phi - alpha) in mode 2. The branch folds
+    exactly where the rod becomes orthogonal to the profile (phi = alpha + pi/2, where f -> inf):
+    d x0 / d alpha = rho cos(phi - alpha) / cos(phi) vanishes there, so the tracker snaps there
+    and no sampled state ever reaches the singular point.
+    """
+
+    name = "rigid"
+    release_by_gap = False
+
+    def __init__(self, stiffness: float = 1.0):
+        stiffness = float(stiffness)
+        if not (math.isfinite(stiffness) and stiffness > 0.0):
+            from .errors import ParameterError
+
+            raise ParameterError(f"rigid spring stiffness = {stiffness!r} must be finite and > 0")
+        self.stiffness = stiffness
+
+    def load_point(self, phase: Phase, z):
+        alpha, mu = z
+        if phase == Phase.TANGENTIAL:
+            ca, sa = math.cos(alpha), math.sin(alpha)
+            return mu * ca, mu * sa, -mu * sa, ca, mu * ca, sa
+        sg, cg = math.sin(mu), math.cos(mu)  # tip (cos phi, sin phi) = (sin gamma, cos gamma)
+        return sg, cg, 0.0, cg, 0.0, -sg
+
+    def valid(self, phase: Phase, z) -> bool:
+        alpha, mu = z
+        if not (math.isfinite(alpha) and math.isfinite(mu) and -HALF_PI < alpha < HALF_PI):
+            return False
+        if phase == Phase.TANGENTIAL:
+            return mu > 0.0
+        return -HALF_PI < mu < math.pi
+
+    def events(self, phase: Phase, z) -> Dict[str, float]:
+        """mode 1: ``tip`` = 1 - s1; mode 2: ``tangential`` = phi - alpha, ``release`` = gamma
+        (the spring unloads: f = 0)."""
+        alpha, mu = z
+        if phase == Phase.TANGENTIAL:
+            return {"tip": 1.0 - mu}
+        return {"tangential": HALF_PI - mu - alpha, "release": mu}
+
+    def transition(self, phase: Phase, event: str, z):
+        alpha, mu = z
+        if phase == Phase.TANGENTIAL and event == "tip":
+            return Phase.TIP, (alpha, HALF_PI - alpha)
+        if phase == Phase.TIP and event == "tangential":
+            return Phase.TANGENTIAL, (alpha, 1.0)
+        if phase == Phase.TIP and event == "release":
+            return Phase.FREE, None
+        raise AssertionError(f"no transition for event {event!r} in phase {phase!r}")
+
+    def touch_start(self, alpha0: float, penetration: float):
+        """Turning the rod clockwise by gamma moves its tip by gamma along +x."""
+        return Phase.TIP, (alpha0, penetration / math.sin(alpha0))
+
+    def tip_rotation(self, phase: Phase, z) -> float:
+        return HALF_PI - z[0] if phase == Phase.TANGENTIAL else z[1]
+
+    def contact_quantities(self, phase: Phase, z):
+        alpha, mu = z
+        k = self.stiffness
+        if phase == Phase.TANGENTIAL:
+            free = 1.0 - mu
+            return (
+                k * (HALF_PI - alpha) / mu,
+                k * (alpha - HALF_PI),
+                mu,
+                alpha,
+                (free * math.cos(alpha), free * math.sin(alpha)),
+            )
+        phi = HALF_PI - mu
+        return k * mu / math.cos(phi - alpha), -k * mu, 1.0, phi, (0.0, 0.0)
+
+    def centerline_contact_frame(self, phase: Phase, z, n: int) -> np.ndarray:
+        alpha, mu = z
+        phi = alpha if phase == Phase.TANGENTIAL else HALF_PI - mu
+        s = np.linspace(0.0, 1.0, n)
+        return np.column_stack((s * math.cos(phi), s * math.sin(phi)))
 
 
-def make_model(name: str):
+MODELS = {"elastica": ElasticaModel, "rigid": RigidModel}
+
+
+def make_model(name: str, **options):
+    """A model by name: ``elastica`` or ``rigid`` (option ``stiffness``)."""
     from .errors import ParameterError
 
     if name not in MODELS:
         raise ParameterError(f"unknown model {name!r}; allowed: {', '.join(MODELS)}")
-    return MODELS[name]()
+    return MODELS[name](**options)
 
 
 def to_world(pose: FootPose, side: int, pts: np.ndarray) -> np.ndarray:

@@ -164,6 +164,11 @@ class QuasistaticTracker:
                 name = outcome[1]
                 old = contact.phase
                 new_phase, new_z = self.model.transition(old, name, contact.z)
+                if new_phase == Phase.FREE:  # the contact force reached zero on the branch
+                    events.append(self._event("release", old, new_phase, path, contact))
+                    t = contact.t
+                    contact = None
+                    continue
                 events.append(self._event("phase", old, new_phase, path, contact))
                 contact = _Contact(new_phase, contact.side, new_z, contact.t)
             elif kind == "release":
@@ -449,7 +454,9 @@ class QuasistaticTracker:
             Yp = Y + h * T
             Yn = self._corrector(path, phase, side, Yp, T, h)
             if Yn is None:
-                released = self._check_release(path, phase, contact, Y, Yp)
+                released = (
+                    self._check_release(path, phase, contact, Y, Yp) if self.model.release_by_gap else None
+                )
                 if released is not None:
                     return "release", released, steps
                 h *= 0.5
