@@ -4,6 +4,15 @@ from setuptools import find_packages, setup
 
 package_name = "vibrissa_ros"
 
+ROS = [
+    "ros-jazzy-rclpy",
+    "ros-jazzy-rmw-fastrtps-cpp",
+    "ros-jazzy-common-interfaces",
+    "ros-jazzy-ament-index-python",
+]
+# building and isolating: colcon (the CI build check) and unique ROS_DOMAIN_IDs for tests
+TOOLS = ["colcon-common-extensions", "colcon-ros", "ros-jazzy-ament-package", "ros-jazzy-domain-coordinator"]
+
 setup(
     name=package_name,
     version="0.1.0",
@@ -15,7 +24,11 @@ setup(
     ],
     python_requires=">=3.10",
     install_requires=["setuptools", "numpy>=1.24", "scipy>=1.10"],
-    extras_require={"test": ["pytest>=7", "mpmath>=1.3", "catkin_pkg>=1.0"]},
+    extras_require={
+        # ROS 2 Jazzy from PyPI wheels (no sourcing needed), for the node and its tools
+        "ros": ROS,
+        "test": ROS + TOOLS + ["pytest>=7", "mpmath>=1.3", "catkin_pkg>=1.0"],
+    },
     zip_safe=True,
     maintainer="vibrissa_ros maintainers",
     maintainer_email="maintainers@vibrissa-ros.dev",
@@ -24,6 +37,7 @@ setup(
     entry_points={
         "console_scripts": [
             "vibrissa = vibrissa_ros.cli:main",
+            "whisker_node = vibrissa_ros.whisker_node:main",
         ],
     },
 )

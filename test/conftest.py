@@ -1,3 +1,8 @@
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).parent))  # test helpers (ros_harness)
+
 import csv
 import math
 from pathlib import Path
@@ -27,3 +32,52 @@ def read_reference(name="elastica_parabola_p0_0.3.csv"):
 @pytest.fixture(scope="session")
 def reference_scan():
     return read_reference()
+
+
+@pytest.fixture(scope="session")
+def ros_domain(tmp_path_factory):
+    """A ROS_DOMAIN_ID reserved for this test session, set for this process and its children."""
+    import os
+
+    from domain_coordinator import domain_id
+
+    keys = ("ROS_DOMAIN_ID", "ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_LOG_DIR", "ROS_PYTHON_CHECK_FIELDS")
+    saved = {k: os.environ.get(k) for k in keys}
+    with domain_id() as domain:
+        os.environ["ROS_DOMAIN_ID"] = str(domain)
+        os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+        os.environ["ROS_LOG_DIR"] = str(tmp_path_factory.mktemp("roslog"))
+        os.environ["ROS_PYTHON_CHECK_FIELDS"] = "1"
+        yield domain
+    for key, value in saved.items():
+        if value is None:
+            os.environ.pop(key, None)
+        else:
+            os.environ[key] = value
+
+
+@pytest.fixture(scope="session")
+def ros_env(ros_domain):
+    import os
+
+    from ros_harness import ros_env as make_env
+
+    return make_env(ros_domain, os.environ["ROS_LOG_DIR"])
+
+
+@pytest.fixture(scope="session")
+def installed(tmp_path_factory, ros_env):
+    """The package built with ``colcon build`` (the CI build check) into a temporary workspace."""
+    from ros_harness import colcon_build
+
+    return colcon_build(tmp_path_factory.mktemp("ws"), ros_env)
+
+
+@pytest.fixture(scope="session")
+def rcl_context(ros_domain):
+    import rclpy
+
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    yield context
+    rclpy.try_shutdown(context=context)

@@ -130,8 +130,12 @@ def _positive(profile: str, name: str, value: float) -> float:
     return value
 
 
-def _p0(profile: str, value: float) -> float:
+def _p0(profile: str, value: float, scan: bool = True) -> float:
     value = float(value)
+    if not scan:
+        if not math.isfinite(value):
+            raise ParameterError(f"{profile}: p0 = {value!r} must be finite")
+        return value
     if not (math.isfinite(value) and 0.0 < value < 1.0):
         raise ParameterError(
             f"{profile}: p0 = {value!r} is not allowed; p0 (apex height over the foot's line, in "
@@ -140,8 +144,8 @@ def _p0(profile: str, value: float) -> float:
     return value
 
 
-def _reaches_height_one(profile: str, what: str, height: float) -> None:
-    if not height > 1.0:
+def _reaches_height_one(profile: str, what: str, height: float, scan: bool = True) -> None:
+    if scan and not height > 1.0:
         raise ParameterError(
             f"{profile}: {what} = {height!r} must exceed 1 (the whisker's length): the model assumes "
             "the profile reaches height 1 on both sides"
@@ -154,10 +158,11 @@ class Parabola(ConvexProfile):
 
     p0: float
     k: float = 1.0
+    scan_checks: bool = field(default=True, repr=False, compare=False)
     name: ClassVar[str] = "parabola"
 
     def __post_init__(self):
-        object.__setattr__(self, "p0", _p0(self.name, self.p0))
+        object.__setattr__(self, "p0", _p0(self.name, self.p0, self.scan_checks))
         object.__setattr__(self, "k", _positive(self.name, "k", self.k))
 
     @property
@@ -182,10 +187,11 @@ class Catenary(ConvexProfile):
 
     p0: float
     c: float
+    scan_checks: bool = field(default=True, repr=False, compare=False)
     name: ClassVar[str] = "catenary"
 
     def __post_init__(self):
-        object.__setattr__(self, "p0", _p0(self.name, self.p0))
+        object.__setattr__(self, "p0", _p0(self.name, self.p0, self.scan_checks))
         object.__setattr__(self, "c", _positive(self.name, "c", self.c))
 
     @property
@@ -209,12 +215,13 @@ class Circle(ConvexProfile):
 
     p0: float
     R: float
+    scan_checks: bool = field(default=True, repr=False, compare=False)
     name: ClassVar[str] = "circle"
 
     def __post_init__(self):
-        object.__setattr__(self, "p0", _p0(self.name, self.p0))
+        object.__setattr__(self, "p0", _p0(self.name, self.p0, self.scan_checks))
         object.__setattr__(self, "R", _positive(self.name, "R", self.R))
-        _reaches_height_one(self.name, "p0 + R", self.p0 + self.R)
+        _reaches_height_one(self.name, "p0 + R", self.p0 + self.R, self.scan_checks)
 
     @property
     def params(self):
@@ -240,14 +247,15 @@ class TwoCircles(ConvexProfile):
     p0: float
     R_left: float
     R_right: float
+    scan_checks: bool = field(default=True, repr=False, compare=False)
     name: ClassVar[str] = "two_circles"
 
     def __post_init__(self):
-        object.__setattr__(self, "p0", _p0(self.name, self.p0))
+        object.__setattr__(self, "p0", _p0(self.name, self.p0, self.scan_checks))
         object.__setattr__(self, "R_left", _positive(self.name, "R_left", self.R_left))
         object.__setattr__(self, "R_right", _positive(self.name, "R_right", self.R_right))
-        _reaches_height_one(self.name, "p0 + R_left", self.p0 + self.R_left)
-        _reaches_height_one(self.name, "p0 + R_right", self.p0 + self.R_right)
+        _reaches_height_one(self.name, "p0 + R_left", self.p0 + self.R_left, self.scan_checks)
+        _reaches_height_one(self.name, "p0 + R_right", self.p0 + self.R_right, self.scan_checks)
 
     @property
     def params(self):
@@ -278,13 +286,14 @@ class Ellipse(ConvexProfile):
     p0: float
     a: float
     b: float
+    scan_checks: bool = field(default=True, repr=False, compare=False)
     name: ClassVar[str] = "ellipse"
 
     def __post_init__(self):
-        object.__setattr__(self, "p0", _p0(self.name, self.p0))
+        object.__setattr__(self, "p0", _p0(self.name, self.p0, self.scan_checks))
         object.__setattr__(self, "a", _positive(self.name, "a", self.a))
         object.__setattr__(self, "b", _positive(self.name, "b", self.b))
-        _reaches_height_one(self.name, "p0 + b", self.p0 + self.b)
+        _reaches_height_one(self.name, "p0 + b", self.p0 + self.b, self.scan_checks)
 
     @property
     def params(self):
@@ -380,8 +389,13 @@ PROFILE_PARAMETERS: Dict[str, Dict[str, float | None]] = {
 }
 
 
-def make_profile(name: str, params: Mapping[str, float]) -> ConvexProfile:
-    """Build a profile from its contract name and parameters, with errors that say what is allowed."""
+def make_profile(name: str, params: Mapping[str, float], scan_checks: bool = True) -> ConvexProfile:
+    """Build a profile from its contract name and parameters, with errors that say what is allowed.
+
+    ``scan_checks`` enforces the paper's scan set-up (p0 in (0, 1), the profile reaching height 1 on
+    both sides, relative to a foot on the x-axis); without it only the shape is validated and p0
+    is simply the apex height (used where the foot moves freely in the plane, e.g. the ROS node).
+    """
     if name not in PROFILES:
         raise ParameterError(f"unknown profile {name!r}; allowed: {', '.join(PROFILES)}")
     allowed = PROFILE_PARAMETERS[name]
@@ -398,4 +412,4 @@ def make_profile(name: str, params: Mapping[str, float]) -> ConvexProfile:
             values[key] = default
         else:
             raise ParameterError(f"{name}: parameter {key} is required ({', '.join(allowed)})")
-    return PROFILES[name](**values)
+    return PROFILES[name](**values, scan_checks=scan_checks)

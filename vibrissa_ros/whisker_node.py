@@ -1,0 +1,347 @@
+"""ROS 2 virtual whisker: foot poses in, the follicle sensor's wrench and the contact state out.
+
+Topics (relative to the node, remappable):
+
+* ``~/foot_pose`` (in) geometry_msgs/PoseStamped: the whisker's base in ``world_frame``; x, y and
+  yaw are used, the pose must lie in the plane z = 0 (no roll, no pitch).
+* ``~/wrench`` geometry_msgs/WrenchStamped in ``base_frame``: force (x, y) [N] and torque z [N m]
+  that the whisker applies to its base.
+* ``~/phase`` std_msgs/UInt8: 0 free, 1 tangential contact, 2 tip contact.
+* ``~/contact_force`` geometry_msgs/Vector3Stamped in ``world_frame``: the obstacle's force on the
+  whisker [N] (zero when free); ``~/contact_force_magnitude`` std_msgs/Float64 [N].
+* ``~/contact_point`` geometry_msgs/PointStamped in ``world_frame`` [m] and ``~/arc_length``
+  std_msgs/Float64 (s1 [m] from the base): only while in contact.
+* ``~/events`` std_msgs/String: one JSON object per event (touch, phase, snap, release).
+* ``~/centerline`` nav_msgs/Path in ``world_frame``; ``~/obstacle`` visualization_msgs/Marker
+  (latched: transient local).
+* ``/diagnostics`` diagnostic_msgs/DiagnosticArray every ``diagnostics.period`` seconds.
+
+Every message with a header carries the stamp of the pose that produced it.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from collections import Counter
+from typing import Dict, List, Optional
+
+import numpy as np
+import rclpy
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from geometry_msgs.msg import Point, PointStamped, PoseStamped, Vector3Stamped, WrenchStamped
+from nav_msgs.msg import Path
+from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, SetParametersResult
+from rclpy.exceptions import InvalidParameterValueException, ParameterUninitializedException
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from std_msgs.msg import Float64, String, UInt8
+from visualization_msgs.msg import Marker
+
+from .core.errors import InvalidPoseError, VibrissaError
+from .core.tracker import QuasistaticTracker
+from .frames import BadInput, planar_pose, sensor_reading, yaw_quaternion
+from .node_config import PARAMETERS, SPECS, WhiskerConfig, build_config
+
+DROP_REASONS = (
+    "not_finite",
+    "quaternion_not_unit",
+    "out_of_plane",
+    "wrong_frame_id",
+    "stamp_backwards",
+    "inside_obstacle",
+    "model_assumption",
+    "not_converged",
+)
+_LOG_THROTTLE_S = 1.0  # seconds between two log lines of the same drop reason
+
+
+def _stamp_ns(stamp) -> int:
+    return int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
+
+
+def _descriptor(spec) -> ParameterDescriptor:
+    text = spec.description + (f" [{spec.unit}]" if spec.unit else "")
+    desc = ParameterDescriptor(description=text, read_only=spec.read_only)
+    bounded = spec.minimum is not None and spec.maximum is not None
+    if isinstance(spec.default, float) and bounded:
+        desc.floating_point_range = [
+            FloatingPointRange(from_value=float(spec.minimum), to_value=float(spec.maximum), step=0.0)
+        ]
+    elif isinstance(spec.default, int) and not isinstance(spec.default, bool) and bounded:
+        desc.integer_range = [IntegerRange(from_value=int(spec.minimum), to_value=int(spec.maximum), step=1)]
+    return desc
+
+
+class WhiskerNode(Node):
+    """A virtual whisker: each foot pose is a quasistatic step from the previous one."""
+
+    def __init__(self, node_name: str = "whisker_node", **kwargs):
+        super().__init__(node_name, **kwargs)
+        for spec in PARAMETERS:
+            self.declare_parameter(spec.name, spec.default, _descriptor(spec))
+        self._config: WhiskerConfig = build_config(self._parameter_values())  # raises: bad start-up config
+        self._tracker: Optional[QuasistaticTracker] = None
+        self._last_stamp_ns: Optional[int] = None
+        self._received = 0
+        self._processed = 0
+        self._snaps = 0
+        self._dropped: Counter = Counter()
+        self._last_log: Dict[str, float] = {}
+        self._solve_times_ns: List[int] = []
+        self._last_error = ""
+
+        reliable = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000, reliability=ReliabilityPolicy.RELIABLE)
+        latched = QoSProfile(
+            history=HistoryPolicy.KEEP_LAST, depth=1, reliability=ReliabilityPolicy.RELIABLE,
+            durability=DurabilityPolicy.TRANSIENT_LOCAL,
+        )
+        self._pub_wrench = self.create_publisher(WrenchStamped, "~/wrench", reliable)
+        self._pub_phase = self.create_publisher(UInt8, "~/phase", reliable)
+        self._pub_force = self.create_publisher(Vector3Stamped, "~/contact_force", reliable)
+        self._pub_force_mag = self.create_publisher(Float64, "~/contact_force_magnitude", reliable)
+        self._pub_contact = self.create_publisher(PointStamped, "~/contact_point", reliable)
+        self._pub_s1 = self.create_publisher(Float64, "~/arc_length", reliable)
+        self._pub_events = self.create_publisher(String, "~/events", reliable)
+        self._pub_centerline = self.create_publisher(Path, "~/centerline", reliable)
+        self._pub_obstacle = self.create_publisher(Marker, "~/obstacle", latched)
+        self._pub_diag = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
+        self._sub = self.create_subscription(PoseStamped, "~/foot_pose", self._on_pose, reliable)
+        self.add_on_set_parameters_callback(self._validate_parameters)
+        self.add_post_set_parameters_callback(self._apply_parameters)
+        self._diag_timer = self.create_timer(float(self._config.values["diagnostics.period"]), self._publish_diagnostics)
+        self._publish_obstacle()
+        self.get_logger().info(f"ready: {self._config.describe()}; poses on {self._sub.topic_name}")
+
+    # -- parameters --------------------------------------------------------------------------
+    def _parameter_values(self, overrides=None) -> Dict[str, object]:
+        values = {spec.name: self.get_parameter(spec.name).value for spec in PARAMETERS}
+        if overrides:
+            values.update(overrides)
+        return values
+
+    def _validate_parameters(self, params) -> SetParametersResult:
+        overrides = {p.name: p.value for p in params if p.name in SPECS}
+        try:
+            build_config(self._parameter_values(overrides))
+        except VibrissaError as exc:
+            return SetParametersResult(successful=False, reason=str(exc))
+        return SetParametersResult(successful=True)
+
+    def _apply_parameters(self, params) -> None:
+        self._config = build_config(self._parameter_values())
+        if any(SPECS[p.name].resets for p in params if p.name in SPECS):
+            self._tracker = None
+            self.get_logger().info(
+                f"parameters changed ({', '.join(p.name for p in params)}): the whisker is reset to free; "
+                f"the next pose places it. Now: {self._config.describe()}"
+            )
+            self._publish_obstacle()
+
+    # -- input -------------------------------------------------------------------------------
+    def _drop(self, reason: str, message: str) -> None:
+        self._dropped[reason] += 1
+        self._last_error = f"{reason}: {message}"
+        now = time.monotonic()
+        if now - self._last_log.get(reason, -math.inf) >= _LOG_THROTTLE_S:
+            self._last_log[reason] = now
+            self.get_logger().warning(
+                f"dropped a foot pose ({reason}, {self._dropped[reason]} so far): {message}; state kept"
+            )
+
+    def _on_pose(self, msg: PoseStamped) -> None:
+        self._received += 1
+        try:
+            self._handle_pose(msg)
+        except BadInput as exc:
+            self._drop(exc.reason, str(exc))
+        except InvalidPoseError as exc:
+            self._drop("inside_obstacle", str(exc))
+        except VibrissaError as exc:
+            reason = "not_converged" if type(exc).__name__ == "ConvergenceError" else "model_assumption"
+            self._drop(reason, str(exc))
+
+    def _handle_pose(self, msg: PoseStamped) -> None:
+        cfg = self._config
+        if msg.header.frame_id != cfg.world_frame:
+            raise BadInput(
+                "wrong_frame_id", f"frame_id '{msg.header.frame_id}' is not the world frame '{cfg.world_frame}'"
+            )
+        stamp_ns = _stamp_ns(msg.header.stamp)
+        if self._last_stamp_ns is not None and stamp_ns < self._last_stamp_ns:
+            raise BadInput(
+                "stamp_backwards", f"stamp {stamp_ns} ns is older than the last accepted {self._last_stamp_ns} ns"
+            )
+        p, q = msg.pose.position, msg.pose.orientation
+        x, y, yaw = planar_pose(
+            (p.x, p.y, p.z), (q.x, q.y, q.z, q.w),
+            cfg.values["input.z_tolerance"], cfg.values["input.angle_tolerance"],
+        )
+        pose = cfg.units.foot_pose(x, y, yaw)
+        t0 = time.perf_counter_ns()
+        events = ()
+        if self._tracker is None:
+            tracker = QuasistaticTracker(cfg.profile, pose, model=cfg.model)  # first pose places it
+            state = tracker.state
+        else:
+            tracker = self._tracker
+            result = tracker.step(pose)
+            state, events = result.state, result.events
+        self._solve_times_ns.append(time.perf_counter_ns() - t0)
+        self._tracker = tracker
+        self._last_stamp_ns = stamp_ns
+        self._processed += 1
+        self._publish_state(msg.header.stamp, state, events)
+
+    # -- output ------------------------------------------------------------------------------
+    def _publish_state(self, stamp, state, events) -> None:
+        cfg = self._config
+        reading = sensor_reading(state, cfg.units)
+        wrench = WrenchStamped()
+        wrench.header.stamp = stamp
+        wrench.header.frame_id = cfg.base_frame
+        wrench.wrench.force.x = float(reading.force_base[0])
+        wrench.wrench.force.y = float(reading.force_base[1])
+        wrench.wrench.torque.z = float(reading.torque_z)
+        self._pub_wrench.publish(wrench)
+        self._pub_phase.publish(UInt8(data=reading.phase))
+        force = Vector3Stamped()
+        force.header.stamp = stamp
+        force.header.frame_id = cfg.world_frame
+        force.vector.x = float(reading.force_world[0])
+        force.vector.y = float(reading.force_world[1])
+        self._pub_force.publish(force)
+        self._pub_force_mag.publish(Float64(data=float(reading.force_magnitude)))
+        if reading.contact_world is not None:
+            point = PointStamped()
+            point.header.stamp = stamp
+            point.header.frame_id = cfg.world_frame
+            point.point.x = float(reading.contact_world[0])
+            point.point.y = float(reading.contact_world[1])
+            self._pub_contact.publish(point)
+            self._pub_s1.publish(Float64(data=float(reading.s1)))
+        for event in events:
+            if event.kind == "snap":
+                self._snaps += 1
+            record = {
+                "kind": event.kind,
+                "from_phase": int(event.from_phase),
+                "to_phase": int(event.to_phase),
+                "x": event.pose.x * cfg.units.length,
+                "y": event.pose.y * cfg.units.length,
+                "yaw": event.pose.heading,
+            }
+            self._pub_events.publish(String(data=json.dumps(record)))
+            self.get_logger().info(f"event: {record}")
+        self._publish_centerline(stamp, state)
+
+    def _publish_centerline(self, stamp, state) -> None:
+        cfg = self._config
+        pts = state.centerline(int(cfg.values["centerline.points"])) * cfg.units.length
+        tangent = np.diff(pts, axis=0)
+        yaws = np.arctan2(tangent[:, 1], tangent[:, 0])
+        yaws = np.append(yaws, yaws[-1])
+        path = Path()
+        path.header.stamp = stamp
+        path.header.frame_id = cfg.world_frame
+        for (x, y), yaw in zip(pts, yaws):
+            pose = PoseStamped()
+            pose.header = path.header
+            pose.pose.position.x = float(x)
+            pose.pose.position.y = float(y)
+            qx, qy, qz, qw = yaw_quaternion(float(yaw))
+            pose.pose.orientation.z = qz
+            pose.pose.orientation.w = qw
+            path.poses.append(pose)
+        self._pub_centerline.publish(path)
+
+    def _publish_obstacle(self) -> None:
+        """The obstacle's profile as a latched line strip, up to 2 whisker lengths above its apex."""
+        cfg = self._config
+        prof = cfg.profile
+        apex_y = prof.point(prof.lowest_alpha())[1]
+        reach = []
+        for side in (-1, 1):
+            try:
+                reach.append(prof.alpha_at_height(apex_y + 2.0, side))
+            except VibrissaError:
+                reach.append((prof.alpha_min if side < 0 else prof.alpha_max) - side * 1e-6)
+        marker = Marker()
+        marker.header.frame_id = cfg.world_frame
+        marker.header.stamp = self.get_clock().now().to_msg()
+        marker.ns = "obstacle"
+        marker.id = 0
+        marker.type = Marker.LINE_STRIP
+        marker.action = Marker.ADD
+        marker.pose.orientation.w = 1.0
+        marker.scale.x = 0.01 * cfg.units.length
+        marker.color.r, marker.color.g, marker.color.b, marker.color.a = 0.85, 0.35, 0.1, 1.0
+        for a in np.union1d(np.linspace(reach[0], reach[1], 400), [prof.lowest_alpha()]):
+            x, y = prof.point(float(a))
+            marker.points.append(Point(x=float(x) * cfg.units.length, y=float(y) * cfg.units.length))
+        self._pub_obstacle.publish(marker)
+
+    def _publish_diagnostics(self) -> None:
+        times = np.array(self._solve_times_ns, dtype=float) / 1e3
+        self._solve_times_ns = []
+        dropped = sum(self._dropped.values())
+        status = DiagnosticStatus()
+        status.name = f"vibrissa_ros: {self.get_fully_qualified_name()}"
+        status.hardware_id = self.get_fully_qualified_name()
+        phase = "none" if self._tracker is None else str(int(self._tracker.state.phase))
+        if self._last_error and dropped:
+            status.level = DiagnosticStatus.WARN
+            status.message = f"{dropped} pose(s) dropped; last: {self._last_error}"
+        else:
+            status.level = DiagnosticStatus.OK
+            status.message = "whisker not placed yet" if self._tracker is None else f"phase {phase}"
+        values = {
+            "phase": phase,
+            "poses_received": self._received,
+            "poses_processed": self._processed,
+            "poses_dropped": dropped,
+            "snaps": self._snaps,
+            "solves_in_period": len(times),
+            "solve_time_median_us": f"{np.median(times):.1f}" if len(times) else "",
+            "solve_time_p99_us": f"{np.percentile(times, 99):.1f}" if len(times) else "",
+            "solve_time_max_us": f"{times.max():.1f}" if len(times) else "",
+            "configuration": self._config.describe(),
+        }
+        for reason in DROP_REASONS:
+            values[f"dropped_{reason}"] = self._dropped[reason]
+        status.values = [KeyValue(key=k, value=str(v)) for k, v in values.items()]
+        array = DiagnosticArray()
+        array.header.stamp = self.get_clock().now().to_msg()
+        array.status = [status]
+        self._pub_diag.publish(array)
+
+
+def main(args=None) -> int:
+    """Entry point of ``ros2 run vibrissa_ros whisker_node``: the Jazzy pattern, exit 0 on SIGINT/SIGTERM.
+
+    An invalid start-up configuration is reported in one line and exits with status 2.
+    """
+    rclpy.init(args=args)
+    node = None
+    code = 0
+    try:
+        node = WhiskerNode()
+        rclpy.spin(node)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    except (VibrissaError, InvalidParameterValueException, ParameterUninitializedException) as exc:
+        rclpy.logging.get_logger("whisker_node").fatal(f"invalid parameters: {exc}")
+        code = 2
+    finally:
+        if node is not None:
+            node.destroy_node()
+        rclpy.try_shutdown()
+    return code
+
+
+if __name__ == "__main__":  # pragma: no cover
+    import sys
+
+    sys.exit(main())
