@@ -173,14 +173,16 @@ class Probe:
             if key != "obstacle":
                 self.got[key] = []
 
-    def step(self, msg: PoseStamped, timeout: float = 10.0):
-        """Publish one pose and wait for its wrench and centerline (the last message per pose)."""
+    def step(self, msg: PoseStamped, timeout: float = 10.0, centerline: bool = False):
+        """Publish one pose and wait for its answers (and its centerline, if asked)."""
         stamp = stamp_of(msg)
         n_phase = len(self.got["phase"])
         self.pub.publish(msg)
         ok = self.spin_until(
-            lambda: any(stamp_of(m) == stamp for m in self.got["centerline"][-3:])
-            and len(self.got["phase"]) > n_phase and len(self.got["contact_force_magnitude"]) > n_phase,
+            lambda: any(stamp_of(m) == stamp for m in self.got["wrench"][-3:])
+            and any(stamp_of(m) == stamp for m in self.got["contact_force"][-3:])
+            and len(self.got["phase"]) > n_phase and len(self.got["contact_force_magnitude"]) > n_phase
+            and (not centerline or any(stamp_of(m) == stamp for m in self.got["centerline"][-3:])),
             timeout,
         )
         if not ok:

@@ -24,6 +24,7 @@ CATENARY = {
     "obstacle.apex_x": 0.0,
     "obstacle.apex_y": 0.05,
     "diagnostics.period": 0.2,
+    "centerline.max_rate": 0.0,
 }
 
 
@@ -73,7 +74,8 @@ def test_installed_node_comes_up_and_answers(node):
     assert marker.header.frame_id == "world" and len(marker.points) > 100
     apex = min(marker.points, key=lambda p: p.y)
     assert (apex.x, apex.y) == pytest.approx((0.0, 0.05), abs=1e-4)
-    assert probe.diagnostics_value("poses_processed") in {"1", "2", str(len(probe.got["wrench"]) + 1)}
+    assert int(probe.diagnostics_value("poses_processed")) >= 2  # the handshake's repeats and the step
+    assert probe.diagnostics_value("phase") == "0"
     assert proc.poll() is None
 
 
@@ -82,7 +84,7 @@ def test_sweep_outputs_equal_the_core_in_si_and_the_base_frame(node):
     xs = list(np.round(np.arange(0.15, -0.15, -0.0025), 10)) + list(np.round(np.arange(-0.15, 0.1501, 0.0025), 10))
     msgs = [pose_msg(x, 0.0, HALF_PI, 1_000_000_000 + i * 1_000_000) for i, x in enumerate(xs)]
     probe.handshake(msgs[0])
-    wrenches = [probe.step(m) for m in msgs[1:]]
+    wrenches = [probe.step(m, centerline=True) for m in msgs[1:]]
     expected = _expected(values, msgs)[1:]
     force_scale = 5e-4 / 0.1**2
     in_contact = 0
@@ -255,3 +257,41 @@ def test_invalid_startup_parameters_exit_with_the_reason(installed, ros_env, tmp
     out = proc.stdout.read()
     assert code != 0
     assert "obstacle.c" in out and "> 0" in out
+
+
+def test_vibrissa_sweep_drives_the_node_and_records_si_rows(node):
+    from vibrissa_ros.sweep import run_sweep
+
+    proc, probe, values = node
+    poses = [(float(x), 0.0, HALF_PI) for x in np.round(np.arange(0.12, -0.12, -0.004), 10)]
+    rows = run_sweep(poses, node="/whisker_node", timeout=10.0)
+    assert len(rows) == len(poses)
+    expected = _expected(values, [pose_msg(x, y, yaw, i + 1) for i, (x, y, yaw) in enumerate(poses)])
+    assert [r.phase for r in rows] == [r.phase for _, r, _ in expected]
+    for row, (_, r, _) in zip(rows, expected):
+        assert _close(row.torque_z, r.torque_z, 5e-3)
+        assert _close(row.force_x, r.force_base[0], 5e-2) and _close(row.contact_force, r.force_magnitude, 5e-2)
+        assert (row.contact_x is None) == (r.contact_world is None)
+        if r.contact_world is not None:
+            assert _close(row.contact_x, r.contact_world[0], 0.1) and _close(row.arc_length, r.s1, 0.1)
+
+
+def test_vibrissa_sweep_command_launches_the_node(tmp_path, ros_env):
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    out = tmp_path / "sweep.csv"
+    exe = Path(sys.executable).with_name("vibrissa")
+    proc = subprocess.run(
+        [str(exe), "sweep", "--launch", str(ROOT / "config" / "default.yaml"), "--from", "0.2", "--to", "-0.2",
+         "--step", "0.01", "--back", "--csv", str(out)],
+        env=ros_env, capture_output=True, text=True, timeout=180,
+    )
+    assert proc.returncode == 0, proc.stderr
+    lines = out.read_text().splitlines()
+    assert lines[0] == "x,y,yaw,phase,force_x,force_y,torque_z,contact_force,contact_x,contact_y,arc_length"
+    assert len(lines) == 1 + 81
+    phases = [int(line.split(",")[3]) for line in lines[1:]]
+    assert set(phases) == {0, 1, 2}
+    assert "nan" not in out.read_text().lower()

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import sys
 from typing import Dict, List, Optional
 
@@ -72,6 +73,26 @@ def build_parser() -> argparse.ArgumentParser:
     scan.add_argument("--csv", required=True, help="output CSV ('-' for standard output)")
     scan.add_argument("--events", help="output events JSON")
     scan.set_defaults(func=_cmd_scan)
+
+    sweep = sub.add_parser(
+        "sweep",
+        help="drive a whisker_node through a sweep of foot poses and write its answers (SI)",
+        description="Publish foot poses along the world x-axis to a whisker_node, one at a time, and write "
+        "the wrench (base frame) and contact state it answers to a CSV in SI units. With --launch, start "
+        "whisker_node with that parameter file first and stop it at the end.",
+    )
+    sweep.add_argument("--launch", metavar="PARAMS.yaml", help="start whisker_node with this parameter file")
+    sweep.add_argument("--node", default="/whisker_node", help="the node's name with namespace (topic prefix)")
+    sweep.add_argument("--from", dest="x_from", type=_finite, required=True, help="first foot x [m]")
+    sweep.add_argument("--to", dest="x_to", type=_finite, required=True, help="last foot x [m] (inclusive)")
+    sweep.add_argument("--step", type=_positive, required=True, help="spacing of foot x [m] (> 0)")
+    sweep.add_argument("--back", action="store_true", help="append the sweep back to --from")
+    sweep.add_argument("--y", type=_finite, default=0.0, help="foot y [m] (default 0)")
+    sweep.add_argument("--yaw-deg", type=_finite, default=90.0, help="base yaw [deg] (default 90: whisker along +y)")
+    sweep.add_argument("--frame", default="world", help="frame_id of the poses (the node's world_frame)")
+    sweep.add_argument("--timeout", type=_positive, default=10.0, help="seconds to wait for each answer")
+    sweep.add_argument("--csv", required=True, help="output CSV ('-' for standard output)")
+    sweep.set_defaults(func=_cmd_sweep)
     return parser
 
 
@@ -123,6 +144,48 @@ def _cmd_scan(args) -> int:
         if events_path:
             with open(events_path, "w") as stream:
                 write_events_json(result.events, stream)
+    return 0
+
+
+def _cmd_sweep(args) -> int:
+    try:
+        grid = scan_grid(args.x_from, args.x_to, args.step, args.back)
+    except VibrissaError as exc:
+        print(f"vibrissa sweep: error: {exc}", file=sys.stderr)
+        return 2
+    if args.launch and not os.path.isfile(args.launch):
+        print(f"vibrissa sweep: error: --launch {args.launch!r}: no such parameter file", file=sys.stderr)
+        return 2
+    try:
+        from .sweep import launch_node, run_sweep, stop_node, write_sweep_csv
+    except ImportError as exc:  # ROS 2 is an optional dependency of the package
+        print(f"vibrissa sweep: error: ROS 2 is not installed ({exc}); pip install '.[ros]'", file=sys.stderr)
+        return 2
+    yaw = math.radians(args.yaw_deg)
+    poses = [(float(x), args.y, yaw) for x in grid]
+    node_namespace = args.node.rsplit("/", 1)[0]
+    proc = launch_node(args.launch, node_namespace) if args.launch else None
+    code = 0
+    try:
+        rows = run_sweep(poses, node=args.node, frame=args.frame, timeout=args.timeout, progress=sys.stderr)
+    except (TimeoutError, VibrissaError) as exc:
+        print(f"vibrissa sweep: error: {exc}", file=sys.stderr)
+        code = 1
+    finally:
+        if proc is not None:
+            node_code = stop_node(proc)
+            if node_code != 0 and code == 0:
+                print(f"vibrissa sweep: error: whisker_node exited with status {node_code}", file=sys.stderr)
+                code = 1
+    if code:
+        return code
+    if args.csv == "-":
+        write_sweep_csv(rows, sys.stdout)
+    else:
+        with open(args.csv, "w", newline="") as stream:
+            write_sweep_csv(rows, stream)
+    contact = sum(1 for r in rows if r.phase)
+    print(f"vibrissa sweep: {len(rows)} poses answered ({contact} in contact) -> {args.csv}", file=sys.stderr)
     return 0
 
 

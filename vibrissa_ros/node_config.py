@@ -59,6 +59,9 @@ PARAMETERS: Tuple[ParameterSpec, ...] = (
                   read_only=True, resets=False),
     ParameterSpec("centerline.points", 41, "number of points of the published centerline", minimum=2,
                   maximum=10000, resets=False),
+    ParameterSpec("centerline.max_rate", 30.0,
+                  "highest rate of the centerline topic (a visualization: it costs more than all other outputs "
+                  "together); 0 publishes it for every pose", "Hz", minimum=0.0, maximum=1e6, resets=False),
     ParameterSpec("input.z_tolerance", 1e-6, "largest |z| of an input pose (the whisker moves in z = 0)", "m",
                   minimum=0.0, resets=False),
     ParameterSpec("input.angle_tolerance", 1e-6, "largest |roll|, |pitch| of an input pose", "rad", minimum=0.0,
@@ -154,7 +157,7 @@ def build_config(values: Mapping[str, Any]) -> WhiskerConfig:
     points = values["centerline.points"]
     if isinstance(points, bool) or not isinstance(points, int) or not 2 <= points <= 10000:
         raise ParameterError(f"centerline.points = {points!r} must be an integer in [2, 10000]")
-    for name in ("input.z_tolerance", "input.angle_tolerance"):
+    for name in ("input.z_tolerance", "input.angle_tolerance", "centerline.max_rate"):
         if _finite(name, values[name]) < 0.0:
             raise ParameterError(f"{name} = {values[name]!r} must be >= 0")
     _positive("diagnostics.period", values["diagnostics.period"], "s")

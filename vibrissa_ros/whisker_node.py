@@ -12,11 +12,12 @@ Topics (relative to the node, remappable):
 * ``~/contact_point`` geometry_msgs/PointStamped in ``world_frame`` [m] and ``~/arc_length``
   std_msgs/Float64 (s1 [m] from the base): only while in contact.
 * ``~/events`` std_msgs/String: one JSON object per event (touch, phase, snap, release).
-* ``~/centerline`` nav_msgs/Path in ``world_frame``; ``~/obstacle`` visualization_msgs/Marker
-  (latched: transient local).
+* ``~/centerline`` nav_msgs/Path in ``world_frame`` (at most ``centerline.max_rate`` Hz);
+  ``~/obstacle`` visualization_msgs/Marker (latched: transient local).
 * ``/diagnostics`` diagnostic_msgs/DiagnosticArray every ``diagnostics.period`` seconds.
 
-Every message with a header carries the stamp of the pose that produced it.
+Every message with a header carries the stamp of the pose that produced it. The wrench and events
+are always published; the other per-pose topics only while somebody subscribes to them.
 """
 
 from __future__ import annotations
@@ -92,6 +93,10 @@ class WhiskerNode(Node):
         self._last_log: Dict[str, float] = {}
         self._solve_times_ns: List[int] = []
         self._last_error = ""
+        self._last_centerline = -math.inf
+        self._listened: Dict[str, bool] = {}
+        self._listened_at = -math.inf
+        self._wrench = WrenchStamped()  # reused: building a message costs more than the solve
 
         reliable = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000, reliability=ReliabilityPolicy.RELIABLE)
         latched = QoSProfile(
@@ -196,32 +201,51 @@ class WhiskerNode(Node):
         self._publish_state(msg.header.stamp, state, events)
 
     # -- output ------------------------------------------------------------------------------
+    def _listening(self) -> Dict[str, bool]:
+        """Which optional topics have subscribers, refreshed at most every 0.1 s (it is a graph query)."""
+        now = time.monotonic()
+        if now - self._listened_at > 0.1:
+            self._listened_at = now
+            self._listened = {
+                name: pub.get_subscription_count() > 0
+                for name, pub in (("phase", self._pub_phase), ("force", self._pub_force),
+                                  ("force_mag", self._pub_force_mag), ("contact", self._pub_contact),
+                                  ("s1", self._pub_s1), ("centerline", self._pub_centerline))
+            }
+        return self._listened
+
     def _publish_state(self, stamp, state, events) -> None:
         cfg = self._config
         reading = sensor_reading(state, cfg.units)
-        wrench = WrenchStamped()
+        wrench = self._wrench
         wrench.header.stamp = stamp
         wrench.header.frame_id = cfg.base_frame
         wrench.wrench.force.x = float(reading.force_base[0])
         wrench.wrench.force.y = float(reading.force_base[1])
         wrench.wrench.torque.z = float(reading.torque_z)
         self._pub_wrench.publish(wrench)
-        self._pub_phase.publish(UInt8(data=reading.phase))
-        force = Vector3Stamped()
-        force.header.stamp = stamp
-        force.header.frame_id = cfg.world_frame
-        force.vector.x = float(reading.force_world[0])
-        force.vector.y = float(reading.force_world[1])
-        self._pub_force.publish(force)
-        self._pub_force_mag.publish(Float64(data=float(reading.force_magnitude)))
+        listening = self._listening()
+        if listening["phase"]:
+            self._pub_phase.publish(UInt8(data=reading.phase))
+        if listening["force"]:
+            force = Vector3Stamped()
+            force.header.stamp = stamp
+            force.header.frame_id = cfg.world_frame
+            force.vector.x = float(reading.force_world[0])
+            force.vector.y = float(reading.force_world[1])
+            self._pub_force.publish(force)
+        if listening["force_mag"]:
+            self._pub_force_mag.publish(Float64(data=float(reading.force_magnitude)))
         if reading.contact_world is not None:
-            point = PointStamped()
-            point.header.stamp = stamp
-            point.header.frame_id = cfg.world_frame
-            point.point.x = float(reading.contact_world[0])
-            point.point.y = float(reading.contact_world[1])
-            self._pub_contact.publish(point)
-            self._pub_s1.publish(Float64(data=float(reading.s1)))
+            if listening["contact"]:
+                point = PointStamped()
+                point.header.stamp = stamp
+                point.header.frame_id = cfg.world_frame
+                point.point.x = float(reading.contact_world[0])
+                point.point.y = float(reading.contact_world[1])
+                self._pub_contact.publish(point)
+            if listening["s1"]:
+                self._pub_s1.publish(Float64(data=float(reading.s1)))
         for event in events:
             if event.kind == "snap":
                 self._snaps += 1
@@ -235,7 +259,11 @@ class WhiskerNode(Node):
             }
             self._pub_events.publish(String(data=json.dumps(record)))
             self.get_logger().info(f"event: {record}")
-        self._publish_centerline(stamp, state)
+        max_rate = cfg.values["centerline.max_rate"]
+        now = time.monotonic()
+        if listening["centerline"] and (max_rate <= 0.0 or now - self._last_centerline >= 1.0 / max_rate):
+            self._last_centerline = now
+            self._publish_centerline(stamp, state)
 
     def _publish_centerline(self, stamp, state) -> None:
         cfg = self._config
