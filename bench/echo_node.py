@@ -9,6 +9,8 @@ from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 
+from vibrissa_ros.whisker_node import make_executor
+
 
 class EchoNode(Node):
     def __init__(self):
@@ -27,8 +29,10 @@ class EchoNode(Node):
 def main():
     rclpy.init()
     node = EchoNode()
+    executor = make_executor()  # the same executor as whisker_node
+    executor.add_node(node)
     try:
-        rclpy.spin(node)
+        executor.spin()
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:
