@@ -9,9 +9,13 @@ ROS = [
     "ros-jazzy-rmw-fastrtps-cpp",
     "ros-jazzy-common-interfaces",
     "ros-jazzy-ament-index-python",
+    "mcap>=1.2",  # recording (rosbag2 layout), with zstd chunks
+    "zstandard",
 ]
 # building and isolating: colcon (the CI build check) and unique ROS_DOMAIN_IDs for tests
 TOOLS = ["colcon-common-extensions", "colcon-ros", "ros-jazzy-ament-package", "ros-jazzy-domain-coordinator"]
+# two independent readers of our logs, for the round-trip tests
+READERS = ["mcap-ros2-support", "rosbags"]
 
 setup(
     name=package_name,
@@ -27,7 +31,7 @@ setup(
     extras_require={
         # ROS 2 Jazzy from PyPI wheels (no sourcing needed), for the node and its tools
         "ros": ROS,
-        "test": ROS + TOOLS + ["pytest>=7", "mpmath>=1.3", "catkin_pkg>=1.0"],
+        "test": ROS + TOOLS + READERS + ["pytest>=7", "mpmath>=1.3", "catkin_pkg>=1.0"],
     },
     zip_safe=True,
     maintainer="vibrissa_ros maintainers",

@@ -17,7 +17,7 @@ def _readme_commands():
 
 def test_ci_runs_the_readme_test_command_verbatim():
     main_job, test_command = _readme_commands()
-    assert "pytest" in test_command and "vibrissa scan" in main_job
+    assert "pytest" in test_command and "vibrissa sweep --launch config/default.yaml" in main_job
     ci = (ROOT / ".ci" / "run").read_text().splitlines()
     assert test_command in ci
 

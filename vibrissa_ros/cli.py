@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import os
 import sys
@@ -36,6 +37,13 @@ def _positive(text: str) -> float:
     value = _finite(text)
     if value <= 0.0:
         raise argparse.ArgumentTypeError(f"{text!r} must be > 0")
+    return value
+
+
+def _nonnegative(text: str) -> float:
+    value = _finite(text)
+    if value < 0.0:
+        raise argparse.ArgumentTypeError(f"{text!r} must be >= 0")
     return value
 
 
@@ -93,6 +101,37 @@ def build_parser() -> argparse.ArgumentParser:
     sweep.add_argument("--timeout", type=_positive, default=10.0, help="seconds to wait for each answer")
     sweep.add_argument("--csv", required=True, help="output CSV ('-' for standard output)")
     sweep.set_defaults(func=_cmd_sweep)
+
+    info = sub.add_parser("info", help="what a recorded log holds: topics, counts, duration, configuration, "
+                          "phases and events")
+    info.add_argument("log", help="an MCAP log written by whisker_node (record.path)")
+    info.set_defaults(func=_cmd_info)
+
+    replay = sub.add_parser("replay", help="publish a log's messages into ROS with their recorded timing")
+    replay.add_argument("log")
+    replay.add_argument("--rate", type=_nonnegative, default=1.0,
+                        help="speed factor of the recorded timing (2 = twice as fast); 0 = as fast as the "
+                        "subscribers take them")
+    replay.add_argument("--topics", nargs="+", metavar="TOPIC", help="only these topics (default: all)")
+    replay.set_defaults(func=_cmd_replay)
+
+    resim = sub.add_parser("resim", help="re-run a log's poses through the core with its configuration and "
+                           "compare with its outputs field by field")
+    resim.add_argument("log")
+    resim.add_argument("--tolerance", type=_positive, default=1e-12,
+                       help="largest relative deviation allowed (default 1e-12)")
+    resim.set_defaults(func=_cmd_resim)
+
+    export = sub.add_parser("export", help="a log as the scan CSV contract (dimensionless), plus a time column")
+    export.add_argument("log")
+    export.add_argument("--csv", required=True, help="output CSV ('-' for standard output)")
+    export.set_defaults(func=_cmd_export)
+
+    repair = sub.add_parser("repair", help="rewrite a log that was not finished (e.g. after kill -9) into a "
+                            "valid one")
+    repair.add_argument("log")
+    repair.add_argument("-o", "--output", required=True, help="the repaired MCAP file")
+    repair.set_defaults(func=_cmd_repair)
     return parser
 
 
@@ -187,6 +226,112 @@ def _cmd_sweep(args) -> int:
     contact = sum(1 for r in rows if r.phase)
     print(f"vibrissa sweep: {len(rows)} poses answered ({contact} in contact) -> {args.csv}", file=sys.stderr)
     return 0
+
+
+def _log_tool(verb: str, action) -> int:
+    """Run a log tool: a missing file or a log error is one line and status 2 (1 for a bad log)."""
+    try:
+        return action()
+    except FileNotFoundError as exc:
+        print(f"vibrissa {verb}: error: {exc.filename}: no such file", file=sys.stderr)
+        return 2
+    except ImportError as exc:
+        print(f"vibrissa {verb}: error: ROS 2 or mcap is not installed ({exc}); pip install '.[ros]'", file=sys.stderr)
+        return 2
+    except VibrissaError as exc:
+        print(f"vibrissa {verb}: error: {exc}", file=sys.stderr)
+        return 1
+
+
+def _cmd_info(args) -> int:
+    def run():
+        from .log_tools import log_info
+
+        info = log_info(args.log)
+        print(f"log:       {args.log}")
+        print(f"duration:  {info.duration:.3f} s ({info.start_ns} .. {info.end_ns} ns)")
+        print("topics:")
+        width = max((len(t) for t in info.topics), default=0)
+        for topic, (kind, count) in info.topics.items():
+            print(f"  {topic:<{width}}  {kind:<36} {count:>8}")
+        for i, (log_time, values) in enumerate(info.configurations):
+            when = "from the start" if i == 0 else f"from log time {log_time} ns"
+            print(f"configuration ({when}{'' if values.get('resets', True) else ', no reset'}):")
+            for key in sorted(values):
+                if key not in ("resets",):
+                    print(f"  {key} = {json.dumps(values[key])}")
+        phases = ", ".join(f"phase {p}: {n}" for p, n in info.phases.items()) or "none recorded"
+        print(f"phases:    {phases}")
+        print(f"events:    {len(info.events)}")
+        for e in info.events:
+            print(f"  {e['kind']:<8} {e['from_phase']} -> {e['to_phase']} at x = {e['x']:.9g} m, y = {e['y']:.9g} m, "
+                  f"yaw = {e['yaw']:.9g} rad")
+        return 0
+
+    return _log_tool("info", run)
+
+
+def _cmd_replay(args) -> int:
+    def run():
+        from .log_tools import replay
+
+        n = replay(args.log, rate=args.rate, topics=args.topics, progress=sys.stderr)
+        print(f"vibrissa replay: {n} messages published", file=sys.stderr)
+        return 0
+
+    return _log_tool("replay", run)
+
+
+def _cmd_resim(args) -> int:
+    def run():
+        from .log_tools import resimulate
+
+        sim = resimulate(args.log)
+        print(f"{len(sim.states)} poses re-simulated, {sum(sim.dropped.values())} dropped as recorded"
+              + (f" ({dict(sim.dropped)})" if sim.dropped else ""))
+        print(f"{'field':<34} {'compared':>9} {'largest relative deviation':>28}")
+        for key in sorted(sim.deviations):
+            print(f"{key:<34} {sim.compared[key]:>9} {sim.deviations[key]:>28.3e}")
+        for line in sim.mismatches:
+            print(f"mismatch: {line}")
+        bad = sim.mismatches or sim.worst() > args.tolerance
+        print(f"{'FAIL' if bad else 'OK'}: largest deviation {sim.worst():.3e} (tolerance {args.tolerance:g})")
+        return 1 if bad else 0
+
+    return _log_tool("resim", run)
+
+
+def _cmd_export(args) -> int:
+    def run():
+        from .log_tools import export_rows
+        from .scan_io import CSV_COLUMNS, state_row
+
+        rows, sim = export_rows(args.log)
+        stream = sys.stdout if args.csv == "-" else open(args.csv, "w", newline="")
+        try:
+            stream.write(",".join(CSV_COLUMNS + ("time",)) + "\n")
+            for t, state in rows:
+                stream.write(",".join(state_row(state) + [repr(t)]) + "\n")
+        finally:
+            if stream is not sys.stdout:
+                stream.close()
+        if sim.mismatches or sim.worst() > 1e-12:
+            print(f"vibrissa export: warning: the log's outputs differ from its re-simulation by up to "
+                  f"{sim.worst():.3e}; run 'vibrissa resim {args.log}'", file=sys.stderr)
+        return 0
+
+    return _log_tool("export", run)
+
+
+def _cmd_repair(args) -> int:
+    def run():
+        from .mcap_log import repair
+
+        kept = repair(args.log, args.output)
+        print(f"vibrissa repair: {kept} messages kept -> {args.output}", file=sys.stderr)
+        return 0
+
+    return _log_tool("repair", run)
 
 
 def main(argv: Optional[List[str]] = None) -> int:

@@ -66,6 +66,9 @@ PARAMETERS: Tuple[ParameterSpec, ...] = (
                   minimum=0.0, resets=False),
     ParameterSpec("input.angle_tolerance", 1e-6, "largest |roll|, |pitch| of an input pose", "rad", minimum=0.0,
                   resets=False),
+    ParameterSpec("record.path", "",
+                  "record every input pose and output topic to this MCAP file (rosbag2 layout); empty: off. "
+                  "Setting it at runtime starts a new recording, '' finishes the current one", resets=False),
     ParameterSpec("diagnostics.period", 1.0, "period of the /diagnostics status", "s", minimum=0.01,
                   maximum=3600.0, read_only=True, resets=False),
 )
@@ -161,4 +164,6 @@ def build_config(values: Mapping[str, Any]) -> WhiskerConfig:
         if _finite(name, values[name]) < 0.0:
             raise ParameterError(f"{name} = {values[name]!r} must be >= 0")
     _positive("diagnostics.period", values["diagnostics.period"], "s")
+    if not isinstance(values["record.path"], str):
+        raise ParameterError(f"record.path = {values['record.path']!r} must be a file path or ''")
     return WhiskerConfig(values, profile, model, units)

@@ -41,10 +41,11 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from std_msgs.msg import Float64, String, UInt8
 from visualization_msgs.msg import Marker
 
-from .core.errors import InvalidPoseError, VibrissaError
-from .core.tracker import QuasistaticTracker
-from .frames import BadInput, planar_pose, sensor_reading, yaw_quaternion
+from .core.errors import VibrissaError
+from .frames import sensor_reading, yaw_quaternion
 from .node_config import PARAMETERS, SPECS, WhiskerConfig, build_config
+from .pipeline import PosePipeline, drop_reason
+from .recorder import Recorder
 
 DROP_REASONS = (
     "not_finite",
@@ -85,8 +86,9 @@ class WhiskerNode(Node):
         for spec in PARAMETERS:
             self.declare_parameter(spec.name, spec.default, _descriptor(spec))
         self._config: WhiskerConfig = build_config(self._parameter_values())  # raises: bad start-up config
-        self._tracker: Optional[QuasistaticTracker] = None
-        self._last_stamp_ns: Optional[int] = None
+        self._pipeline = PosePipeline(self._config)
+        self._recorder: Optional[Recorder] = None
+        self._record_error = ""
         self._received = 0
         self._processed = 0
         self._snaps = 0
@@ -118,6 +120,8 @@ class WhiskerNode(Node):
         self.add_on_set_parameters_callback(self._validate_parameters)
         self.add_post_set_parameters_callback(self._apply_parameters)
         self._diag_timer = self.create_timer(float(self._config.values["diagnostics.period"]), self._publish_diagnostics)
+        self._flush_timer = self.create_timer(0.25, self._flush_recording)
+        self._start_recording(self._config.values["record.path"])
         self._publish_obstacle()
         self.get_logger().info(f"ready: {self._config.describe()}; poses on {self._sub.topic_name}")
 
@@ -138,13 +142,75 @@ class WhiskerNode(Node):
 
     def _apply_parameters(self, params) -> None:
         self._config = build_config(self._parameter_values())
-        if any(SPECS[p.name].resets for p in params if p.name in SPECS):
-            self._tracker = None
+        names = {p.name for p in params}
+        if "record.path" in names:
+            self._stop_recording()
+            self._start_recording(self._config.values["record.path"])
+        resets = any(SPECS[p.name].resets for p in params if p.name in SPECS)
+        if self._recorder is not None:
+            now = self._now_ns()
+            self._guard_recording(lambda: self._recorder.configuration(self._config.values, now, resets))
+        if resets:
+            self._pipeline.reset(self._config)
             self.get_logger().info(
-                f"parameters changed ({', '.join(p.name for p in params)}): the whisker is reset to free; "
+                f"parameters changed ({', '.join(sorted(names))}): the whisker is reset to free; "
                 f"the next pose places it. Now: {self._config.describe()}"
             )
             self._publish_obstacle()
+        else:
+            self._pipeline.config = self._config
+
+    # -- recording ---------------------------------------------------------------------------
+    @staticmethod
+    def _now_ns() -> int:
+        return time.time_ns()
+
+    def _start_recording(self, path: str) -> None:
+        if not path:
+            return
+        try:
+            self._recorder = Recorder(path, self, self._config.values)
+            self._record_error = ""
+            self.get_logger().info(f"recording to {path}")
+        except VibrissaError as exc:
+            self._recording_failed(exc)
+
+    def _recording_failed(self, exc: Exception) -> None:
+        self._recorder = None
+        self._record_error = str(exc)
+        if self.context.ok():
+            self.get_logger().error(f"recording stopped: {exc}; the whisker keeps running without recording")
+
+    def _guard_recording(self, action) -> None:
+        try:
+            action()
+        except VibrissaError as exc:
+            recorder, self._recorder = self._recorder, None
+            if recorder is not None:
+                recorder.abandon()
+            self._recording_failed(exc)
+
+    def _stop_recording(self) -> None:
+        recorder, self._recorder = self._recorder, None
+        if recorder is not None:
+            try:
+                recorder.close()
+                if self.context.ok():  # not while shutting down: /rosout is gone by then
+                    self.get_logger().info(f"recording finished: {recorder.path} ({recorder.messages} messages)")
+            except VibrissaError as exc:
+                self._recording_failed(exc)
+
+    def _flush_recording(self) -> None:
+        if self._recorder is not None:
+            self._guard_recording(self._recorder.maybe_flush)
+
+    def _record(self, topic: str, msg, log_time: int) -> None:
+        if self._recorder is not None:
+            self._guard_recording(lambda: self._recorder.write(topic, msg, log_time))
+
+    def destroy_node(self):
+        self._stop_recording()
+        return super().destroy_node()
 
     # -- input -------------------------------------------------------------------------------
     def _drop(self, reason: str, message: str) -> None:
@@ -174,47 +240,20 @@ class WhiskerNode(Node):
 
     def _process_pose(self, msg: PoseStamped) -> None:
         self._received += 1
-        try:
-            self._handle_pose(msg)
-        except BadInput as exc:
-            self._drop(exc.reason, str(exc))
-        except InvalidPoseError as exc:
-            self._drop("inside_obstacle", str(exc))
-        except VibrissaError as exc:
-            reason = "not_converged" if type(exc).__name__ == "ConvergenceError" else "model_assumption"
-            self._drop(reason, str(exc))
-
-    def _handle_pose(self, msg: PoseStamped) -> None:
-        cfg = self._config
-        if msg.header.frame_id != cfg.world_frame:
-            raise BadInput(
-                "wrong_frame_id", f"frame_id '{msg.header.frame_id}' is not the world frame '{cfg.world_frame}'"
-            )
-        stamp_ns = _stamp_ns(msg.header.stamp)
-        if self._last_stamp_ns is not None and stamp_ns < self._last_stamp_ns:
-            raise BadInput(
-                "stamp_backwards", f"stamp {stamp_ns} ns is older than the last accepted {self._last_stamp_ns} ns"
-            )
+        now = self._now_ns()
+        self._record("foot_pose", msg, now)
         p, q = msg.pose.position, msg.pose.orientation
-        x, y, yaw = planar_pose(
-            (p.x, p.y, p.z), (q.x, q.y, q.z, q.w),
-            cfg.values["input.z_tolerance"], cfg.values["input.angle_tolerance"],
-        )
-        pose = cfg.units.foot_pose(x, y, yaw)
         t0 = time.perf_counter_ns()
-        events = ()
-        if self._tracker is None:
-            tracker = QuasistaticTracker(cfg.profile, pose, model=cfg.model)  # first pose places it
-            state = tracker.state
-        else:
-            tracker = self._tracker
-            result = tracker.step(pose)
-            state, events = result.state, result.events
+        try:
+            state, events = self._pipeline.handle(
+                msg.header.frame_id, _stamp_ns(msg.header.stamp), (p.x, p.y, p.z), (q.x, q.y, q.z, q.w)
+            )
+        except VibrissaError as exc:
+            self._drop(drop_reason(exc), str(exc))
+            return
         self._solve_times_ns.append(time.perf_counter_ns() - t0)
-        self._tracker = tracker
-        self._last_stamp_ns = stamp_ns
         self._processed += 1
-        self._publish_state(msg.header.stamp, state, events)
+        self._publish_state(msg.header.stamp, state, events, now)
 
     # -- output ------------------------------------------------------------------------------
     def _listening(self) -> Dict[str, bool]:
@@ -230,8 +269,9 @@ class WhiskerNode(Node):
             }
         return self._listened
 
-    def _publish_state(self, stamp, state, events) -> None:
+    def _publish_state(self, stamp, state, events, now: int) -> None:
         cfg = self._config
+        recording = self._recorder is not None
         reading = sensor_reading(state, cfg.units)
         wrench = self._wrench
         wrench.header.stamp = stamp
@@ -240,28 +280,37 @@ class WhiskerNode(Node):
         wrench.wrench.force.y = float(reading.force_base[1])
         wrench.wrench.torque.z = float(reading.torque_z)
         self._pub_wrench.publish(wrench)
+        self._record("wrench", wrench, now)
         listening = self._listening()
-        if listening["phase"]:
-            self._pub_phase.publish(UInt8(data=reading.phase))
-        if listening["force"]:
+        if listening["phase"] or recording:
+            msg = UInt8(data=reading.phase)
+            self._pub_phase.publish(msg)
+            self._record("phase", msg, now)
+        if listening["force"] or recording:
             force = Vector3Stamped()
             force.header.stamp = stamp
             force.header.frame_id = cfg.world_frame
             force.vector.x = float(reading.force_world[0])
             force.vector.y = float(reading.force_world[1])
             self._pub_force.publish(force)
-        if listening["force_mag"]:
-            self._pub_force_mag.publish(Float64(data=float(reading.force_magnitude)))
+            self._record("contact_force", force, now)
+        if listening["force_mag"] or recording:
+            msg = Float64(data=float(reading.force_magnitude))
+            self._pub_force_mag.publish(msg)
+            self._record("contact_force_magnitude", msg, now)
         if reading.contact_world is not None:
-            if listening["contact"]:
+            if listening["contact"] or recording:
                 point = PointStamped()
                 point.header.stamp = stamp
                 point.header.frame_id = cfg.world_frame
                 point.point.x = float(reading.contact_world[0])
                 point.point.y = float(reading.contact_world[1])
                 self._pub_contact.publish(point)
-            if listening["s1"]:
-                self._pub_s1.publish(Float64(data=float(reading.s1)))
+                self._record("contact_point", point, now)
+            if listening["s1"] or recording:
+                msg = Float64(data=float(reading.s1))
+                self._pub_s1.publish(msg)
+                self._record("arc_length", msg, now)
         for event in events:
             if event.kind == "snap":
                 self._snaps += 1
@@ -273,15 +322,18 @@ class WhiskerNode(Node):
                 "y": event.pose.y * cfg.units.length,
                 "yaw": event.pose.heading,
             }
-            self._pub_events.publish(String(data=json.dumps(record)))
+            msg = String(data=json.dumps(record))
+            self._pub_events.publish(msg)
+            self._record("events", msg, now)
             self.get_logger().info(f"event: {record}")
         max_rate = cfg.values["centerline.max_rate"]
-        now = time.monotonic()
-        if listening["centerline"] and (max_rate <= 0.0 or now - self._last_centerline >= 1.0 / max_rate):
-            self._last_centerline = now
-            self._publish_centerline(stamp, state)
+        tick = time.monotonic()
+        due = max_rate <= 0.0 or tick - self._last_centerline >= 1.0 / max_rate
+        if (listening["centerline"] or recording) and due:
+            self._last_centerline = tick
+            self._publish_centerline(stamp, state, now)
 
-    def _publish_centerline(self, stamp, state) -> None:
+    def _publish_centerline(self, stamp, state, now: int) -> None:
         cfg = self._config
         pts = state.centerline(int(cfg.values["centerline.points"])) * cfg.units.length
         tangent = np.diff(pts, axis=0)
@@ -300,6 +352,7 @@ class WhiskerNode(Node):
             pose.pose.orientation.w = qw
             path.poses.append(pose)
         self._pub_centerline.publish(path)
+        self._record("centerline", path, now)
 
     def _publish_obstacle(self) -> None:
         """The obstacle's profile as a latched line strip, up to 2 whisker lengths above its apex."""
@@ -326,6 +379,7 @@ class WhiskerNode(Node):
             x, y = prof.point(float(a))
             marker.points.append(Point(x=float(x) * cfg.units.length, y=float(y) * cfg.units.length))
         self._pub_obstacle.publish(marker)
+        self._record("obstacle", marker, self._now_ns())
 
     def _publish_diagnostics(self) -> None:
         times = np.array(self._solve_times_ns, dtype=float) / 1e3
@@ -334,13 +388,17 @@ class WhiskerNode(Node):
         status = DiagnosticStatus()
         status.name = f"vibrissa_ros: {self.get_fully_qualified_name()}"
         status.hardware_id = self.get_fully_qualified_name()
-        phase = "none" if self._tracker is None else str(int(self._tracker.state.phase))
-        if self._last_error and dropped:
+        state = self._pipeline.state
+        phase = "none" if state is None else str(int(state.phase))
+        if self._record_error:
+            status.level = DiagnosticStatus.ERROR
+            status.message = f"not recording: {self._record_error}"
+        elif self._last_error and dropped:
             status.level = DiagnosticStatus.WARN
             status.message = f"{dropped} pose(s) dropped; last: {self._last_error}"
         else:
             status.level = DiagnosticStatus.OK
-            status.message = "whisker not placed yet" if self._tracker is None else f"phase {phase}"
+            status.message = "whisker not placed yet" if state is None else f"phase {phase}"
         values = {
             "phase": phase,
             "poses_received": self._received,
@@ -352,6 +410,9 @@ class WhiskerNode(Node):
             "solve_time_p99_us": f"{np.percentile(times, 99):.1f}" if len(times) else "",
             "solve_time_max_us": f"{times.max():.1f}" if len(times) else "",
             "configuration": self._config.describe(),
+            "recording": self._recorder.path if self._recorder is not None else "",
+            "recorded_messages": self._recorder.messages if self._recorder is not None else 0,
+            "recording_error": self._record_error,
         }
         for reason in DROP_REASONS:
             values[f"dropped_{reason}"] = self._dropped[reason]
@@ -360,6 +421,7 @@ class WhiskerNode(Node):
         array.header.stamp = self.get_clock().now().to_msg()
         array.status = [status]
         self._pub_diag.publish(array)
+        self._record("diagnostics", array, self._now_ns())
 
 
 def make_executor():

@@ -1,0 +1,83 @@
+"""The whisker node's recorder: serializes what the node receives and publishes into an MCAP log."""
+
+from __future__ import annotations
+
+import json
+from typing import Dict, Mapping
+
+from rclpy.serialization import serialize_message
+
+from . import __version__
+from .mcap_log import CONFIGURATION_METADATA, LogWriter, TopicSpec
+
+#: recorded topics: key -> (attribute of the node holding the publisher or subscription, type)
+RECORDED = {
+    "foot_pose": ("_sub", "geometry_msgs/msg/PoseStamped"),
+    "wrench": ("_pub_wrench", "geometry_msgs/msg/WrenchStamped"),
+    "phase": ("_pub_phase", "std_msgs/msg/UInt8"),
+    "contact_force": ("_pub_force", "geometry_msgs/msg/Vector3Stamped"),
+    "contact_force_magnitude": ("_pub_force_mag", "std_msgs/msg/Float64"),
+    "contact_point": ("_pub_contact", "geometry_msgs/msg/PointStamped"),
+    "arc_length": ("_pub_s1", "std_msgs/msg/Float64"),
+    "events": ("_pub_events", "std_msgs/msg/String"),
+    "centerline": ("_pub_centerline", "nav_msgs/msg/Path"),
+    "obstacle": ("_pub_obstacle", "visualization_msgs/msg/Marker"),
+    "diagnostics": ("_pub_diag", "diagnostic_msgs/msg/DiagnosticArray"),
+}
+
+
+def configuration_record(values: Mapping[str, object], node_name: str, log_time: int, resets: bool) -> Dict[str, str]:
+    """The metadata that says how a log was made: every parameter (JSON-encoded), from which log time
+    on it holds, and whether taking it reset the whisker (a runtime change of the whisker or obstacle)."""
+    record = {name: json.dumps(value) for name, value in values.items()}
+    record["node"] = json.dumps(node_name)
+    record["vibrissa_ros_version"] = json.dumps(__version__)
+    record["log_time"] = json.dumps(int(log_time))
+    record["resets"] = json.dumps(bool(resets))
+    return record
+
+
+class Recorder:
+    """Records one run; every error surfaces as :class:`~vibrissa_ros.mcap_log.LogError`."""
+
+    def __init__(self, path: str, node, values: Mapping[str, object]):
+        self.path = path
+        self._node_name = node.get_fully_qualified_name()
+        self._writer = LogWriter(path)
+        self._channels: Dict[str, int] = {}
+        try:
+            for key, (attr, type_name) in RECORDED.items():
+                endpoint = getattr(node, attr)
+                transient = key == "obstacle"
+                depth = 1 if transient else (10 if key == "diagnostics" else 1000)
+                self._channels[key] = self._writer.channel(
+                    TopicSpec(endpoint.topic_name, type_name, reliable=True, transient_local=transient, depth=depth)
+                )
+            self.configuration(values, 0, resets=True)  # the start: holds from the beginning
+        except Exception:
+            self.abandon()
+            raise
+
+    @property
+    def messages(self) -> int:
+        return self._writer.messages
+
+    def configuration(self, values: Mapping[str, object], log_time: int, resets: bool) -> None:
+        record = configuration_record(values, self._node_name, log_time, resets)
+        self._writer.metadata(CONFIGURATION_METADATA, record)
+
+    def write(self, key: str, msg, log_time: int) -> None:
+        self._writer.write(self._channels[key], serialize_message(msg), log_time)
+
+    def maybe_flush(self) -> None:
+        self._writer.maybe_flush()
+
+    def close(self) -> None:
+        self._writer.close()
+
+    def abandon(self) -> None:
+        """Give up after an error: close the file as far as possible."""
+        try:
+            self._writer.close()
+        except Exception:  # noqa: BLE001 - the disk is full or gone: nothing more to save
+            pass
