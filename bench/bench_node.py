@@ -6,6 +6,8 @@ every 10 s), each stamped with its send time; the answer's arrival time minus th
 latency. Then ramp the rate (--ramp) for --ramp-seconds each and report the highest rate that
 loses nothing. Prints medians and ratios against the echo baseline measured in the same run.
 
+A third run measures whisker_node recording to MCAP (record.path) at --rate, and the log's size.
+
 Run: python bench/bench_node.py [--seconds 60] [--rate 1000] [--ramp 1000,2000,3000,4000]
 """
 
@@ -105,24 +107,26 @@ class Driver:
         self.node.destroy_node()
 
 
-def start(kind: str) -> subprocess.Popen:
-    if kind == "whisker":
+def start(kind: str, log_path: str) -> subprocess.Popen:
+    if kind in ("whisker", "recording"):
         cmd = [whisker_node_executable(), "--ros-args", "--params-file", str(ROOT / "config" / "catenary.yaml"),
                "--log-level", "warn"]
+        if kind == "recording":
+            cmd += ["-p", f"record.path:={log_path}"]
     else:
         cmd = [sys.executable, str(ROOT / "bench" / "echo_node.py")]
     return subprocess.Popen(cmd, start_new_session=True)
 
 
 def measure(kind, context, args):
-    proc = start(kind)
+    proc = start(kind, args.log)
     driver = Driver(context)
     try:
         driver.handshake()
         achieved, lat, lost = driver.stream(args.rate, args.seconds)
         result = {"achieved": achieved, "lat": lat, "lost": lost, "sent": int(round(args.rate * args.seconds))}
         sustained = 0
-        for rate in args.ramp:
+        for rate in ([] if kind == "recording" else args.ramp):  # the recording run stays at --rate: its log size
             achieved_r, lat_r, lost_r = driver.stream(rate, args.ramp_seconds)
             ok = lost_r == 0 and achieved_r >= 0.97 * rate and np.percentile(lat_r, 99) < 50_000
             print(f"  {kind:7s} ramp {rate:6.0f} Hz: sent at {achieved_r:7.0f} Hz, lost {lost_r}, "
@@ -136,6 +140,8 @@ def measure(kind, context, args):
     finally:
         driver.close()
         stop_node(proc)
+        if kind == "recording" and os.path.exists(args.log):
+            result["log_bytes"] = os.path.getsize(args.log)
 
 
 def main(argv=None):
@@ -144,25 +150,35 @@ def main(argv=None):
     parser.add_argument("--rate", type=float, default=1000.0)
     parser.add_argument("--ramp", type=lambda s: [float(v) for v in s.split(",")], default=[1000, 2000, 3000, 4000, 5000])
     parser.add_argument("--ramp-seconds", type=float, default=5.0)
+    parser.add_argument("--log", default="/tmp/vibrissa_bench.mcap", help="where the recording run writes its log")
+    parser.add_argument("--nodes", default="whisker,recording,echo",
+                        help="which to measure: whisker, recording (whisker_node with record.path), echo")
     args = parser.parse_args(argv)
     os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
     context = rclpy.Context()
     rclpy.init(context=context)
     results = {}
     try:
-        for kind in ("whisker", "echo"):
+        for kind in args.nodes.split(","):
             print(f"{kind}: {args.rate:.0f} Hz for {args.seconds:.0f} s ...", flush=True)
             results[kind] = measure(kind, context, args)
     finally:
         rclpy.try_shutdown(context=context)
     print()
-    print(f"{'node':8s} {'sent':>7s} {'lost':>5s} {'median':>9s} {'p99':>9s} {'max':>9s} {'sustained':>10s}")
+    print(f"{'node':9s} {'sent':>7s} {'lost':>5s} {'median':>9s} {'p99':>9s} {'max':>9s} {'sustained':>10s}")
     for kind, r in results.items():
         lat = r["lat"]
-        print(f"{kind:8s} {r['sent']:7d} {r['lost']:5d} {np.median(lat) / 1e3:7.3f}ms {np.percentile(lat, 99) / 1e3:7.3f}ms "
-              f"{lat.max() / 1e3:7.2f}ms {r['sustained']:8.0f}Hz")
-    w, e = results["whisker"]["lat"], results["echo"]["lat"]
-    print(f"whisker/echo: median {np.median(w) / np.median(e):.2f}x, p99 {np.percentile(w, 99) / np.percentile(e, 99):.2f}x")
+        print(f"{kind:9s} {r['sent']:7d} {r['lost']:5d} {np.median(lat) / 1e3:7.3f}ms {np.percentile(lat, 99) / 1e3:7.3f}ms "
+              f"{lat.max() / 1e3:7.2f}ms {(str(int(r['sustained'])) + 'Hz') if kind != 'recording' else '-':>10s}")
+    for kind in ("whisker", "recording"):
+        if kind in results and "echo" in results:
+            w, e = results[kind]["lat"], results["echo"]["lat"]
+            print(f"{kind}/echo: median {np.median(w) / np.median(e):.2f}x, "
+                  f"p99 {np.percentile(w, 99) / np.percentile(e, 99):.2f}x")
+    if "recording" in results and "log_bytes" in results["recording"]:
+        size = results["recording"]["log_bytes"]
+        print(f"recording: a {args.seconds:.0f} s log at {args.rate:.0f} Hz is {size / 1e6:.1f} MB "
+              f"({size / args.seconds / args.rate:.0f} bytes per pose, zstd)")
 
 
 if __name__ == "__main__":
