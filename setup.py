@@ -16,6 +16,7 @@ ROS = [
 TOOLS = ["colcon-common-extensions", "colcon-ros", "ros-jazzy-ament-package", "ros-jazzy-domain-coordinator"]
 # two independent readers of our logs, for the round-trip tests
 READERS = ["mcap-ros2-support", "rosbags"]
+PLOTS = ["matplotlib>=3.7"]
 
 setup(
     name=package_name,
@@ -30,8 +31,9 @@ setup(
     install_requires=["setuptools", "numpy>=1.24", "scipy>=1.10"],
     extras_require={
         # ROS 2 Jazzy from PyPI wheels (no sourcing needed), for the node and its tools
-        "ros": ROS,
-        "test": ROS + TOOLS + READERS + ["pytest>=7", "mpmath>=1.3", "catkin_pkg>=1.0"],
+        "ros": ROS + PLOTS,
+        "plots": PLOTS,
+        "test": ROS + TOOLS + READERS + PLOTS + ["pytest>=7", "mpmath>=1.3", "catkin_pkg>=1.0"],
     },
     zip_safe=True,
     maintainer="vibrissa_ros maintainers",

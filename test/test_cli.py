@@ -138,3 +138,18 @@ def test_model_both_writes_both_models_in_the_same_units(tmp_path, capsys):
     assert alone.read_text() == (tmp_path / "scan.rigid.csv").read_text()
     code, _, err = _run(args[:-4] + ["--csv", "-"], capsys)
     assert code == 2 and "two CSV files" in err
+
+
+def test_scan_plot_and_plot_of_its_csv(tmp_path, capsys):
+    csv_path, png = tmp_path / "s.csv", tmp_path / "s.png"
+    base = ["--profile", "parabola", "--param", "p0=0.3"]
+    assert _run(["scan", *base, "--from", "2", "--to", "-2", "--step", "0.05", "--back", "--csv", str(csv_path),
+                 "--plot", str(png), "--small-png"], capsys)[0] == 0
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    again = tmp_path / "again.png"
+    assert _run(["plot", str(csv_path), "-o", str(again), *base, "--small-png"], capsys)[0] == 0
+    assert again.stat().st_size > 10_000
+    code, _, err = _run(["plot", str(csv_path), "-o", str(again)], capsys)
+    assert code == 2 and "--profile" in err
+    code, _, err = _run(["plot", str(csv_path), "-o", str(again), "--profile", "parabola", "--param", "p0=0.35"], capsys)
+    assert code == 2 and "not this profile's scan" in err

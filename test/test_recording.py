@@ -244,3 +244,11 @@ def test_replay_drives_a_fresh_node_to_the_same_outputs(installed, ros_env, rcl_
     first, again = wrenches(recorded), wrenches(second)
     assert set(again) == set(first)
     assert all(again[s] == first[s] for s in first)
+
+
+def test_plot_of_a_log_is_in_si_units(recorded, tmp_path):
+    png = tmp_path / "log.png"
+    proc = subprocess.run([VIBRISSA, "plot", str(recorded), "-o", str(png), "--small-png"], capture_output=True,
+                          text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    assert png.read_bytes()[:4] == b"\x89PNG"

@@ -80,6 +80,8 @@ def build_parser() -> argparse.ArgumentParser:
     scan.add_argument("--back", action="store_true", help="append the sweep back to --from")
     scan.add_argument("--csv", required=True, help="output CSV ('-' for standard output)")
     scan.add_argument("--events", help="output events JSON")
+    scan.add_argument("--plot", metavar="PNG", help="also draw the paper's figures of this scan")
+    scan.add_argument("--small-png", action="store_true", help="write the figure with 256 colours (3x smaller)")
     scan.set_defaults(func=_cmd_scan)
 
     sweep = sub.add_parser(
@@ -132,6 +134,17 @@ def build_parser() -> argparse.ArgumentParser:
     repair.add_argument("log")
     repair.add_argument("-o", "--output", required=True, help="the repaired MCAP file")
     repair.set_defaults(func=_cmd_repair)
+
+    plot = sub.add_parser("plot", help="draw the paper's figures of a scan CSV or a recorded log")
+    plot.add_argument("input", help="a scan CSV (with --profile/--param) or an MCAP log")
+    plot.add_argument("-o", "--output", required=True, metavar="PNG")
+    plot.add_argument("--profile", choices=sorted(PROFILE_PARAMETERS), help="the scanned profile (CSV input)")
+    plot.add_argument("--param", action="append", type=_param, default=[], metavar="NAME=VALUE")
+    plot.add_argument("--model", default="elastica", choices=sorted(MODELS), help="the model of the CSV")
+    plot.add_argument("--spring-stiffness", type=_positive, default=None, metavar="K",
+                      help="rigid model of the CSV: c = K EI/L (as given to scan)")
+    plot.add_argument("--small-png", action="store_true", help="write the figure with 256 colours (3x smaller)")
+    plot.set_defaults(func=_cmd_plot)
     return parser
 
 
@@ -169,12 +182,14 @@ def _cmd_scan(args) -> int:
     except VibrissaError as exc:
         print(f"vibrissa scan: error: {exc}", file=sys.stderr)
         return 2
+    results = []
     for model, csv_path, events_path in runs:
         try:
             result = run_scan(profile, grid, model=model)
         except VibrissaError as exc:
             print(f"vibrissa scan: error: {model.name} model: {exc}", file=sys.stderr)
             return 2 if isinstance(exc, ValueError) else 1
+        results.append((model.name, result))
         if csv_path == "-":
             write_scan_csv(result.states, sys.stdout)
         else:
@@ -183,6 +198,16 @@ def _cmd_scan(args) -> int:
         if events_path:
             with open(events_path, "w") as stream:
                 write_events_json(result.events, stream)
+    if args.plot:
+        try:
+            from .plots import PlotRun, plot_runs
+        except ImportError as exc:
+            print(f"vibrissa scan: error: --plot needs matplotlib ({exc}); pip install '.[plots]'", file=sys.stderr)
+            return 2
+
+        title = f"{profile.describe()}: " + " vs ".join(name for name, _ in results)
+        figure = plot_runs([PlotRun(name, r.states, r.events, r.event_steps) for name, r in results], profile, title=title)
+        figure.save(args.plot, small=args.small_png)
     return 0
 
 
@@ -332,6 +357,60 @@ def _cmd_repair(args) -> int:
         return 0
 
     return _log_tool("repair", run)
+
+
+def _cmd_plot(args) -> int:
+    try:
+        from .plots import PlotRun, plot_runs, si_units
+    except ImportError as exc:
+        print(f"vibrissa plot: error: needs matplotlib ({exc}); pip install '.[plots]'", file=sys.stderr)
+        return 2
+
+    if args.input.endswith(".mcap"):
+        def run():
+            from .log_tools import configurations, export_rows
+            from .mcap_log import read_log
+            from .node_config import build_config
+
+            rows, sim = export_rows(args.input)
+            values = configurations(read_log(args.input)[2])[0][1]
+            cfg = build_config(values)
+            states = tuple(state for _, state in rows)
+            units = si_units(cfg.units.length, cfg.units.force, cfg.units.moment, cfg.world_frame)
+            title = f"{args.input}: {cfg.describe()}"
+            run_ = PlotRun(values.get("model", "elastica"), states, tuple(sim.events), tuple(sim.event_steps))
+            plot_runs([run_], cfg.profile, units, title).save(args.output, small=args.small_png)
+            return 0
+
+        return _log_tool("plot", run)
+    try:
+        if not args.profile:
+            raise VibrissaError("a scan CSV needs --profile and --param (the figure draws the obstacle)")
+        profile = make_profile(args.profile, _params(args.param))
+        with open(args.input) as stream:
+            import csv as _csv
+
+            rows = list(_csv.DictReader(stream))
+        if not rows or "x0" not in rows[0]:
+            raise VibrissaError(f"{args.input}: not a scan CSV (no x0 column)")
+        x0 = [float(r["x0"]) for r in rows]
+        model = (make_model("rigid", stiffness=args.spring_stiffness or 1.0) if args.model == "rigid"
+                 else make_model(args.model))
+        result = run_scan(profile, x0, model=model)
+    except FileNotFoundError:
+        print(f"vibrissa plot: error: {args.input}: no such file", file=sys.stderr)
+        return 2
+    except (VibrissaError, ValueError) as exc:
+        print(f"vibrissa plot: error: {exc}", file=sys.stderr)
+        return 2
+    worst = max(abs(float(r["m0"]) - s.m0) for r, s in zip(rows, result.states))
+    if worst > 1e-9 * max(1.0, max(abs(s.m0) for s in result.states)):
+        print(f"vibrissa plot: error: the CSV is not this profile's scan (m0 differs by {worst:.3g}); check "
+              "--profile, --param and --model", file=sys.stderr)
+        return 2
+    plot_runs([PlotRun(model.name, result.states, result.events, result.event_steps)], profile,
+              title=f"{profile.describe()} ({model.name})").save(args.output, small=args.small_png)
+    return 0
 
 
 def main(argv: Optional[List[str]] = None) -> int:

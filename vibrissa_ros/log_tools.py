@@ -94,6 +94,8 @@ class Resimulation:
     """The recorded poses run again through the node's pipeline, next to the recorded outputs."""
 
     states: List[Tuple[int, WhiskerState]] = field(default_factory=list)  # (stamp, state) per accepted pose
+    events: list = field(default_factory=list)  # the events crossed, in order
+    event_steps: List[int] = field(default_factory=list)  # index into states of the step that crossed each
     dropped: Counter = field(default_factory=Counter)
     deviations: Dict[str, float] = field(default_factory=dict)  # field -> largest relative deviation
     compared: Counter = field(default_factory=Counter)
@@ -148,6 +150,8 @@ def resimulate(path: str) -> Resimulation:
             continue
         stamp = _stamp(msg)
         result.states.append((stamp, state))
+        result.events.extend(events)
+        result.event_steps.extend([len(result.states) - 1] * len(events))
         r = sensor_reading(state, pipeline.config.units)
         L = pipeline.config.units.length
         expected["wrench"].append((stamp, (r.force_base[0], r.force_base[1], r.torque_z)))

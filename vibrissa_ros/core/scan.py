@@ -16,10 +16,12 @@ from .tracker import QuasistaticTracker
 
 @dataclass(frozen=True)
 class ScanResult:
-    """States in scan order (one per grid point) and the events crossed between them."""
+    """States in scan order (one per grid point) and the events crossed between them;
+    ``event_steps[k]`` is the index of the state whose step crossed ``events[k]``."""
 
     states: Tuple[WhiskerState, ...]
     events: Tuple[Event, ...]
+    event_steps: Tuple[int, ...] = ()
 
 
 def scan_grid(x_from: float, x_to: float, step: float, back: bool = False) -> np.ndarray:
@@ -53,9 +55,10 @@ def run_scan(profile: ConvexProfile, grid, model="elastica") -> ScanResult:
     grid = np.asarray(grid, dtype=float)
     tracker = QuasistaticTracker(profile, float(grid[0]), model=model)
     states = [tracker.state]
-    events = []
+    events, steps = [], []
     for x0 in grid[1:]:
         result = tracker.step(float(x0))
         states.append(result.state)
         events.extend(result.events)
-    return ScanResult(tuple(states), tuple(events))
+        steps.extend([len(states) - 1] * len(result.events))
+    return ScanResult(tuple(states), tuple(events), tuple(steps))
