@@ -44,6 +44,7 @@ setup(
         "console_scripts": [
             "vibrissa = vibrissa_ros.cli:main",
             "whisker_node = vibrissa_ros.whisker_node:main",
+            "contour_node = vibrissa_ros.contour_node:main",
         ],
     },
 )

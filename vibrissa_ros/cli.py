@@ -145,6 +145,15 @@ def build_parser() -> argparse.ArgumentParser:
                       help="rigid model of the CSV: c = K EI/L (as given to scan)")
     plot.add_argument("--small-png", action="store_true", help="write the figure with 256 colours (3x smaller)")
     plot.set_defaults(func=_cmd_plot)
+
+    rec = sub.add_parser("reconstruct", help="the scanned contour from the sensor's readings (foot pose and base "
+                         "wrench) of a log or a scan CSV")
+    rec.add_argument("input", help="an MCAP log, or a CSV with at least the columns x0, fx, fy, m0 (scan contract)")
+    rec.add_argument("--csv", required=True, help="output: x0,phase,contact_x,contact_y,alpha ('-' for stdout)")
+    rec.add_argument("--plot", metavar="PNG", help="draw the reconstruction over the true profile, if the input has it")
+    rec.add_argument("--min-force", type=_nonnegative, default=0.0,
+                     help="readings with a smaller force are taken as no contact (input units; noisy data)")
+    rec.set_defaults(func=_cmd_reconstruct)
     return parser
 
 
@@ -411,6 +420,28 @@ def _cmd_plot(args) -> int:
     plot_runs([PlotRun(model.name, result.states, result.events, result.event_steps)], profile,
               title=f"{profile.describe()} ({model.name})").save(args.output, small=args.small_png)
     return 0
+
+
+def _cmd_reconstruct(args) -> int:
+    def run():
+        from .reconstruction import plot, reconstruct_input, write_csv
+
+        if not os.path.isfile(args.input):
+            raise FileNotFoundError(2, "no such file", args.input)
+        rec = reconstruct_input(args.input, args.min_force)
+        if args.csv == "-":
+            write_csv(rec, sys.stdout)
+        else:
+            with open(args.csv, "w", newline="") as stream:
+                write_csv(rec, stream)
+        if args.plot:
+            plot(rec, args.plot, title=f"{args.input}: contour from the base wrench")
+        phases = [int(e.phase) for e in rec.estimates]
+        print(f"vibrissa reconstruct: {len(rec.estimates)} contact points ({phases.count(1)} tangential, "
+              f"{phases.count(2)} at the tip)", file=sys.stderr)
+        return 0
+
+    return _log_tool("reconstruct", run)
 
 
 def main(argv: Optional[List[str]] = None) -> int:

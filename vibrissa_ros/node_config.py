@@ -66,6 +66,18 @@ PARAMETERS: Tuple[ParameterSpec, ...] = (
                   minimum=0.0, resets=False),
     ParameterSpec("input.angle_tolerance", 1e-6, "largest |roll|, |pitch| of an input pose", "rad", minimum=0.0,
                   resets=False),
+    ParameterSpec("noise.enabled", False, "add the seeded sensor-noise model to the published wrench", resets=False),
+    ParameterSpec("noise.seed", 0, "seed of the sensor-noise generator (the same seed, the same readings)",
+                  minimum=0, maximum=2**62, resets=False),
+    ParameterSpec("noise.force_stddev", 0.0, "standard deviation of the Gaussian noise on force x and y", "N",
+                  resets=False),
+    ParameterSpec("noise.torque_stddev", 0.0, "standard deviation of the Gaussian noise on torque z", "N m",
+                  resets=False),
+    ParameterSpec("noise.force_bias_x", 0.0, "constant bias of force x", "N", resets=False),
+    ParameterSpec("noise.force_bias_y", 0.0, "constant bias of force y", "N", resets=False),
+    ParameterSpec("noise.torque_bias", 0.0, "constant bias of torque z", "N m", resets=False),
+    ParameterSpec("noise.force_step", 0.0, "quantization step of the force (0: none)", "N", resets=False),
+    ParameterSpec("noise.torque_step", 0.0, "quantization step of the torque (0: none)", "N m", resets=False),
     ParameterSpec("record.path", "",
                   "record every input pose and output topic to this MCAP file (rosbag2 layout); empty: off. "
                   "Setting it at runtime starts a new recording, '' finishes the current one", resets=False),
@@ -164,6 +176,15 @@ def build_config(values: Mapping[str, Any]) -> WhiskerConfig:
         if _finite(name, values[name]) < 0.0:
             raise ParameterError(f"{name} = {values[name]!r} must be >= 0")
     _positive("diagnostics.period", values["diagnostics.period"], "s")
+    for name in ("noise.force_stddev", "noise.torque_stddev", "noise.force_step", "noise.torque_step"):
+        if _finite(name, values[name]) < 0.0:
+            raise ParameterError(f"{name} = {values[name]!r} must be >= 0")
+    for name in ("noise.force_bias_x", "noise.force_bias_y", "noise.torque_bias"):
+        _finite(name, values[name])
+    if not isinstance(values["noise.enabled"], bool):
+        raise ParameterError(f"noise.enabled = {values['noise.enabled']!r} must be true or false")
+    if isinstance(values["noise.seed"], bool) or not isinstance(values["noise.seed"], int) or values["noise.seed"] < 0:
+        raise ParameterError(f"noise.seed = {values['noise.seed']!r} must be an integer >= 0")
     if not isinstance(values["record.path"], str):
         raise ParameterError(f"record.path = {values['record.path']!r} must be a file path or ''")
     return WhiskerConfig(values, profile, model, units)

@@ -11,8 +11,9 @@ from typing import Optional, Sequence, Tuple
 from .core.errors import InvalidPoseError, VibrissaError
 from .core.state import Event, WhiskerState
 from .core.tracker import QuasistaticTracker
-from .frames import BadInput, planar_pose
+from .frames import BadInput, SensorReading, planar_pose, sensor_reading
 from .node_config import WhiskerConfig
+from .noise import NoiseSpec, SensorNoise
 
 
 def drop_reason(exc: Exception) -> str:
@@ -33,11 +34,24 @@ class PosePipeline:
         self.config = config
         self.tracker: Optional[QuasistaticTracker] = None
         self.last_stamp_ns: Optional[int] = None
+        self.noise = SensorNoise(NoiseSpec.from_parameters(config.values))
+
+    def reconfigure(self, config: WhiskerConfig, reset: bool) -> None:
+        """A new configuration; ``reset``: the whisker is free again and the next pose places it.
+        The sensor-noise generator restarts from its seed."""
+        self.config = config
+        if reset:
+            self.tracker = None
+        self.noise = SensorNoise(NoiseSpec.from_parameters(config.values))
 
     def reset(self, config: WhiskerConfig) -> None:
-        """A new configuration: the whisker is free again and the next pose places it."""
-        self.config = config
-        self.tracker = None
+        self.reconfigure(config, True)
+
+    def reading(self, state: WhiskerState) -> Tuple[SensorReading, Tuple[float, float, float]]:
+        """The exact reading of a state (SI, base frame) and the wrench the sensor reports (with the
+        noise model, if enabled): call once per accepted pose, in order."""
+        r = sensor_reading(state, self.config.units)
+        return r, self.noise.apply(r.force_base[0], r.force_base[1], r.torque_z)
 
     @property
     def state(self) -> Optional[WhiskerState]:

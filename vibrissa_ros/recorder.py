@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import json
-from typing import Dict, Mapping
+import queue
+import threading
+from typing import Dict, Mapping, Optional
 
 from rclpy.serialization import serialize_message
 
 from . import __version__
-from .mcap_log import CONFIGURATION_METADATA, LogWriter, TopicSpec
+from .mcap_log import CONFIGURATION_METADATA, LogError, LogWriter, TopicSpec
 
 #: recorded topics: key -> (attribute of the node holding the publisher or subscription, type)
 RECORDED = {
@@ -38,13 +40,21 @@ def configuration_record(values: Mapping[str, object], node_name: str, log_time:
 
 
 class Recorder:
-    """Records one run; every error surfaces as :class:`~vibrissa_ros.mcap_log.LogError`."""
+    """Records one run. Messages are serialized in the caller's thread (they may be reused right
+    after) and written, chunked and compressed by a writer thread, so that closing a chunk never
+    stalls the whisker. Every error surfaces as :class:`~vibrissa_ros.mcap_log.LogError`, from
+    the next call after it happened."""
+
+    _STOP = object()
 
     def __init__(self, path: str, node, values: Mapping[str, object]):
         self.path = path
         self._node_name = node.get_fully_qualified_name()
         self._writer = LogWriter(path)
         self._channels: Dict[str, int] = {}
+        self._queue: "queue.SimpleQueue" = queue.SimpleQueue()
+        self._error: Optional[str] = None
+        self._queued = 0
         try:
             for key, (attr, type_name) in RECORDED.items():
                 endpoint = getattr(node, attr)
@@ -53,30 +63,68 @@ class Recorder:
                 self._channels[key] = self._writer.channel(
                     TopicSpec(endpoint.topic_name, type_name, reliable=True, transient_local=transient, depth=depth)
                 )
-            self.configuration(values, 0, resets=True)  # the start: holds from the beginning
         except Exception:
             self.abandon()
             raise
+        self._thread = threading.Thread(target=self._run, name="vibrissa-recorder", daemon=True)
+        self._thread.start()
+        self.configuration(values, 0, resets=True)  # the start: holds from the beginning
 
     @property
     def messages(self) -> int:
-        return self._writer.messages
+        return self._queued
+
+    def _check(self) -> None:
+        if self._error is not None:
+            raise LogError(self._error)
+
+    def _run(self) -> None:
+        writer = self._writer
+        while True:
+            try:
+                item = self._queue.get(timeout=0.1)
+            except queue.Empty:
+                item = None
+            if item is self._STOP:
+                return
+            if self._error is not None:
+                continue  # drain: the file is lost, the whisker goes on
+            try:
+                if item is not None:
+                    if item[0] == "meta":
+                        writer.metadata(item[1], item[2])
+                    else:
+                        writer.write(item[0], item[1], item[2])
+                writer.maybe_flush()
+            except LogError as exc:
+                self._error = str(exc)
 
     def configuration(self, values: Mapping[str, object], log_time: int, resets: bool) -> None:
-        record = configuration_record(values, self._node_name, log_time, resets)
-        self._writer.metadata(CONFIGURATION_METADATA, record)
+        self._check()
+        self._queue.put(("meta", CONFIGURATION_METADATA, configuration_record(values, self._node_name, log_time, resets)))
 
     def write(self, key: str, msg, log_time: int) -> None:
-        self._writer.write(self._channels[key], serialize_message(msg), log_time)
+        self._check()
+        self._queue.put((self._channels[key], serialize_message(msg), log_time))
+        self._queued += 1
 
     def maybe_flush(self) -> None:
-        self._writer.maybe_flush()
+        """The writer thread flushes on its own; this reports its errors."""
+        self._check()
 
     def close(self) -> None:
+        """Write what is queued, then the summary: a finished, indexed MCAP."""
+        self._queue.put(self._STOP)
+        self._thread.join()
+        self._check()
         self._writer.close()
 
     def abandon(self) -> None:
         """Give up after an error: close the file as far as possible."""
+        thread = getattr(self, "_thread", None)
+        if thread is not None and thread.is_alive():
+            self._queue.put(self._STOP)
+            thread.join()
         try:
             self._writer.close()
         except Exception:  # noqa: BLE001 - the disk is full or gone: nothing more to save

@@ -5,7 +5,8 @@ Topics (relative to the node, remappable):
 * ``~/foot_pose`` (in) geometry_msgs/PoseStamped: the whisker's base in ``world_frame``; x, y and
   yaw are used, the pose must lie in the plane z = 0 (no roll, no pitch).
 * ``~/wrench`` geometry_msgs/WrenchStamped in ``base_frame``: force (x, y) [N] and torque z [N m]
-  that the whisker applies to its base.
+  that the whisker applies to its base (with the optional sensor-noise model ``noise.*``; every other
+  topic is exact).
 * ``~/phase`` std_msgs/UInt8: 0 free, 1 tangential contact, 2 tip contact.
 * ``~/contact_force`` geometry_msgs/Vector3Stamped in ``world_frame``: the obstacle's force on the
   whisker [N] (zero when free); ``~/contact_force_magnitude`` std_msgs/Float64 [N].
@@ -42,7 +43,7 @@ from std_msgs.msg import Float64, String, UInt8
 from visualization_msgs.msg import Marker
 
 from .core.errors import VibrissaError
-from .frames import sensor_reading, yaw_quaternion
+from .frames import yaw_quaternion
 from .node_config import PARAMETERS, SPECS, WhiskerConfig, build_config
 from .pipeline import PosePipeline, drop_reason
 from .recorder import Recorder
@@ -150,15 +151,13 @@ class WhiskerNode(Node):
         if self._recorder is not None:
             now = self._now_ns()
             self._guard_recording(lambda: self._recorder.configuration(self._config.values, now, resets))
+        self._pipeline.reconfigure(self._config, resets)
         if resets:
-            self._pipeline.reset(self._config)
             self.get_logger().info(
                 f"parameters changed ({', '.join(sorted(names))}): the whisker is reset to free; "
                 f"the next pose places it. Now: {self._config.describe()}"
             )
             self._publish_obstacle()
-        else:
-            self._pipeline.config = self._config
 
     # -- recording ---------------------------------------------------------------------------
     @staticmethod
@@ -272,13 +271,13 @@ class WhiskerNode(Node):
     def _publish_state(self, stamp, state, events, now: int) -> None:
         cfg = self._config
         recording = self._recorder is not None
-        reading = sensor_reading(state, cfg.units)
+        reading, (sensed_x, sensed_y, sensed_z) = self._pipeline.reading(state)
         wrench = self._wrench
         wrench.header.stamp = stamp
         wrench.header.frame_id = cfg.base_frame
-        wrench.wrench.force.x = float(reading.force_base[0])
-        wrench.wrench.force.y = float(reading.force_base[1])
-        wrench.wrench.torque.z = float(reading.torque_z)
+        wrench.wrench.force.x = sensed_x
+        wrench.wrench.force.y = sensed_y
+        wrench.wrench.torque.z = sensed_z
         self._pub_wrench.publish(wrench)
         self._record("wrench", wrench, now)
         listening = self._listening()
