@@ -153,3 +153,33 @@ def test_scan_plot_and_plot_of_its_csv(tmp_path, capsys):
     assert code == 2 and "--profile" in err
     code, _, err = _run(["plot", str(csv_path), "-o", str(again), "--profile", "parabola", "--param", "p0=0.35"], capsys)
     assert code == 2 and "not this profile's scan" in err
+
+
+def test_reconstruct_a_scan_csv_uses_only_what_a_sensor_measures(tmp_path, capsys):
+    scan_csv, out, png = tmp_path / "s.csv", tmp_path / "r.csv", tmp_path / "r.png"
+    assert _run(["scan", "--profile", "two_circles", "--param", "p0=0.4", "--param", "R_left=0.8", "--param",
+                 "R_right=1.6", "--from", "2", "--to", "-2", "--step", "0.02", "--back", "--csv", str(scan_csv)],
+                capsys)[0] == 0
+    rows = list(csv.DictReader(scan_csv.open()))
+    # keep only the sensor's columns: the estimate must not need anything else
+    sensor = tmp_path / "sensor.csv"
+    with sensor.open("w") as stream:
+        stream.write("x0,fx,fy,m0\n")
+        for r in rows:
+            stream.write(f"{r['x0']},{r['fx']},{r['fy']},{r['m0']}\n")
+    assert _run(["reconstruct", str(sensor), "--csv", str(out)], capsys)[0] == 0
+    got = list(csv.DictReader(out.open()))
+    assert list(got[0]) == ["x0", "phase", "contact_x", "contact_y", "alpha"]
+    contact_rows = [r for r in rows if r["phase"] != "0"]
+    assert len(got) == len(contact_rows)
+    for g, r in zip(got, contact_rows):
+        assert (g["x0"], g["phase"]) == (r["x0"], r["phase"])
+        assert float(g["contact_x"]) == pytest.approx(float(r["contact_x"]), abs=1e-12)
+        assert float(g["contact_y"]) == pytest.approx(float(r["contact_y"]), abs=1e-12)
+        assert float(g["alpha"]) == pytest.approx(float(r["alpha"]), abs=1e-12)
+    assert _run(["reconstruct", str(scan_csv), "--csv", str(out), "--plot", str(png)], capsys)[0] == 0
+    assert png.read_bytes()[:4] == b"\x89PNG"
+    bad = tmp_path / "bad.csv"
+    bad.write_text("x0,fx\n1,2\n")
+    code, _, err = _run(["reconstruct", str(bad), "--csv", str(out)], capsys)
+    assert code == 1 and "m0" in err and len(err.strip().splitlines()) == 1
