@@ -3,13 +3,11 @@
 Same topics, QoS and executor as whisker_node, no mechanics: what rclpy and DDS cost on their own.
 """
 
-import rclpy
 from geometry_msgs.msg import PoseStamped, WrenchStamped
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-from vibrissa_ros.whisker_node import make_executor
+from vibrissa_ros.ros_main import run_node
 
 
 class EchoNode(Node):
@@ -27,17 +25,7 @@ class EchoNode(Node):
 
 
 def main():
-    rclpy.init()
-    node = EchoNode()
-    executor = make_executor()  # the same executor as whisker_node
-    executor.add_node(node)
-    try:
-        executor.spin()
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        node.destroy_node()
-        rclpy.try_shutdown()
+    return run_node(EchoNode, "echo_node")  # the same executor and life cycle as whisker_node
 
 
 if __name__ == "__main__":

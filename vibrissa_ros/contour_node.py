@@ -19,8 +19,6 @@ from typing import Dict, List, Optional, Tuple
 import rclpy
 from geometry_msgs.msg import Point, PointStamped, PoseStamped, WrenchStamped
 from rcl_interfaces.msg import ParameterDescriptor
-from rclpy.exceptions import InvalidParameterValueException
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import ColorRGBA
@@ -29,6 +27,7 @@ from visualization_msgs.msg import Marker
 from .core.errors import ParameterError, VibrissaError
 from .frames import Units
 from .reconstruction import estimate_from_wrench
+from .ros_main import run_node
 
 PARAMETERS = {
     "whisker.length": (0.1, "length L of the whisker [m]"),
@@ -162,24 +161,8 @@ class ContourNode(Node):
 
 
 def main(args=None) -> int:
-    rclpy.init(args=args)
-    node = None
-    code = 0
-    try:
-        node = ContourNode()
-        executor = SingleThreadedExecutor()
-        executor.add_node(node)
-        executor.spin()
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    except (VibrissaError, InvalidParameterValueException) as exc:
-        rclpy.logging.get_logger("contour_node").fatal(f"invalid parameters: {exc}")
-        code = 2
-    finally:
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()
-    return code
+    """Entry point of ``ros2 run vibrissa_ros contour_node``."""
+    return run_node(ContourNode, "contour_node", args)
 
 
 if __name__ == "__main__":  # pragma: no cover

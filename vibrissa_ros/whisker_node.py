@@ -35,8 +35,6 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import Point, PointStamped, PoseStamped, Vector3Stamped, WrenchStamped
 from nav_msgs.msg import Path
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, SetParametersResult
-from rclpy.exceptions import InvalidParameterValueException, ParameterUninitializedException
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import Float64, String, UInt8
@@ -47,6 +45,7 @@ from .frames import yaw_quaternion
 from .node_config import PARAMETERS, SPECS, WhiskerConfig, build_config
 from .pipeline import PosePipeline, drop_reason
 from .recorder import Recorder
+from .ros_main import run_node
 
 DROP_REASONS = (
     "not_finite",
@@ -281,35 +280,23 @@ class WhiskerNode(Node):
         self._pub_wrench.publish(wrench)
         self._record("wrench", wrench, now)
         listening = self._listening()
-        if listening["phase"] or recording:
-            msg = UInt8(data=reading.phase)
-            self._pub_phase.publish(msg)
-            self._record("phase", msg, now)
-        if listening["force"] or recording:
-            force = Vector3Stamped()
-            force.header.stamp = stamp
-            force.header.frame_id = cfg.world_frame
-            force.vector.x = float(reading.force_world[0])
-            force.vector.y = float(reading.force_world[1])
-            self._pub_force.publish(force)
-            self._record("contact_force", force, now)
-        if listening["force_mag"] or recording:
-            msg = Float64(data=float(reading.force_magnitude))
-            self._pub_force_mag.publish(msg)
-            self._record("contact_force_magnitude", msg, now)
+
+        def emit(key, record_key, publisher, make):
+            """Publish (and record) an optional topic only when someone takes it."""
+            if listening[key] or recording:
+                msg = make()
+                publisher.publish(msg)
+                self._record(record_key, msg, now)
+
+        emit("phase", "phase", self._pub_phase, lambda: UInt8(data=reading.phase))
+        emit("force", "contact_force", self._pub_force,
+             lambda: self._stamped(Vector3Stamped(), stamp, "vector", reading.force_world))
+        emit("force_mag", "contact_force_magnitude", self._pub_force_mag,
+             lambda: Float64(data=float(reading.force_magnitude)))
         if reading.contact_world is not None:
-            if listening["contact"] or recording:
-                point = PointStamped()
-                point.header.stamp = stamp
-                point.header.frame_id = cfg.world_frame
-                point.point.x = float(reading.contact_world[0])
-                point.point.y = float(reading.contact_world[1])
-                self._pub_contact.publish(point)
-                self._record("contact_point", point, now)
-            if listening["s1"] or recording:
-                msg = Float64(data=float(reading.s1))
-                self._pub_s1.publish(msg)
-                self._record("arc_length", msg, now)
+            emit("contact", "contact_point", self._pub_contact,
+                 lambda: self._stamped(PointStamped(), stamp, "point", reading.contact_world))
+            emit("s1", "arc_length", self._pub_s1, lambda: Float64(data=float(reading.s1)))
         for event in events:
             if event.kind == "snap":
                 self._snaps += 1
@@ -331,6 +318,14 @@ class WhiskerNode(Node):
         if (listening["centerline"] or recording) and due:
             self._last_centerline = tick
             self._publish_centerline(stamp, state, now)
+
+    def _stamped(self, msg, stamp, field_name: str, xy):
+        """A stamped vector or point in the world frame (z = 0)."""
+        msg.header.stamp = stamp
+        msg.header.frame_id = self._config.world_frame
+        inner = getattr(msg, field_name)
+        inner.x, inner.y = float(xy[0]), float(xy[1])
+        return msg
 
     def _publish_centerline(self, stamp, state, now: int) -> None:
         cfg = self._config
@@ -423,35 +418,9 @@ class WhiskerNode(Node):
         self._record("diagnostics", array, self._now_ns())
 
 
-def make_executor():
-    """The executor whisker_node spins in. rclpy's experimental EventsExecutor was tried: in the
-    Jazzy wheels it delivered no subscription callbacks here, so this is the standard one."""
-    return rclpy.executors.SingleThreadedExecutor()
-
-
 def main(args=None) -> int:
-    """Entry point of ``ros2 run vibrissa_ros whisker_node``: the Jazzy pattern, exit 0 on SIGINT/SIGTERM.
-
-    An invalid start-up configuration is reported in one line and exits with status 2.
-    """
-    rclpy.init(args=args)
-    node = None
-    code = 0
-    try:
-        node = WhiskerNode()
-        executor = make_executor()
-        executor.add_node(node)
-        executor.spin()
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    except (VibrissaError, InvalidParameterValueException, ParameterUninitializedException) as exc:
-        rclpy.logging.get_logger("whisker_node").fatal(f"invalid parameters: {exc}")
-        code = 2
-    finally:
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()
-    return code
+    """Entry point of ``ros2 run vibrissa_ros whisker_node``."""
+    return run_node(WhiskerNode, "whisker_node", args)
 
 
 if __name__ == "__main__":  # pragma: no cover
