@@ -321,3 +321,31 @@ def test_sensor_noise_is_seeded_recorded_and_resimulated(installed, ros_env, rcl
         assert np.all(np.abs(np.array(got)[:, 0] / 1e-4 - np.round(np.array(got)[:, 0] / 1e-4)) < 1e-6)  # quantized
     info = log_info(str(logs[0]))
     assert info.configurations[0][1]["noise.seed"] == 42 and info.configurations[0][1]["noise.enabled"] is True
+
+
+def test_stopping_the_recording_at_runtime_finishes_the_file(installed, ros_env, rcl_context, tmp_path):
+    log = tmp_path / "runtime.mcap"
+    proc = start_installed_node(installed, write_params(tmp_path / "r.yaml", dict(PARAMS, **{"record.path": str(log)})),
+                                ros_env)
+    probe = Probe(rcl_context, "/whisker_node", name="probe_stop_recording")
+    try:
+        msgs = _sweep(30)
+        probe.handshake(msgs[0])
+        for m in msgs[1:]:
+            probe.step(m)
+        client = probe.node.create_client(SetParameters, "/whisker_node/set_parameters")
+        assert client.wait_for_service(timeout_sec=10.0)
+        off = Parameter(name="record.path", value=ParameterValue(type=ParameterType.PARAMETER_STRING, string_value=""))
+        future = client.call_async(SetParameters.Request(parameters=[off]))
+        probe.spin_until(future.done, 10.0)
+        assert future.result().results[0].successful
+        # finished while the node keeps running: both readers open it now
+        _, _, metadata, messages = read_log(str(log))
+        assert sum(1 for m in messages if m.topic == "/whisker_node/wrench") >= len(msgs)
+        assert proc.poll() is None
+        probe.step(pose_msg(0.0, 0.0, HALF_PI, 9_000_000_000))  # and the whisker goes on, unrecorded
+        assert sum(1 for m in read_log(str(log))[3] if m.topic == "/whisker_node/wrench") == \
+            sum(1 for m in messages if m.topic == "/whisker_node/wrench")
+    finally:
+        probe.destroy()
+        assert stop(proc) == 0
