@@ -11,7 +11,6 @@ from vibrissa_ros.core import (
     Ellipse,
     FootPose,
     Parabola,
-    Phase,
     QuasistaticTracker,
     TwoCircles,
     run_scan,

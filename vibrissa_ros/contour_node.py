@@ -16,7 +16,6 @@ import math
 from collections import OrderedDict
 from typing import Dict, List, Optional, Tuple
 
-import rclpy
 from geometry_msgs.msg import Point, PointStamped, PoseStamped, WrenchStamped
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.node import Node

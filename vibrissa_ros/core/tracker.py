@@ -27,7 +27,7 @@ import numpy as np
 from scipy.optimize import brentq, minimize_scalar
 
 from .errors import ConvergenceError, InvalidPoseError, ModelAssumptionError, ParameterError
-from .models import ElasticaModel, make_model
+from .models import make_model
 from .profiles import ConvexProfile, PlacedProfile
 from .state import Event, FootPose, Phase, StepResult, WhiskerState
 
