@@ -272,3 +272,23 @@ def test_free_state_reports_zero_force_and_no_contact():
     assert (st.phase, st.f, st.fx, st.fy, st.m0, st.alpha, st.s1, st.contact) == (0, 0, 0, 0, 0, None, None, None)
     assert st.tip == pytest.approx((2.0, 1.0))
     assert st.tip_slope == HALF_PI
+
+
+def test_settling_on_the_other_flank_after_a_snap():
+    """No sweep we know folds where a straight whisker would cut the obstacle, so the mechanism that
+    would then settle the whisker on the other flank is exercised directly: from x0 = 0 under the
+    apex (straight whisker inside), travelling left, it must find the branch that a whisker coming
+    back from the left is on."""
+    from vibrissa_ros.core.tracker import _Path
+
+    profile = Parabola(0.3)
+    tracker = QuasistaticTracker(profile, 2.0)
+    path = _Path(FootPose(2.0), FootPose(-2.0))
+    contact = tracker._approach_from_free(FootPose(0.0), path, side=+1)
+    state = tracker._contact_state(FootPose(0.0), contact.phase, contact.side, contact.z)
+    coming_back = QuasistaticTracker(profile, -2.0)
+    expected = coming_back.step(0.0).state
+    assert state.side == expected.side == -1
+    assert state.phase == expected.phase
+    for name in ("alpha", "f", "m0", "s1", "tip_slope"):
+        assert getattr(state, name) == pytest.approx(getattr(expected, name), abs=1e-11)
