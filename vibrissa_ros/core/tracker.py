@@ -476,10 +476,8 @@ class QuasistaticTracker:
             for k, v in ev_b.items():
                 if v <= 0.0 < ev_a[k]:
                     found.append(("phase", k))
-            if Yn[2] >= tau_end and not fold:
+            if Yn[2] >= tau_end and not fold:  # (with a fold, _locate decides whether the target comes first)
                 found.append(("target", None))
-            elif fold and max(Y[2], Yn[2]) >= tau_end - 1e-300:
-                pass  # the fold's location decides whether the target comes first
             if found:
                 kind, name, Ystar = self._locate(path, phase, side, Y, Yn, T, Tn, found, tau_end)
                 contact.z = (float(Ystar[0]), float(Ystar[1]))
