@@ -43,8 +43,8 @@ setup(
     entry_points={
         "console_scripts": [
             "vibrissa = vibrissa_ros.cli:main",
-            "whisker_node = vibrissa_ros.whisker_node:main",
-            "contour_node = vibrissa_ros.contour_node:main",
+            "whisker_node = vibrissa_ros.ros.whisker_node:main",
+            "contour_node = vibrissa_ros.ros.contour_node:main",
         ],
     },
 )

@@ -28,7 +28,7 @@ from geometry_msgs.msg import PoseStamped, WrenchStamped
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-from vibrissa_ros.sweep import stop_node, whisker_node_executable
+from vibrissa_ros.ros.sweep import stop_node, whisker_node_executable
 
 ROOT = Path(__file__).resolve().parents[1]
 QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000, reliability=ReliabilityPolicy.RELIABLE)

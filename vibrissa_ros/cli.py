@@ -13,6 +13,7 @@ from .core.errors import VibrissaError
 from .core.models import MODELS, make_model
 from .core.profiles import PROFILE_PARAMETERS, make_profile
 from .core.scan import run_scan, scan_grid
+from .parameters import ParameterSpec
 from .scan_io import write_events_json, write_scan_csv
 
 
@@ -23,28 +24,24 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {message}\n")
 
 
-def _finite(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not math.isfinite(value):
-        raise argparse.ArgumentTypeError(f"{text!r} must be finite")
-    return value
+def _number(spec: ParameterSpec):
+    """An argparse type: a number that ``spec`` allows (the nodes' parameter checks)."""
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+        problem = spec.problem(value)
+        if problem is not None:
+            raise argparse.ArgumentTypeError(f"{text!r} {problem}")
+        return value
+
+    return parse
 
 
-def _positive(text: str) -> float:
-    value = _finite(text)
-    if value <= 0.0:
-        raise argparse.ArgumentTypeError(f"{text!r} must be > 0")
-    return value
-
-
-def _nonnegative(text: str) -> float:
-    value = _finite(text)
-    if value < 0.0:
-        raise argparse.ArgumentTypeError(f"{text!r} must be >= 0")
-    return value
+_finite = _number(ParameterSpec("value", 0.0, ""))
+_positive = _number(ParameterSpec("value", 1.0, "", minimum=0.0, exclusive_minimum=True))
+_nonnegative = _number(ParameterSpec("value", 0.0, "", minimum=0.0))
 
 
 def _param(text: str):
@@ -230,7 +227,7 @@ def _cmd_sweep(args) -> int:
         print(f"vibrissa sweep: error: --launch {args.launch!r}: no such parameter file", file=sys.stderr)
         return 2
     try:
-        from .sweep import launch_node, run_sweep, stop_node, write_sweep_csv
+        from .ros.sweep import launch_node, run_sweep, stop_node, write_sweep_csv
     except ImportError as exc:  # ROS 2 is an optional dependency of the package
         print(f"vibrissa sweep: error: ROS 2 is not installed ({exc}); pip install '.[ros]'", file=sys.stderr)
         return 2
@@ -307,9 +304,12 @@ def _cmd_info(args) -> int:
 
 def _cmd_replay(args) -> int:
     def run():
-        from .log_tools import replay
+        from tqdm import tqdm
 
-        n = replay(args.log, rate=args.rate, topics=args.topics, progress=sys.stderr)
+        from .ros.replay import replay
+
+        with tqdm(unit="msg", file=sys.stderr, desc="replay", dynamic_ncols=True) as bar:
+            n = replay(args.log, rate=args.rate, topics=args.topics, progress=bar)
         print(f"vibrissa replay: {n} messages published", file=sys.stderr)
         return 0
 

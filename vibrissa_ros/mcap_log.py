@@ -15,14 +15,16 @@ from __future__ import annotations
 
 import json
 import re
+import struct
 import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Dict, List, Optional, Tuple
 
+from mcap.exceptions import McapError
 from mcap.reader import make_reader
-from mcap.records import Channel, Message, Metadata, Schema
+from mcap.records import Channel, ChunkIndex, Footer, Message, Metadata, Schema
 from mcap.stream_reader import StreamReader
 from mcap.writer import CompressionType, Writer
 
@@ -63,7 +65,7 @@ def _share_dir(package: str) -> Path:
         from ament_index_python.packages import get_package_share_directory
 
         return Path(get_package_share_directory(package))
-    except Exception:  # noqa: BLE001 - PackageNotFoundError, or no ament index at all
+    except (ImportError, LookupError, OSError):  # no ament index, not in it, or unset
         candidate = Path(sys.prefix) / "share" / package
         if (candidate / "msg").is_dir():
             return candidate
@@ -126,10 +128,11 @@ def type_hash(type_name: str) -> str:
     raise LogError(f"no type hash for {full}")
 
 
-def qos_yaml(reliable: bool = True, transient_local: bool = False, depth: int = 1000) -> str:
+def qos_yaml(reliable: bool = True, transient_local: bool = False, depth: int = 1000,
+             keep_all: bool = False) -> str:
     """rosbag2's ``offered_qos_profiles`` (a YAML list with one offered profile)."""
     return (
-        f"- history: keep_last\n  depth: {depth}\n"
+        f"- history: {'keep_all' if keep_all else 'keep_last'}\n  depth: {depth}\n"
         f"  reliability: {'reliable' if reliable else 'best_effort'}\n"
         f"  durability: {'transient_local' if transient_local else 'volatile'}\n"
         f"  deadline:{_INFINITE}\n  lifespan:{_INFINITE}\n  liveliness: automatic\n"
@@ -144,6 +147,7 @@ class TopicSpec:
     reliable: bool = True
     transient_local: bool = False
     depth: int = 1000
+    keep_all: bool = False
 
 
 class LogWriter:
@@ -185,7 +189,8 @@ class LogWriter:
                 lambda: self._writer.register_schema(spec.type_name, SCHEMA_ENCODING, text)
             )
         metadata = {
-            "offered_qos_profiles": qos_yaml(spec.reliable, spec.transient_local, spec.depth),
+            "offered_qos_profiles": qos_yaml(spec.reliable, spec.transient_local, spec.depth,
+                                             spec.keep_all),
             "topic_type_hash": type_hash(spec.type_name),
         }
         cid = self._guard(
@@ -203,12 +208,12 @@ class LogWriter:
         ))
         self.messages += 1
         self._pending = True
-        self.maybe_flush()
+        self.flush_if_due()
 
     def metadata(self, name: str, data: Dict[str, str]) -> None:
         self._guard(lambda: self._writer.add_metadata(name, {str(k): str(v) for k, v in data.items()}))
 
-    def maybe_flush(self, now: Optional[float] = None) -> None:
+    def flush_if_due(self, now: Optional[float] = None) -> None:
         """Close the open chunk if it is older than the flush period (bounded loss on a crash)."""
         now = time.monotonic() if now is None else now
         if self._pending and now - self._last_flush >= self._flush_period:
@@ -228,6 +233,21 @@ class LogWriter:
         self._guard(self._writer.finish)
         self._closed = True
         self._guard(self._stream.close)
+
+    def abandon(self) -> None:
+        """Finish the file as far as possible after a failure, and never raise: what was written
+        stays readable where the disk allows it."""
+        if self._closed:
+            return
+        self._closed = True
+        try:
+            self._writer.finish()
+        except (OSError, McapError, ValueError, AttributeError):
+            pass  # the disk is full or gone, or the writer is broken: the chunks on disk remain
+        try:
+            self._stream.close()
+        except OSError:
+            pass
 
 
 # -- reading ------------------------------------------------------------------------------------
@@ -257,9 +277,7 @@ def read_log(path: str):
                 for schema, channel, message in reader.iter_messages(log_time_order=True)
             ]
             return summary.schemas, summary.channels, metadata, messages
-    except LogError:
-        raise
-    except Exception as exc:  # the mcap reader raises many kinds for a damaged file
+    except (McapError, struct.error, ValueError, EOFError) as exc:  # a damaged or cut file
         raise LogError(f"cannot read {path}: {exc}; if it was not finished, 'vibrissa repair' rewrites it") from None
 
 
@@ -286,10 +304,10 @@ def repair(path: str, output: str) -> int:
                     messages.append(record)
                 elif isinstance(record, Metadata):
                     metadata.append(record)
-                elif type(record).__name__ == "ChunkIndex" or type(record).__name__ == "Footer":
+                elif isinstance(record, (ChunkIndex, Footer)):
                     break
-        except Exception:  # noqa: BLE001 - the truncated tail: stop where the data ends
-            pass
+        except (McapError, struct.error, ValueError, EOFError):
+            pass  # the truncated tail: stop where the data ends
     if not schemas and not messages:
         raise LogError(f"{path}: nothing recoverable (not an MCAP file?)")
     with open(output, "wb") as out:

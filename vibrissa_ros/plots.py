@@ -30,7 +30,7 @@ SHADE = {1: "#1f77b4", 2: "#d62728"}
 
 
 @dataclass(frozen=True)
-class Units:
+class AxisUnits:
     """Axis units: dimensionless for scans, SI for logs (with the frame named)."""
 
     length: str = "L"
@@ -126,7 +126,7 @@ def _profile_curve(profile: ConvexProfile, xs: np.ndarray, top: float) -> np.nda
 def plot_runs(
     runs: Sequence[PlotRun],
     profile: Optional[ConvexProfile],
-    units: Units = Units(),
+    units: AxisUnits = AxisUnits(),
     title: str = "",
     sketch_count: int = 15,
 ) -> Figure:
@@ -247,8 +247,8 @@ def _arrows(ax, x, y, color, alpha) -> None:
                     arrowprops=dict(arrowstyle="->", color=color, alpha=alpha, lw=1.2), gid="arrow")
 
 
-def si_units(length: float, force: float, moment: float, frame: str) -> Units:
-    return Units("m", "N", "N·m", length, force, moment, f"frame '{frame}'")
+def si_units(length: float, force: float, moment: float, frame: str) -> AxisUnits:
+    return AxisUnits("m", "N", "N·m", length, force, moment, f"frame '{frame}'")
 
 
-__all__ = ["Figure", "PlotRun", "Units", "direction_segments", "plot_runs", "si_units", "sketch_selection"]
+__all__ = ["Figure", "PlotRun", "AxisUnits", "direction_segments", "plot_runs", "si_units", "sketch_selection"]

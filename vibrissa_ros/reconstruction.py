@@ -15,8 +15,8 @@ from typing import IO, List, Optional, Sequence, Tuple
 from .core.errors import VibrissaError
 from .core.inverse import ContactEstimate, estimate_contact
 from .core.state import FootPose
+from .edge import Units, header_ns, pose_of, wrench_to_core
 
-HALF_PI = 0.5 * math.pi
 RECONSTRUCTION_COLUMNS = ("x0", "phase", "contact_x", "contact_y", "alpha")
 
 
@@ -56,9 +56,10 @@ def from_scan_csv(path: str, min_force: float = 0.0) -> Reconstruction:
 
 def from_log(path: str, min_force: float = 0.0) -> Reconstruction:
     """Pairs every recorded foot pose with the wrench stamped like it (as whisker_node stamps it)."""
-    from .log_tools import configurations, decode
+    from .log_tools import configurations
     from .mcap_log import read_log
     from .node_config import build_config
+    from .ros.serialization import decode
 
     _, _, metadata, messages = read_log(path)
     values = configurations(metadata)[0][1]
@@ -68,32 +69,35 @@ def from_log(path: str, min_force: float = 0.0) -> Reconstruction:
     for m in messages:
         if m.topic == f"{node}/foot_pose":
             msg = decode(m)
-            poses[msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec] = msg
+            poses[header_ns(msg)] = msg
         elif m.topic == f"{node}/wrench":
             msg = decode(m)
-            wrenches[msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec] = msg
+            wrenches[header_ns(msg)] = msg
     units = cfg.units
     estimates = []
     for stamp in sorted(wrenches):
         if stamp not in poses:
             continue
-        p, q = poses[stamp].pose.position, poses[stamp].pose.orientation
-        yaw = math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+        try:  # the node accepted only poses that pass its own checks
+            x, y, yaw = pose_of(poses[stamp], cfg.values["input.z_tolerance"],
+                                cfg.values["input.angle_tolerance"])
+        except VibrissaError:
+            continue
         w = wrenches[stamp].wrench
-        est = estimate_from_wrench(p.x, p.y, yaw, w.force.x, w.force.y, w.torque.z, units, min_force)
+        est = estimate_from_wrench(x, y, yaw, w.force.x, w.force.y, w.torque.z, units, min_force)
         if est is not None:
             estimates.append(est)
-    truth = [(decode(m).point.x, decode(m).point.y) for m in messages if m.topic == f"{node}/contact_point"]
+    points = (decode(m) for m in messages if m.topic == f"{node}/contact_point")
+    truth = [(p.point.x, p.point.y) for p in points]
     return Reconstruction(estimates, units.length, "m", f"frame '{cfg.world_frame}'", truth, cfg.profile)
 
 
-def estimate_from_wrench(x: float, y: float, yaw: float, force_x: float, force_y: float, torque_z: float, units,
+def estimate_from_wrench(x: float, y: float, yaw: float, force_x: float, force_y: float,
+                         torque_z: float, units: Units,
                          min_force: float = 0.0) -> Optional[ContactEstimate]:
     """One SI reading (base pose in the world, base-frame wrench) -> a dimensionless estimate."""
-    c, s = math.cos(yaw), math.sin(yaw)
-    fx = (c * force_x - s * force_y) / units.force  # world frame
-    fy = (s * force_x + c * force_y) / units.force
-    return estimate_contact(units.foot_pose(x, y, yaw), fx, fy, torque_z / units.moment, min_force / units.force)
+    fx, fy, m0 = wrench_to_core(yaw, force_x, force_y, torque_z, units)
+    return estimate_contact(units.foot_pose(x, y, yaw), fx, fy, m0, min_force / units.force)
 
 
 def write_csv(rec: Reconstruction, stream: IO[str]) -> None:

@@ -2,21 +2,33 @@
 
 The adapter behind ``vibrissa sweep``: optionally starts ``whisker_node`` with a parameter file,
 handshakes (publishes the first pose until the node answers: graph matching alone loses messages),
-then publishes one pose at a time and waits for its answer, and writes a CSV in SI units.
+then publishes one pose at a time and waits for its answer, and writes a CSV in SI units. The
+progress bar (tqdm) shares the terminal with the launched node's log: the node's lines are
+printed through the bar, above it, never into it.
 """
 
 from __future__ import annotations
 
 import csv
-import math
 import shutil
 import signal
 import subprocess
 import sys
+import threading
 import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, List, Optional, Sequence
+
+import rclpy
+from geometry_msgs.msg import PointStamped, PoseStamped, WrenchStamped
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+from std_msgs.msg import Float64, UInt8
+from tqdm import tqdm
+
+from ..edge import NS_PER_S, header_ns
+from .messages import pose_stamped
 
 SWEEP_COLUMNS = (
     "x", "y", "yaw", "phase", "force_x", "force_y", "torque_z", "contact_force", "contact_x", "contact_y",
@@ -54,11 +66,24 @@ def whisker_node_executable() -> str:
     return str(Path(get_package_prefix("vibrissa_ros")) / "lib" / "vibrissa_ros" / "whisker_node")
 
 
-def launch_node(params_file: str, namespace: str = "") -> subprocess.Popen:
+def _forward(stream: IO[str], out: IO[str]) -> None:
+    """Print a child's output lines through tqdm, so that they appear above the bar."""
+    for line in stream:
+        tqdm.write(line.rstrip("\n"), file=out)
+
+
+def launch_node(params_file: str, namespace: str = "", output: Optional[IO[str]] = None
+                ) -> subprocess.Popen:
+    """Start whisker_node with a parameter file; its log lines go to ``output`` (default
+    stderr) through tqdm."""
     cmd = [whisker_node_executable(), "--ros-args", "--params-file", str(params_file)]
     if namespace:
         cmd += ["-r", f"__ns:={namespace}"]
-    return subprocess.Popen(cmd, start_new_session=True)
+    proc = subprocess.Popen(cmd, start_new_session=True, stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT, text=True, bufsize=1)
+    threading.Thread(target=_forward, args=(proc.stdout, output or sys.stderr),
+                     daemon=True).start()
+    return proc
 
 
 def run_sweep(
@@ -68,13 +93,10 @@ def run_sweep(
     timeout: float = 10.0,
     progress: Optional[IO[str]] = None,
 ) -> List[SweepRow]:
-    """Publish ``poses`` ((x, y, yaw) in m, m, rad) to ``node`` one by one; return its answers."""
-    import rclpy
-    from geometry_msgs.msg import PointStamped, PoseStamped, WrenchStamped
-    from rclpy.executors import SingleThreadedExecutor
-    from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
-    from std_msgs.msg import Float64, UInt8
+    """Publish ``poses`` ((x, y, yaw) in m, m, rad) to ``node`` one by one; return its answers.
 
+    ``progress``: where to draw a progress bar (a terminal stream), or None for none.
+    """
     qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000, reliability=ReliabilityPolicy.RELIABLE)
     context = rclpy.Context()
     rclpy.init(context=context)
@@ -82,22 +104,16 @@ def run_sweep(
     executor = SingleThreadedExecutor(context=context)
     executor.add_node(driver)
     got = {"wrench": {}, "phase": [], "force": [], "contact": {}, "s1": []}
-    driver.create_subscription(WrenchStamped, f"{node}/wrench", lambda m: got["wrench"].__setitem__(_ns(m), m), qos)
+    driver.create_subscription(WrenchStamped, f"{node}/wrench", lambda m: got["wrench"].__setitem__(header_ns(m), m), qos)
     driver.create_subscription(UInt8, f"{node}/phase", lambda m: got["phase"].append(m.data), qos)
     driver.create_subscription(Float64, f"{node}/contact_force_magnitude", lambda m: got["force"].append(m.data), qos)
-    driver.create_subscription(PointStamped, f"{node}/contact_point", lambda m: got["contact"].__setitem__(_ns(m), m), qos)
+    driver.create_subscription(PointStamped, f"{node}/contact_point", lambda m: got["contact"].__setitem__(header_ns(m), m), qos)
     driver.create_subscription(Float64, f"{node}/arc_length", lambda m: got["s1"].append(m.data), qos)
     pub = driver.create_publisher(PoseStamped, f"{node}/foot_pose", qos)
 
     def message(i: int, pose) -> PoseStamped:
         x, y, yaw = pose
-        msg = PoseStamped()
-        msg.header.frame_id = frame
-        stamp = 1_000_000_000 + i * 1_000_000  # 1 ms apart, increasing
-        msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(stamp, 1_000_000_000)
-        msg.pose.position.x, msg.pose.position.y = float(x), float(y)
-        msg.pose.orientation.z, msg.pose.orientation.w = math.sin(0.5 * yaw), math.cos(0.5 * yaw)
-        return msg
+        return pose_stamped(x, y, yaw, NS_PER_S + i * 1_000_000, frame)  # 1 ms apart
 
     def wait(predicate) -> bool:
         end = time.monotonic() + timeout
@@ -108,6 +124,8 @@ def run_sweep(
         return predicate()
 
     rows: List[SweepRow] = []
+    bar = tqdm(total=len(poses), unit="pose", file=progress, disable=progress is None,
+               dynamic_ncols=True, desc="sweep")
     try:
         first = message(0, poses[0])
         end = time.monotonic() + max(timeout, 30.0)
@@ -121,15 +139,16 @@ def run_sweep(
         t_drain = time.monotonic() + 0.3
         while time.monotonic() < t_drain:
             executor.spin_once(timeout_sec=0.01)
-        w = got["wrench"][_ns(first)].wrench  # the first pose places a straight, free whisker
+        w = got["wrench"][header_ns(first)].wrench  # the first pose places a straight, free whisker
         x, y, yaw = poses[0]
         rows.append(SweepRow(float(x), float(y), float(yaw), int(got["phase"][0]), w.force.x, w.force.y,
                              w.torque.z, got["force"][0], None, None, None))
         for key in got:
             got[key].clear()
+        bar.update(1)
         for i, pose in enumerate(poses[1:], start=1):
             msg = message(i, pose)
-            stamp = _ns(msg)
+            stamp = header_ns(msg)
             n = len(got["phase"])
             pub.publish(msg)
             if not wait(lambda: stamp in got["wrench"] and len(got["phase"]) > n and len(got["force"]) > n):
@@ -147,20 +166,13 @@ def run_sweep(
                 contact_x=contact.point.x if contact else None, contact_y=contact.point.y if contact else None,
                 arc_length=s1,
             ))
-            if progress is not None and i % 200 == 0:
-                progress.write(f"\r{i}/{len(poses) - 1} poses")
-                progress.flush()
-        if progress is not None:
-            progress.write(f"\r{len(poses) - 1}/{len(poses) - 1} poses answered\n")
+            bar.update(1)
     finally:
+        bar.close()
         executor.remove_node(driver)
         driver.destroy_node()
         rclpy.try_shutdown(context=context)
     return rows
-
-
-def _ns(msg) -> int:
-    return msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
 
 
 def write_sweep_csv(rows: Sequence[SweepRow], stream: IO[str]) -> None:

@@ -5,17 +5,22 @@ from __future__ import annotations
 from typing import Callable
 
 import rclpy
-from rclpy.exceptions import InvalidParameterValueException, ParameterUninitializedException
+from rclpy.exceptions import (
+    InvalidParameterTypeException,
+    InvalidParameterValueException,
+    ParameterUninitializedException,
+)
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.node import Node
 
-from .core.errors import VibrissaError
+from ..core.errors import VibrissaError
 
 
-def run_node(make_node: Callable[[], "rclpy.node.Node"], name: str, args=None) -> int:
-    """Init, build the node, spin until shutdown, clean up. An invalid start-up configuration is
-    reported in one line and gives exit status 2.
+def run_node(make_node: Callable[[], Node], name: str, args=None) -> int:
+    """Init, build the node, spin until shutdown, clean up.
 
-    rclpy's experimental EventsExecutor was tried: in the Jazzy wheels it delivered no subscription
+    An invalid start-up configuration is reported in one line and gives exit status 2. rclpy's
+    experimental EventsExecutor was tried: in the Jazzy wheels it delivered no subscription
     callbacks here, so the standard single-threaded executor spins.
     """
     rclpy.init(args=args)
@@ -28,7 +33,8 @@ def run_node(make_node: Callable[[], "rclpy.node.Node"], name: str, args=None) -
         executor.spin()
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
-    except (VibrissaError, InvalidParameterValueException, ParameterUninitializedException) as exc:
+    except (VibrissaError, InvalidParameterValueException, InvalidParameterTypeException,
+            ParameterUninitializedException) as exc:
         rclpy.logging.get_logger(name).fatal(f"invalid parameters: {exc}")
         code = 2
     finally:
