@@ -87,14 +87,18 @@ def start_installed_node(install: Path, params_file: Optional[Path], env: Dict[s
 
 
 def stop(proc: subprocess.Popen, sig=signal.SIGINT, timeout: float = 10.0) -> int:
+    """Stop a started node; on a non-zero exit its output is printed (pytest shows it)."""
     if proc.poll() is None:
         proc.send_signal(sig)
     try:
-        return proc.wait(timeout=timeout)
+        code = proc.wait(timeout=timeout)
     except subprocess.TimeoutExpired:
         proc.kill()
         proc.wait()
-        return -9
+        code = -9
+    if code != 0 and proc.stdout is not None and not proc.stdout.closed:
+        print(f"--- exit status {code}, output:\n{proc.stdout.read()}")
+    return code
 
 
 def pose_msg(x: float, y: float, yaw: float, stamp_ns: int, frame: str = "world",
