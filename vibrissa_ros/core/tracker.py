@@ -320,7 +320,8 @@ class QuasistaticTracker:
     def _rod_clearance(self, pose: FootPose) -> float:
         """Smallest gap along the straight whisker (convex in s: bounded scalar minimization)."""
         c, s = math.cos(pose.heading), math.sin(pose.heading)
-        fun = lambda u: self._gap(pose.x + u * c, pose.y + u * s)  # noqa: E731
+        # (beyond the ends of a closed shape's lower arc the gap is inf: clipped for the minimizer)
+        fun = lambda u: min(self._gap(pose.x + u * c, pose.y + u * s), 1e6)  # noqa: E731
         g0, g1 = fun(0.0), fun(1.0)
         res = minimize_scalar(fun, bounds=(0.0, 1.0), method="bounded", options={"xatol": 1e-10})
         return min(g0, g1, float(res.fun))
@@ -360,7 +361,7 @@ class QuasistaticTracker:
                 "its side, not across its lower boundary curve: not covered by the model"
             )
         c, s = math.cos(pose.heading), math.sin(pose.heading)
-        fun = lambda u: self._gap(pose.x + u * c, pose.y + u * s)  # noqa: E731
+        fun = lambda u: min(self._gap(pose.x + u * c, pose.y + u * s), 1e6)  # noqa: E731
         res = minimize_scalar(fun, bounds=(0.0, 0.999), method="bounded", options={"xatol": 1e-10})
         if min(fun(0.0), float(res.fun)) < -1e-9:
             raise ModelAssumptionError(
