@@ -141,6 +141,17 @@ class ElasticaModel:
         """gamma = pi/2 - phi(1) (contact frame); small values mean the force is nearly zero."""
         return HALF_PI - z[0] if phase == Phase.TANGENTIAL else z[1]
 
+    def step_scale(self, phase: Phase, z) -> float:
+        """Scale of the continuation's steps: lam = 1/sqrt(f) grows without bound as a tangential
+        contact runs to a point of the profile parallel to the whisker (f -> 0), and is followed
+        in steps proportional to it."""
+        return max(1.0, z[1]) if phase == Phase.TANGENTIAL else 1.0
+
+    def released(self, phase: Phase, z) -> bool:
+        """A tangential contact whose force has vanished (f < 1e-12: the whisker is straight to
+        ~1e-12, touching the profile where its tangent turns parallel to the whisker)."""
+        return phase == Phase.TANGENTIAL and z[1] > 1e6
+
     # -- results ---------------------------------------------------------------------------
     def contact_quantities(self, phase: Phase, z):
         """(f, m0, s1, tip_slope, tip_offset) in the contact frame; tip_offset = tip - contact."""
@@ -243,6 +254,13 @@ class RigidModel:
 
     def tip_rotation(self, phase: Phase, z) -> float:
         return HALF_PI - z[0] if phase == Phase.TANGENTIAL else z[1]
+
+    def step_scale(self, phase: Phase, z) -> float:
+        return 1.0
+
+    def released(self, phase: Phase, z) -> bool:
+        """Mode 1 unloads where the profile's tangent turns parallel to the upright rod."""
+        return phase == Phase.TANGENTIAL and HALF_PI - z[0] < 1e-12
 
     def contact_quantities(self, phase: Phase, z):
         alpha, mu = z

@@ -206,7 +206,9 @@ class Catenary(ConvexProfile):
         return self.c / (c * c)
 
     def alpha_at_x(self, x):
-        return math.atan(math.sinh(x / self.c))
+        # atan(sinh(u)) is the Gudermannian gd(u) = 2 atan(tanh(u/2)): the same value without
+        # sinh's overflow for |u| > 710 (far from a narrow catenary)
+        return 2.0 * math.atan(math.tanh(0.5 * x / self.c))
 
 
 @dataclass(frozen=True)

@@ -128,8 +128,13 @@ class WhiskerState:
 
 @dataclass(frozen=True)
 class StepResult:
-    """What a tracker step returns: the new state and the events crossed, in order."""
+    """What a tracker step returns: the new state and the events crossed, in order.
+
+    ``substeps`` counts continuation steps, ``evaluations`` the model and profile evaluations the
+    step used (bounded by ``TrackerOptions.max_evaluations``).
+    """
 
     state: WhiskerState
     events: Tuple[Event, ...]
     substeps: int = 0
+    evaluations: int = 0
