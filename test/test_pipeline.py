@@ -39,6 +39,7 @@ def test_a_sweep_through_the_pipeline_equals_the_core_scan():
         ("world", 10, (0.1, 0.0, 0.0), (0.0, 0.0, 0.0, 2.0), "quaternion_not_unit"),
         ("world", 10, (0.1, 0.0, 0.5), Q, "out_of_plane"),
         ("world", 10, (1e308, 0.0, 0.0), Q, "not_finite"),  # overflows in whisker lengths
+        ("world", 10, (0.0, -1e6, 0.0), Q, "out_of_range"),  # absurd for the model
     ],
 )
 def test_bad_poses_are_dropped_with_their_reason_and_the_state_is_kept(frame, stamp, position,

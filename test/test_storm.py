@@ -33,7 +33,7 @@ SENDER = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=N_POSES + 100,
 # which injected defect is counted under which drop reason
 EXPECTED_REASON = {"nan": "not_finite", "inf": "not_finite", "quaternion": "quaternion_not_unit",
                    "z": "out_of_plane", "roll": "out_of_plane", "frame": "wrong_frame_id",
-                   "back": "stamp_backwards"}
+                   "back": "stamp_backwards", "far": "out_of_range"}
 
 
 def storm(n, rng, first_stamp):

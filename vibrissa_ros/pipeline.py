@@ -14,7 +14,7 @@ import numpy as np
 
 from .core.errors import ConvergenceError, InvalidPoseError, VibrissaError
 from .core.state import Event, WhiskerState
-from .core.tracker import QuasistaticTracker
+from .core.tracker import MAX_POSE_MAGNITUDE, QuasistaticTracker
 from .edge import BadInput, SensorReading, planar_pose, sensor_reading
 from .node_config import WhiskerConfig
 from .noise import NoiseSpec, SensorNoise
@@ -24,6 +24,7 @@ DROP_REASONS = (
     "not_finite",
     "quaternion_not_unit",
     "out_of_plane",
+    "out_of_range",
     "wrong_frame_id",
     "stamp_backwards",
     "inside_obstacle",
@@ -99,6 +100,10 @@ class PosePipeline:
         x, y, yaw = planar_pose(position, quaternion, cfg.values["input.z_tolerance"],
                                 cfg.values["input.angle_tolerance"])
         pose = cfg.units.foot_pose(x, y, yaw)
+        if max(abs(pose.x), abs(pose.y)) > MAX_POSE_MAGNITUDE:
+            limit = MAX_POSE_MAGNITUDE * cfg.units.length
+            raise BadInput("out_of_range", f"pose ({x!r}, {y!r}) m is farther than the model "
+                           f"allows from the world origin (|x|, |y| <= {limit:g} m)")
         if self.tracker is None:
             tracker = QuasistaticTracker(cfg.profile, pose, model=cfg.model)
             state, events = tracker.state, ()
