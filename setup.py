@@ -4,19 +4,30 @@ from setuptools import find_packages, setup
 
 package_name = "vibrissa_ros"
 
+# Lower bounds are the first release with every API we call (checked against that release):
+# mcap 1.5: Writer.flush (1.4 has none: a recorder thread would die of it); it brings zstandard.
+# tqdm 4.60: tqdm(total, unit, file, disable, dynamic_ncols, desc), update, the context manager,
+# tqdm.write(file=). The ros-jazzy-* wheels are one ROS distribution, versioned together.
 ROS = [
     "ros-jazzy-rclpy",
     "ros-jazzy-rmw-fastrtps-cpp",
     "ros-jazzy-common-interfaces",
     "ros-jazzy-ament-index-python",
-    "mcap>=1.2",  # recording (rosbag2 layout), with zstd chunks
-    "zstandard",
+    "mcap>=1.5",  # recording (rosbag2 layout), with zstd chunks
+    "tqdm>=4.60",  # progress bars of vibrissa sweep and replay
 ]
 # building and isolating: colcon (the CI build check) and unique ROS_DOMAIN_IDs for tests
-TOOLS = ["colcon-common-extensions", "colcon-ros", "ros-jazzy-ament-package", "ros-jazzy-domain-coordinator"]
+TOOLS = ["colcon-common-extensions", "colcon-ros", "ros-jazzy-ament-package",
+         "ros-jazzy-domain-coordinator"]
 # two independent readers of our logs, for the round-trip tests
-READERS = ["mcap-ros2-support", "rosbags"]
-PLOTS = ["matplotlib>=3.7"]
+# (mcap-ros2-support 0.5: mcap_ros2.decoder.DecoderFactory; rosbags 0.9.20: typesys.Stores.EMPTY
+# and get_typestore)
+READERS = ["mcap-ros2-support>=0.5", "rosbags>=0.9.20"]
+# matplotlib 3.7: subplots(layout=, height_ratios=); pillow 9.1: Image.Quantize, Image.Dither
+PLOTS = ["matplotlib>=3.7", "pillow>=9.1"]
+# style checks as ament_flake8 / ament_pep257 configure them (test/test_style.py); pyyaml 5.1:
+# yaml.safe_load of the launch test's parameter files
+LINT = ["flake8>=6.0", "pydocstyle>=6.1", "pyyaml>=5.1"]
 # the core's own tests: they also run on numpy 1.x (.ci/run), without ROS
 CORE_TEST = ["pytest>=7", "mpmath>=1.3", "hypothesis>=6.100"]
 
@@ -37,12 +48,13 @@ setup(
         "ros": ROS + PLOTS,
         "plots": PLOTS,
         "core-test": CORE_TEST,
-        "test": ROS + TOOLS + READERS + PLOTS + CORE_TEST + ["catkin_pkg>=1.0"],
+        "test": ROS + TOOLS + READERS + PLOTS + CORE_TEST + LINT + ["catkin_pkg>=1.0"],
     },
     zip_safe=True,
     maintainer="vibrissa_ros maintainers",
     maintainer_email="maintainers@vibrissa-ros.dev",
-    description="Virtual artificial whisker for ROS 2: exact quasistatic elastica against convex obstacles.",
+    description="Virtual artificial whisker for ROS 2: exact quasistatic elastica against convex "
+                "obstacles.",
     license="Apache-2.0",
     entry_points={
         "console_scripts": [

@@ -39,8 +39,7 @@ from vibrissa_ros.ros.recorder import configuration_record
 
 ROOT = Path(__file__).resolve().parents[1]
 NODE = "/whisker_node"
-VALUES = {"obstacle.type": "catenary", "obstacle.c": 0.06, "obstacle.apex_y": 0.05,
-          "centerline.max_rate": 0.0}
+VALUES = {"obstacle.type": "catenary", "obstacle.c": 0.06, "obstacle.apex_y": 0.05}
 TOPICS = {
     "foot_pose": "geometry_msgs/msg/PoseStamped", "wrench": "geometry_msgs/msg/WrenchStamped",
     "phase": "std_msgs/msg/UInt8", "contact_force": "geometry_msgs/msg/Vector3Stamped",

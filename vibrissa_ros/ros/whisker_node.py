@@ -27,13 +27,15 @@ from __future__ import annotations
 
 import math
 import time
-from typing import Dict, Optional
+from collections import deque
+from typing import Deque, Dict, Optional
 
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PointStamped, PoseStamped, Vector3Stamped, WrenchStamped
 from nav_msgs.msg import Path
 from rclpy.exceptions import InvalidHandle
 from rclpy.node import Node
+from rclpy.serialization import deserialize_message
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import Float64, String, UInt8
 from visualization_msgs.msg import Marker
@@ -48,7 +50,9 @@ from .recorder import Recorder
 from .run import run_node
 
 LOG_THROTTLE_S = 1.0  # seconds between two log lines of the same drop reason
-DRAIN_LIMIT = 100  # poses taken per executor callback at most (timers and services get a turn)
+BATCH = 100  # poses processed per executor callback at most (timers and services get a turn)
+TAKE_EVERY = 10  # poses processed between two takes of what DDS holds
+MAX_BACKLOG = 200_000  # poses held by the node at most; beyond, DDS holds them (keep all)
 RELIABLE = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000,
                       reliability=ReliabilityPolicy.RELIABLE)
 # poses: keep all, so that a slow step delays the ones behind it instead of losing them
@@ -86,6 +90,10 @@ class WhiskerNode(Node):
                      for key, (kind, qos) in OUTPUTS.items()}
         self._pub["diagnostics"] = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
         self._sub = self.create_subscription(PoseStamped, "~/foot_pose", self._on_pose, POSES)
+        # poses taken from DDS, not processed yet (serialized): DDS's own queue never fills, so
+        # a fast sender is never throttled by retransmissions, and a slow step loses nothing
+        self._backlog: Deque[bytes] = deque()
+        self._more = self.create_guard_condition(self._work)
         period = float(self.config.values["diagnostics.period"])
         self.create_timer(period, self._publish_diagnostics)
         self.create_timer(0.25, self._watch_recording)
@@ -160,19 +168,39 @@ class WhiskerNode(Node):
 
     # -- input ----------------------------------------------------------------------------------
     def _on_pose(self, msg: PoseStamped) -> None:
-        self._process_pose(msg)
-        # Take what else is already queued without a round trip through the executor: its
-        # per-callback cost is several times the solve's and dominates a kHz pose stream.
-        for waiting in range(1, DRAIN_LIMIT + 1):
+        if self._backlog:  # older poses are still waiting: this one goes behind them (and
+            self._backlog.append(msg)  # before those still in DDS, which are newer)
+        else:
+            self._process_pose(msg)
+        self._work()
+
+    def _take_available(self) -> None:
+        """Move what DDS holds for us into the backlog, serialized (cheap: no executor turn)."""
+        while len(self._backlog) < MAX_BACKLOG:
             try:
                 with self._sub.handle:
-                    taken = self._sub.handle.take_message(self._sub.msg_type, self._sub.raw)
+                    taken = self._sub.handle.take_message(self._sub.msg_type, True)
             except InvalidHandle:  # the subscription is gone (shutting down)
                 return
             if taken is None:
                 return
-            self._stats.waiting(waiting)
-            self._process_pose(taken[0])
+            self._backlog.append(taken[0])
+
+    def _work(self) -> None:
+        """Process up to BATCH waiting poses; if more wait, come back after the executor's turn."""
+        self._take_available()
+        for i in range(BATCH):
+            if not self._backlog:
+                return
+            self._stats.waiting(len(self._backlog))
+            item = self._backlog.popleft()
+            if isinstance(item, bytes):
+                item = deserialize_message(item, PoseStamped)
+            self._process_pose(item)
+            if i % TAKE_EVERY == TAKE_EVERY - 1:
+                self._take_available()
+        if self._backlog:
+            self._more.trigger()
 
     def _process_pose(self, msg: PoseStamped) -> None:
         self._stats.received += 1
@@ -199,7 +227,7 @@ class WhiskerNode(Node):
 
     # -- output ---------------------------------------------------------------------------------
     def _listening(self) -> Dict[str, bool]:
-        """Which optional topics have subscribers, refreshed at most every 0.1 s (a graph query)."""
+        """Which optional topics have subscribers (a graph query: refreshed every 0.1 s at most)."""
         now = time.monotonic()
         if now - self._listened_at > 0.1:
             self._listened_at = now
@@ -228,7 +256,8 @@ class WhiskerNode(Node):
                    listening)
         if reading.contact_world is not None:
             self._emit("contact_point",
-                       lambda: m.point_stamped(stamp, world, reading.contact_world), now, listening)
+                       lambda: m.point_stamped(stamp, world, reading.contact_world), now,
+                       listening)
             self._emit("arc_length", lambda: m.float_msg(reading.s1), now, listening)
         for event in events:
             record = event_record(event, cfg.units)
