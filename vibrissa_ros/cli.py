@@ -25,7 +25,7 @@ class _Parser(argparse.ArgumentParser):
 
 
 def _number(spec: ParameterSpec):
-    """An argparse type: a number that ``spec`` allows (the nodes' parameter checks)."""
+    """Return an argparse type: a number that ``spec`` allows (the nodes' parameter checks)."""
     def parse(text: str) -> float:
         try:
             value = float(text)
@@ -52,82 +52,138 @@ def _param(text: str):
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = _Parser(prog="vibrissa", description="Virtual whisker: exact quasistatic elastica scans.")
+    parser = _Parser(
+        prog="vibrissa", description="Virtual whisker: exact quasistatic elastica scans."
+    )
     sub = parser.add_subparsers(dest="verb", required=True, parser_class=_Parser)
     scan = sub.add_parser(
         "scan",
         help="sweep the foot along the x-axis past an obstacle and write the states",
-        description="Sweep the whisker's foot along the x-axis (heading +y) past a convex obstacle. "
+        description="Sweep the whisker's foot along the x-axis (heading +y) past a convex "
+        "obstacle. "
         "Dimensionless units: length L, force EI/L^2, moment EI/L.",
     )
     names = ", ".join(f"{p} ({', '.join(ks)})" for p, ks in PROFILE_PARAMETERS.items())
-    scan.add_argument("--profile", required=True, choices=sorted(PROFILE_PARAMETERS), help=f"obstacle: {names}")
+    scan.add_argument(
+        "--profile", required=True, choices=sorted(PROFILE_PARAMETERS), help=f"obstacle: {names}"
+    )
     scan.add_argument("--param", action="append", type=_param, default=[], metavar="NAME=VALUE",
                       help="profile parameter, repeatable (e.g. --param p0=0.3 --param k=1)")
-    scan.add_argument("--model", default="elastica", choices=sorted(MODELS) + ["both"],
-                      help="whisker model: elastica (paper §2), rigid (paper §3) or both side by side")
-    scan.add_argument("--spring-stiffness", type=_positive, default=None, metavar="K",
-                      help="rigid model: pivot stiffness c = K*EI/L; its forces and moments are then "
-                      "written in the elastica's units (EI/L^2, EI/L). Without it the rigid model is "
-                      "written in the paper's §3 units (c/L, c). Default with --model both: 3, the "
-                      "stiffness that matches the elastica's small-deflection tip stiffness")
-    scan.add_argument("--from", dest="x_from", type=_finite, required=True, help="first foot position x0")
-    scan.add_argument("--to", dest="x_to", type=_finite, required=True, help="last foot position x0 (inclusive)")
+    scan.add_argument(
+        "--model",
+        default="elastica",
+        choices=sorted(MODELS) + ["both"],
+        help="whisker model: elastica (paper §2), rigid (paper §3) or both side by side",
+    )
+    scan.add_argument(
+        "--spring-stiffness",
+        type=_positive,
+        default=None,
+        metavar="K",
+        help="rigid model: pivot stiffness c = K*EI/L; its forces and moments are then "
+        "written in the elastica's units (EI/L^2, EI/L). Without it the rigid model is "
+        "written in the paper's §3 units (c/L, c). Default with --model both: 3, the "
+        "stiffness that matches the elastica's small-deflection tip stiffness",
+    )
+    scan.add_argument(
+        "--from", dest="x_from", type=_finite, required=True, help="first foot position x0"
+    )
+    scan.add_argument(
+        "--to", dest="x_to", type=_finite, required=True, help="last foot position x0 (inclusive)"
+    )
     scan.add_argument("--step", type=_positive, required=True, help="grid spacing of x0 (> 0)")
     scan.add_argument("--back", action="store_true", help="append the sweep back to --from")
     scan.add_argument("--csv", required=True, help="output CSV ('-' for standard output)")
     scan.add_argument("--events", help="output events JSON")
     scan.add_argument("--plot", metavar="PNG", help="also draw the paper's figures of this scan")
-    scan.add_argument("--small-png", action="store_true", help="write the figure with 256 colours (3x smaller)")
+    scan.add_argument(
+        "--small-png", action="store_true", help="write the figure with 256 colours (3x smaller)"
+    )
     scan.set_defaults(func=_cmd_scan)
 
     sweep = sub.add_parser(
         "sweep",
         help="drive a whisker_node through a sweep of foot poses and write its answers (SI)",
-        description="Publish foot poses along the world x-axis to a whisker_node, one at a time, and write "
-        "the wrench (base frame) and contact state it answers to a CSV in SI units. With --launch, start "
+        description="Publish foot poses along the world x-axis to a whisker_node, one at a time, "
+        "and write the wrench (base frame) and contact state it answers to a CSV in SI units. "
+        "With --launch, start "
         "whisker_node with that parameter file first and stop it at the end.",
     )
-    sweep.add_argument("--launch", metavar="PARAMS.yaml", help="start whisker_node with this parameter file")
-    sweep.add_argument("--node", default="/whisker_node", help="the node's name with namespace (topic prefix)")
-    sweep.add_argument("--from", dest="x_from", type=_finite, required=True, help="first foot x [m]")
-    sweep.add_argument("--to", dest="x_to", type=_finite, required=True, help="last foot x [m] (inclusive)")
+    sweep.add_argument(
+        "--launch", metavar="PARAMS.yaml", help="start whisker_node with this parameter file"
+    )
+    sweep.add_argument(
+        "--node", default="/whisker_node", help="the node's name with namespace (topic prefix)"
+    )
+    sweep.add_argument(
+        "--from", dest="x_from", type=_finite, required=True, help="first foot x [m]"
+    )
+    sweep.add_argument(
+        "--to", dest="x_to", type=_finite, required=True, help="last foot x [m] (inclusive)"
+    )
     sweep.add_argument("--step", type=_positive, required=True, help="spacing of foot x [m] (> 0)")
     sweep.add_argument("--back", action="store_true", help="append the sweep back to --from")
     sweep.add_argument("--y", type=_finite, default=0.0, help="foot y [m] (default 0)")
-    sweep.add_argument("--yaw-deg", type=_finite, default=90.0, help="base yaw [deg] (default 90: whisker along +y)")
-    sweep.add_argument("--frame", default="world", help="frame_id of the poses (the node's world_frame)")
-    sweep.add_argument("--timeout", type=_positive, default=10.0, help="seconds to wait for each answer")
+    sweep.add_argument(
+        "--yaw-deg",
+        type=_finite,
+        default=90.0,
+        help="base yaw [deg] (default 90: whisker along +y)",
+    )
+    sweep.add_argument(
+        "--frame", default="world", help="frame_id of the poses (the node's world_frame)"
+    )
+    sweep.add_argument(
+        "--timeout", type=_positive, default=10.0, help="seconds to wait for each answer"
+    )
     sweep.add_argument("--csv", required=True, help="output CSV ('-' for standard output)")
     sweep.set_defaults(func=_cmd_sweep)
 
-    info = sub.add_parser("info", help="what a recorded log holds: topics, counts, duration, configuration, "
-                          "phases and events")
+    info = sub.add_parser(
+        "info",
+        help="what a recorded log holds: topics, counts, duration, configuration, "
+        "phases and events",
+    )
     info.add_argument("log", help="an MCAP log written by whisker_node (record.path)")
     info.set_defaults(func=_cmd_info)
 
-    replay = sub.add_parser("replay", help="publish a log's messages into ROS with their recorded timing")
+    replay = sub.add_parser(
+        "replay", help="publish a log's messages into ROS with their recorded timing"
+    )
     replay.add_argument("log")
-    replay.add_argument("--rate", type=_nonnegative, default=1.0,
-                        help="speed factor of the recorded timing (2 = twice as fast); 0 = as fast as the "
-                        "subscribers take them")
-    replay.add_argument("--topics", nargs="+", metavar="TOPIC", help="only these topics (default: all)")
+    replay.add_argument(
+        "--rate",
+        type=_nonnegative,
+        default=1.0,
+        help="speed factor of the recorded timing (2 = twice as fast); 0 = as fast as the "
+        "subscribers take them",
+    )
+    replay.add_argument(
+        "--topics", nargs="+", metavar="TOPIC", help="only these topics (default: all)"
+    )
     replay.set_defaults(func=_cmd_replay)
 
-    resim = sub.add_parser("resim", help="re-run a log's poses through the core with its configuration and "
-                           "compare with its outputs field by field")
+    resim = sub.add_parser(
+        "resim",
+        help="re-run a log's poses through the core with its configuration and "
+        "compare with its outputs field by field",
+    )
     resim.add_argument("log")
     resim.add_argument("--tolerance", type=_positive, default=1e-12,
                        help="largest relative deviation allowed (default 1e-12)")
     resim.set_defaults(func=_cmd_resim)
 
-    export = sub.add_parser("export", help="a log as the scan CSV contract (dimensionless), plus a time column")
+    export = sub.add_parser(
+        "export", help="a log as the scan CSV contract (dimensionless), plus a time column"
+    )
     export.add_argument("log")
     export.add_argument("--csv", required=True, help="output CSV ('-' for standard output)")
     export.set_defaults(func=_cmd_export)
 
-    repair = sub.add_parser("repair", help="rewrite a log that was not finished (e.g. after kill -9) into a "
-                            "valid one")
+    repair = sub.add_parser(
+        "repair",
+        help="rewrite a log that was not finished (e.g. after kill -9) into a " "valid one",
+    )
     repair.add_argument("log")
     repair.add_argument("-o", "--output", required=True, help="the repaired MCAP file")
     repair.set_defaults(func=_cmd_repair)
@@ -135,21 +191,43 @@ def build_parser() -> argparse.ArgumentParser:
     plot = sub.add_parser("plot", help="draw the paper's figures of a scan CSV or a recorded log")
     plot.add_argument("input", help="a scan CSV (with --profile/--param) or an MCAP log")
     plot.add_argument("-o", "--output", required=True, metavar="PNG")
-    plot.add_argument("--profile", choices=sorted(PROFILE_PARAMETERS), help="the scanned profile (CSV input)")
+    plot.add_argument(
+        "--profile", choices=sorted(PROFILE_PARAMETERS), help="the scanned profile (CSV input)"
+    )
     plot.add_argument("--param", action="append", type=_param, default=[], metavar="NAME=VALUE")
-    plot.add_argument("--model", default="elastica", choices=sorted(MODELS), help="the model of the CSV")
+    plot.add_argument(
+        "--model", default="elastica", choices=sorted(MODELS), help="the model of the CSV"
+    )
     plot.add_argument("--spring-stiffness", type=_positive, default=None, metavar="K",
                       help="rigid model of the CSV: c = K EI/L (as given to scan)")
-    plot.add_argument("--small-png", action="store_true", help="write the figure with 256 colours (3x smaller)")
+    plot.add_argument(
+        "--small-png", action="store_true", help="write the figure with 256 colours (3x smaller)"
+    )
     plot.set_defaults(func=_cmd_plot)
 
-    rec = sub.add_parser("reconstruct", help="the scanned contour from the sensor's readings (foot pose and base "
-                         "wrench) of a log or a scan CSV")
-    rec.add_argument("input", help="an MCAP log, or a CSV with at least the columns x0, fx, fy, m0 (scan contract)")
-    rec.add_argument("--csv", required=True, help="output: x0,phase,contact_x,contact_y,alpha ('-' for stdout)")
-    rec.add_argument("--plot", metavar="PNG", help="draw the reconstruction over the true profile, if the input has it")
-    rec.add_argument("--min-force", type=_nonnegative, default=0.0,
-                     help="readings with a smaller force are taken as no contact (input units; noisy data)")
+    rec = sub.add_parser(
+        "reconstruct",
+        help="the scanned contour from the sensor's readings (foot pose and base "
+        "wrench) of a log or a scan CSV",
+    )
+    rec.add_argument(
+        "input",
+        help="an MCAP log, or a CSV with at least the columns x0, fx, fy, m0 (scan contract)",
+    )
+    rec.add_argument(
+        "--csv", required=True, help="output: x0,phase,contact_x,contact_y,alpha ('-' for stdout)"
+    )
+    rec.add_argument(
+        "--plot",
+        metavar="PNG",
+        help="draw the reconstruction over the true profile, if the input has it",
+    )
+    rec.add_argument(
+        "--min-force",
+        type=_nonnegative,
+        default=0.0,
+        help="readings with a smaller force are taken as no contact (input units; noisy data)",
+    )
     rec.set_defaults(func=_cmd_reconstruct)
     return parser
 
@@ -174,16 +252,22 @@ def _cmd_scan(args) -> int:
         profile = make_profile(args.profile, _params(args.param))
         grid = scan_grid(args.x_from, args.x_to, args.step, args.back)
         if args.model == "both" and args.csv == "-":
-            raise VibrissaError("--model both writes two CSV files: give --csv a file name, not '-'")
+            raise VibrissaError(
+                "--model both writes two CSV files: give --csv a file name, not '-'"
+            )
         if args.spring_stiffness is not None and args.model == "elastica":
-            raise VibrissaError("--spring-stiffness applies to --model rigid or both, not elastica")
+            raise VibrissaError(
+                "--spring-stiffness applies to --model rigid or both, not elastica"
+            )
         stiffness = args.spring_stiffness or (3.0 if args.model == "both" else 1.0)
         runs = []
         for name in (["elastica", "rigid"] if args.model == "both" else [args.model]):
             model = make_model(name, stiffness=stiffness) if name == "rigid" else make_model(name)
             suffix = args.model == "both" and name == "rigid"
             csv_path = rigid_output_path(args.csv) if suffix else args.csv
-            events_path = rigid_output_path(args.events) if (suffix and args.events) else args.events
+            events_path = (
+                rigid_output_path(args.events) if (suffix and args.events) else args.events
+            )
             runs.append((model, csv_path, events_path))
     except VibrissaError as exc:
         print(f"vibrissa scan: error: {exc}", file=sys.stderr)
@@ -208,11 +292,18 @@ def _cmd_scan(args) -> int:
         try:
             from .plots import PlotRun, plot_runs
         except ImportError as exc:
-            print(f"vibrissa scan: error: --plot needs matplotlib ({exc}); pip install '.[plots]'", file=sys.stderr)
+            print(
+                f"vibrissa scan: error: --plot needs matplotlib ({exc}); pip install '.[plots]'",
+                file=sys.stderr,
+            )
             return 2
 
         title = f"{profile.describe()}: " + " vs ".join(name for name, _ in results)
-        figure = plot_runs([PlotRun(name, r.states, r.events, r.event_steps) for name, r in results], profile, title=title)
+        figure = plot_runs(
+            [PlotRun(name, r.states, r.events, r.event_steps) for name, r in results],
+            profile,
+            title=title,
+        )
         figure.save(args.plot, small=args.small_png)
     return 0
 
@@ -224,12 +315,18 @@ def _cmd_sweep(args) -> int:
         print(f"vibrissa sweep: error: {exc}", file=sys.stderr)
         return 2
     if args.launch and not os.path.isfile(args.launch):
-        print(f"vibrissa sweep: error: --launch {args.launch!r}: no such parameter file", file=sys.stderr)
+        print(
+            f"vibrissa sweep: error: --launch {args.launch!r}: no such parameter file",
+            file=sys.stderr,
+        )
         return 2
     try:
         from .ros.sweep import launch_node, run_sweep, stop_node, write_sweep_csv
     except ImportError as exc:  # ROS 2 is an optional dependency of the package
-        print(f"vibrissa sweep: error: ROS 2 is not installed ({exc}); pip install '.[ros]'", file=sys.stderr)
+        print(
+            f"vibrissa sweep: error: ROS 2 is not installed ({exc}); pip install '.[ros]'",
+            file=sys.stderr,
+        )
         return 2
     yaw = math.radians(args.yaw_deg)
     poses = [(float(x), args.y, yaw) for x in grid]
@@ -237,7 +334,9 @@ def _cmd_sweep(args) -> int:
     proc = launch_node(args.launch, node_namespace) if args.launch else None
     code = 0
     try:
-        rows = run_sweep(poses, node=args.node, frame=args.frame, timeout=args.timeout, progress=sys.stderr)
+        rows = run_sweep(
+            poses, node=args.node, frame=args.frame, timeout=args.timeout, progress=sys.stderr
+        )
     except (TimeoutError, VibrissaError) as exc:
         print(f"vibrissa sweep: error: {exc}", file=sys.stderr)
         code = 1
@@ -245,7 +344,10 @@ def _cmd_sweep(args) -> int:
         if proc is not None:
             node_code = stop_node(proc)
             if node_code != 0 and code == 0:
-                print(f"vibrissa sweep: error: whisker_node exited with status {node_code}", file=sys.stderr)
+                print(
+                    f"vibrissa sweep: error: whisker_node exited with status {node_code}",
+                    file=sys.stderr,
+                )
                 code = 1
     if code:
         return code
@@ -255,7 +357,10 @@ def _cmd_sweep(args) -> int:
         with open(args.csv, "w", newline="") as stream:
             write_sweep_csv(rows, stream)
     contact = sum(1 for r in rows if r.phase)
-    print(f"vibrissa sweep: {len(rows)} poses answered ({contact} in contact) -> {args.csv}", file=sys.stderr)
+    print(
+        f"vibrissa sweep: {len(rows)} poses answered ({contact} in contact) -> {args.csv}",
+        file=sys.stderr,
+    )
     return 0
 
 
@@ -267,7 +372,11 @@ def _log_tool(verb: str, action) -> int:
         print(f"vibrissa {verb}: error: {exc.filename}: no such file", file=sys.stderr)
         return 2
     except ImportError as exc:
-        print(f"vibrissa {verb}: error: ROS 2 or mcap is not installed ({exc}); pip install '.[ros]'", file=sys.stderr)
+        print(
+            f"vibrissa {verb}: error: ROS 2 or mcap is not installed ({exc}); "
+            "pip install '.[ros]'",
+            file=sys.stderr,
+        )
         return 2
     except VibrissaError as exc:
         print(f"vibrissa {verb}: error: {exc}", file=sys.stderr)
@@ -295,8 +404,11 @@ def _cmd_info(args) -> int:
         print(f"phases:    {phases}")
         print(f"events:    {len(info.events)}")
         for e in info.events:
-            print(f"  {e['kind']:<8} {e['from_phase']} -> {e['to_phase']} at x = {e['x']:.9g} m, y = {e['y']:.9g} m, "
-                  f"yaw = {e['yaw']:.9g} rad")
+            print(
+                f"  {e['kind']:<8} {e['from_phase']} -> {e['to_phase']} at x = {e['x']:.9g} m, "
+                f"y = {e['y']:.9g} m, "
+                f"yaw = {e['yaw']:.9g} rad"
+            )
         return 0
 
     return _log_tool("info", run)
@@ -321,15 +433,21 @@ def _cmd_resim(args) -> int:
         from .log_tools import resimulate
 
         sim = resimulate(args.log)
-        print(f"{len(sim.states)} poses re-simulated, {sum(sim.dropped.values())} dropped as recorded"
-              + (f" ({dict(sim.dropped)})" if sim.dropped else ""))
+        print(
+            f"{len(sim.states)} poses re-simulated, {sum(sim.dropped.values())} dropped as "
+            "recorded"
+            + (f" ({dict(sim.dropped)})" if sim.dropped else "")
+        )
         print(f"{'field':<34} {'compared':>9} {'largest relative deviation':>28}")
         for key in sorted(sim.deviations):
             print(f"{key:<34} {sim.compared[key]:>9} {sim.deviations[key]:>28.3e}")
         for line in sim.mismatches:
             print(f"mismatch: {line}")
         bad = sim.mismatches or sim.worst() > args.tolerance
-        print(f"{'FAIL' if bad else 'OK'}: largest deviation {sim.worst():.3e} (tolerance {args.tolerance:g})")
+        print(
+            f"{'FAIL' if bad else 'OK'}: largest deviation {sim.worst():.3e} "
+            f"(tolerance {args.tolerance:g})"
+        )
         return 1 if bad else 0
 
     return _log_tool("resim", run)
@@ -350,8 +468,12 @@ def _cmd_export(args) -> int:
             if stream is not sys.stdout:
                 stream.close()
         if sim.mismatches or sim.worst() > 1e-12:
-            print(f"vibrissa export: warning: the log's outputs differ from its re-simulation by up to "
-                  f"{sim.worst():.3e}; run 'vibrissa resim {args.log}'", file=sys.stderr)
+            print(
+                "vibrissa export: warning: the log's outputs differ from its re-simulation by up "
+                f"to "
+                f"{sim.worst():.3e}; run 'vibrissa resim {args.log}'",
+                file=sys.stderr,
+            )
         return 0
 
     return _log_tool("export", run)
@@ -372,7 +494,10 @@ def _cmd_plot(args) -> int:
     try:
         from .plots import PlotRun, plot_runs, si_units
     except ImportError as exc:
-        print(f"vibrissa plot: error: needs matplotlib ({exc}); pip install '.[plots]'", file=sys.stderr)
+        print(
+            f"vibrissa plot: error: needs matplotlib ({exc}); pip install '.[plots]'",
+            file=sys.stderr,
+        )
         return 2
 
     if args.input.endswith(".mcap"):
@@ -387,14 +512,18 @@ def _cmd_plot(args) -> int:
             states = tuple(state for _, state in rows)
             units = si_units(cfg.units.length, cfg.units.force, cfg.units.moment, cfg.world_frame)
             title = f"{args.input}: {cfg.describe()}"
-            run_ = PlotRun(values.get("model", "elastica"), states, tuple(sim.events), tuple(sim.event_steps))
+            run_ = PlotRun(
+                values.get("model", "elastica"), states, tuple(sim.events), tuple(sim.event_steps)
+            )
             plot_runs([run_], cfg.profile, units, title).save(args.output, small=args.small_png)
             return 0
 
         return _log_tool("plot", run)
     try:
         if not args.profile:
-            raise VibrissaError("a scan CSV needs --profile and --param (the figure draws the obstacle)")
+            raise VibrissaError(
+                "a scan CSV needs --profile and --param (the figure draws the obstacle)"
+            )
         profile = make_profile(args.profile, _params(args.param))
         with open(args.input) as stream:
             import csv as _csv
@@ -403,8 +532,11 @@ def _cmd_plot(args) -> int:
         if not rows or "x0" not in rows[0]:
             raise VibrissaError(f"{args.input}: not a scan CSV (no x0 column)")
         x0 = [float(r["x0"]) for r in rows]
-        model = (make_model("rigid", stiffness=args.spring_stiffness or 1.0) if args.model == "rigid"
-                 else make_model(args.model))
+        model = (
+            make_model("rigid", stiffness=args.spring_stiffness or 1.0)
+            if args.model == "rigid"
+            else make_model(args.model)
+        )
         result = run_scan(profile, x0, model=model)
     except FileNotFoundError:
         print(f"vibrissa plot: error: {args.input}: no such file", file=sys.stderr)
@@ -414,8 +546,12 @@ def _cmd_plot(args) -> int:
         return 2
     worst = max(abs(float(r["m0"]) - s.m0) for r, s in zip(rows, result.states))
     if worst > 1e-9 * max(1.0, max(abs(s.m0) for s in result.states)):
-        print(f"vibrissa plot: error: the CSV is not this profile's scan (m0 differs by {worst:.3g}); check "
-              "--profile, --param and --model", file=sys.stderr)
+        print(
+            f"vibrissa plot: error: the CSV is not this profile's scan (m0 differs by "
+            f"{worst:.3g}); check "
+            "--profile, --param and --model",
+            file=sys.stderr,
+        )
         return 2
     plot_runs([PlotRun(model.name, result.states, result.events, result.event_steps)], profile,
               title=f"{profile.describe()} ({model.name})").save(args.output, small=args.small_png)
@@ -437,8 +573,12 @@ def _cmd_reconstruct(args) -> int:
         if args.plot:
             plot(rec, args.plot, title=f"{args.input}: contour from the base wrench")
         phases = [int(e.phase) for e in rec.estimates]
-        print(f"vibrissa reconstruct: {len(rec.estimates)} contact points ({phases.count(1)} tangential, "
-              f"{phases.count(2)} at the tip)", file=sys.stderr)
+        print(
+            f"vibrissa reconstruct: {len(rec.estimates)} contact points "
+            f"({phases.count(1)} tangential, "
+            f"{phases.count(2)} at the tip)",
+            file=sys.stderr,
+        )
         return 0
 
     return _log_tool("reconstruct", run)

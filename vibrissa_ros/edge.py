@@ -1,4 +1,5 @@
-"""Every conversion at the edge between ROS (SI, REP 103) and the core (the paper's units).
+"""
+Every conversion at the edge between ROS (SI, REP 103) and the core (the paper's units).
 
 No rclpy here: plain numbers and duck-typed message fields in, plain numbers out, so all of it is
 testable without ROS. Every node and tool converts through this module and nowhere else.
@@ -71,7 +72,8 @@ def planar_pose(
     z_tolerance: float,
     angle_tolerance: float,
 ) -> Tuple[float, float, float]:
-    """(x, y, yaw) of a pose that must lie in the world's x-y plane (z = 0, no roll, no pitch).
+    """
+    (x, y, yaw) of a pose that must lie in the world's x-y plane (z = 0, no roll, no pitch).
 
     ``quaternion`` is (x, y, z, w). Raises :class:`BadInput` with reason ``not_finite``,
     ``quaternion_not_unit`` or ``out_of_plane``.
@@ -104,20 +106,20 @@ def planar_pose(
 
 
 def pose_of(msg, z_tolerance: float, angle_tolerance: float) -> Tuple[float, float, float]:
-    """(x [m], y [m], yaw [rad]) of a ``geometry_msgs/PoseStamped``, checked as :func:`planar_pose`."""
+    """(x [m], y [m], yaw [rad]) of a PoseStamped, checked as :func:`planar_pose` checks."""
     p, q = msg.pose.position, msg.pose.orientation
     return planar_pose((p.x, p.y, p.z), (q.x, q.y, q.z, q.w), z_tolerance, angle_tolerance)
 
 
 # -- frames ---------------------------------------------------------------------------------------
 def world_to_base(yaw: float, vx: float, vy: float) -> Tuple[float, float]:
-    """A world-frame vector seen in the base frame of yaw ``yaw`` (rotated by -yaw)."""
+    """Return a world-frame vector seen in the base frame of yaw ``yaw`` (rotated by -yaw)."""
     c, s = math.cos(yaw), math.sin(yaw)
     return c * vx + s * vy, -s * vx + c * vy
 
 
 def base_to_world(yaw: float, vx: float, vy: float) -> Tuple[float, float]:
-    """A base-frame vector seen in the world frame (rotated by +yaw)."""
+    """Return a base-frame vector seen in the world frame (rotated by +yaw)."""
     c, s = math.cos(yaw), math.sin(yaw)
     return c * vx - s * vy, s * vx + c * vy
 
@@ -142,7 +144,8 @@ class Units:
         return cls(length, spring_stiffness / length, spring_stiffness)
 
     def foot_pose(self, x: float, y: float, yaw: float) -> FootPose:
-        """A world pose in metres -> the core's foot pose (lengths in L, heading = yaw).
+        """
+        Return a world pose in metres -> the core's foot pose (lengths in L, heading = yaw).
 
         Raises :class:`BadInput` (``not_finite``) when the position overflows in whisker lengths.
         """
@@ -155,7 +158,8 @@ class Units:
 
 @dataclass(frozen=True)
 class SensorReading:
-    """What the follicle's sensor measures and the contact state, in SI.
+    """
+    What the follicle's sensor measures and the contact state, in SI.
 
     ``force_base``/``torque_z``: the force and moment the whisker applies to its base, in the base
     frame (equal to the contact force on the whisker and to m0, by the whisker's equilibrium).
@@ -173,7 +177,8 @@ class SensorReading:
 
 
 def sensor_reading(state: WhiskerState, units: Units) -> SensorReading:
-    """Convert a core state (dimensionless, world frame) to SI and the base frame.
+    """
+    Convert a core state (dimensionless, world frame) to SI and the base frame.
 
     In the paper's set-up (yaw = pi/2) this is force.x = fy EI/L^2, force.y = -fx EI/L^2,
     torque.z = m0 EI/L.
@@ -196,7 +201,7 @@ def sensor_reading(state: WhiskerState, units: Units) -> SensorReading:
 
 def wrench_to_core(yaw: float, force_x: float, force_y: float, torque_z: float,
                    units: Units) -> Tuple[float, float, float]:
-    """A base-frame SI wrench -> the core's (fx, fy, m0): world frame, dimensionless."""
+    """Return a base-frame SI wrench -> the core's (fx, fy, m0): world frame, dimensionless."""
     wx, wy = base_to_world(yaw, force_x, force_y)
     return wx / units.force, wy / units.force, torque_z / units.moment
 
@@ -218,14 +223,14 @@ class EventRecord:
 
 
 def event_record(event: Event, units: Units) -> EventRecord:
-    """The SI payload of a core event."""
+    """Return the SI payload of a core event."""
     return EventRecord(event.kind, int(event.from_phase), int(event.to_phase),
                        event.pose.x * units.length, event.pose.y * units.length,
                        event.pose.heading)
 
 
 def encode_event(record: EventRecord) -> str:
-    """The JSON text of ``~/events``: ``{"kind", "from_phase", "to_phase", "x", "y", "yaw"}``."""
+    """Return the JSON of ``~/events``: ``{"kind", "from_phase", "to_phase", "x", "y", "yaw"}``."""
     return json.dumps({"kind": record.kind, "from_phase": record.from_phase,
                        "to_phase": record.to_phase, "x": record.x, "y": record.y,
                        "yaw": record.yaw})

@@ -1,4 +1,5 @@
-"""Tools on recorded runs: info, resim, export (the ``vibrissa`` verbs of the same names).
+"""
+Tools on recorded runs: info, resim, export (the ``vibrissa`` verbs of the same names).
 
 Decoding uses rclpy's serialization with the installed message classes (imported when a log is
 read, from :mod:`vibrissa_ros.ros.serialization`); the logs themselves carry their full schemas,
@@ -23,15 +24,18 @@ from .pipeline import PosePipeline, drop_reason
 
 
 def decode(message: LogMessage):
-    """The message object of a logged message (needs ROS 2's message packages)."""
+    """Return the message object of a logged message (needs ROS 2's message packages)."""
     from .ros.serialization import decode as decode_cdr
 
     return decode_cdr(message)
 
 
 def configurations(metadata) -> List[Tuple[int, Dict[str, object]]]:
-    """(log_time, parameter values) of every configuration record, in time order; the values carry
-    ``node`` and ``resets`` besides the parameters."""
+    """
+    Return (log_time, parameter values) of every configuration record, in time order.
+
+    The values carry ``node`` and ``resets`` besides the parameters.
+    """
     out = []
     for record in metadata:
         if record.name == CONFIGURATION_METADATA:
@@ -60,7 +64,10 @@ class LogInfo:
 def log_info(path: str) -> LogInfo:
     _, channels, metadata, messages = read_log(path)
     counts = Counter(m.topic for m in messages)
-    types = {c.topic: next((m.type_name for m in messages if m.topic == c.topic), "") for c in channels.values()}
+    types = {
+        c.topic: next((m.type_name for m in messages if m.topic == c.topic), "")
+        for c in channels.values()
+    }
     phases: Counter = Counter()
     events = []
     for m in messages:
@@ -84,11 +91,17 @@ def log_info(path: str) -> LogInfo:
 class Resimulation:
     """The recorded poses run again through the node's pipeline, next to the recorded outputs."""
 
-    states: List[Tuple[int, WhiskerState]] = field(default_factory=list)  # (stamp, state) per accepted pose
+    states: List[Tuple[int, WhiskerState]] = field(
+        default_factory=list
+    )  # (stamp, state) per accepted pose
     events: list = field(default_factory=list)  # the events crossed, in order
-    event_steps: List[int] = field(default_factory=list)  # index into states of the step that crossed each
+    event_steps: List[int] = field(
+        default_factory=list
+    )  # index into states of the step that crossed each
     dropped: Counter = field(default_factory=Counter)
-    deviations: Dict[str, float] = field(default_factory=dict)  # field -> largest relative deviation
+    deviations: Dict[str, float] = field(
+        default_factory=dict
+    )  # field -> largest relative deviation
     compared: Counter = field(default_factory=Counter)
     mismatches: List[str] = field(default_factory=list)
 
@@ -105,7 +118,7 @@ def _relative(a: float, b: float) -> float:
 
 
 def resimulate(path: str) -> Resimulation:
-    """Re-run every recorded foot pose with the recorded configuration(s); compare field by field."""
+    """Re-run every recorded foot pose with the recorded configuration(s), compare each field."""
     _, _, metadata, messages = read_log(path)
     configs = configurations(metadata)
     node = configs[0][1].get("node", "/whisker_node")
@@ -118,8 +131,15 @@ def resimulate(path: str) -> Resimulation:
         key = m.topic[len(prefix):]
         if key == "foot_pose":
             poses.append(m)
-        elif key in ("wrench", "phase", "contact_force", "contact_force_magnitude", "contact_point", "arc_length",
-                     "events"):
+        elif key in (
+            "wrench",
+            "phase",
+            "contact_force",
+            "contact_force_magnitude",
+            "contact_point",
+            "arc_length",
+            "events",
+        ):
             recorded[key].append(decode(m))
     result = Resimulation()
     pipeline = PosePipeline(build_config(configs[0][1]))
@@ -151,16 +171,24 @@ def resimulate(path: str) -> Resimulation:
             expected["contact_point"].append((stamp, r.contact_world))
             expected["arc_length"].append((None, (r.s1,)))
         for e in events:
-            expected["events"].append((None, (e.kind, int(e.from_phase), int(e.to_phase), e.pose.x * L, e.pose.y * L)))
+            expected["events"].append(
+                (None, (e.kind, int(e.from_phase), int(e.to_phase), e.pose.x * L, e.pose.y * L))
+            )
     got = {
-        "wrench": [(header_ns(w), (w.wrench.force.x, w.wrench.force.y, w.wrench.torque.z))
-                   for w in recorded["wrench"]],
+        "wrench": [
+            (header_ns(w), (w.wrench.force.x, w.wrench.force.y, w.wrench.torque.z))
+            for w in recorded["wrench"]
+        ],
         "phase": [(None, (float(x.data),)) for x in recorded["phase"]],
-        "contact_force": [(header_ns(v), (v.vector.x, v.vector.y))
-                          for v in recorded["contact_force"]],
-        "contact_force_magnitude": [(None, (x.data,)) for x in recorded["contact_force_magnitude"]],
-        "contact_point": [(header_ns(v), (v.point.x, v.point.y))
-                          for v in recorded["contact_point"]],
+        "contact_force": [
+            (header_ns(v), (v.vector.x, v.vector.y)) for v in recorded["contact_force"]
+        ],
+        "contact_force_magnitude": [
+            (None, (x.data,)) for x in recorded["contact_force_magnitude"]
+        ],
+        "contact_point": [
+            (header_ns(v), (v.point.x, v.point.y)) for v in recorded["contact_point"]
+        ],
         "arc_length": [(None, (x.data,)) for x in recorded["arc_length"]],
         "events": [],
     }
@@ -182,11 +210,17 @@ def resimulate(path: str) -> Resimulation:
             result.mismatches.append(f"{topic}: {len(have)} recorded, {len(want)} re-simulated")
         for (s_want, v_want), (s_have, v_have) in zip(want, have):
             if s_want is not None and s_want != s_have:
-                result.mismatches.append(f"{topic}: stamp {s_have} recorded where {s_want} was expected")
+                result.mismatches.append(
+                    f"{topic}: stamp {s_have} recorded where {s_want} was expected"
+                )
                 break
             for name, a, b in zip(fields, v_have, v_want):
                 key = f"{topic}.{name}"
-                dev = _relative(float(a), float(b)) if not isinstance(a, str) else (0.0 if a == b else math.inf)
+                dev = (
+                    _relative(float(a), float(b))
+                    if not isinstance(a, str)
+                    else (0.0 if a == b else math.inf)
+                )
                 result.deviations[key] = max(result.deviations.get(key, 0.0), dev)
                 result.compared[key] += 1
     return result

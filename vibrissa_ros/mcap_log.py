@@ -1,8 +1,10 @@
-"""MCAP logs in the rosbag2 layout: what ``ros2 bag``, Foxglove and rosbags open.
+"""
+MCAP logs in the rosbag2 layout: what ``ros2 bag``, Foxglove and rosbags open.
 
 * header profile ``ros2``; one schema per message type, encoding ``ros2msg``, whose text is the
-  type's .msg file followed by every dependency, each after a line of 80 ``=`` and ``MSG: pkg/Type``
-  (as rosbag2 writes it; the texts are read from the installed interface packages, share/<pkg>/msg);
+  type's .msg file followed by every dependency, each after a line of 80 ``=`` and
+  ``MSG: pkg/Type`` (as rosbag2 writes it; the texts are read from the installed interface
+  packages, share/<pkg>/msg);
 * channels with message encoding ``cdr`` and metadata ``offered_qos_profiles`` (rosbag2's YAML) and
   ``topic_type_hash`` (the type's RIHS01 hash from share/<pkg>/msg/<Type>.json);
 * zstd-compressed chunks, closed at least every ``flush_period`` seconds so that a killed writer
@@ -36,8 +38,21 @@ SCHEMA_ENCODING = "ros2msg"
 MESSAGE_ENCODING = "cdr"
 CONFIGURATION_METADATA = "vibrissa_ros.configuration"
 _PRIMITIVES = {
-    "bool", "byte", "char", "float32", "float64", "int8", "uint8", "int16", "uint16", "int32", "uint32", "int64",
-    "uint64", "string", "wstring",
+    "bool",
+    "byte",
+    "char",
+    "float32",
+    "float64",
+    "int8",
+    "uint8",
+    "int16",
+    "uint16",
+    "int32",
+    "uint32",
+    "int64",
+    "uint64",
+    "string",
+    "wstring",
 }
 _DELIMITER = "=" * 80 + "\n"
 # the infinite duration of rmw (RMW_DURATION_INFINITE), as rosbag2 writes it
@@ -59,8 +74,12 @@ def _split_type(type_name: str) -> Tuple[str, str]:
 
 
 def _share_dir(package: str) -> Path:
-    """share/<package> through the ament index, or beside this interpreter: a plain virtual
-    environment has no AMENT_PREFIX_PATH, and the interface wheels install into <venv>/share."""
+    """
+    Find share/<package> through the ament index, or beside this interpreter.
+
+    A plain virtual environment has no AMENT_PREFIX_PATH, and the interface wheels install
+    into <venv>/share.
+    """
     try:
         from ament_index_python.packages import get_package_share_directory
 
@@ -69,7 +88,9 @@ def _share_dir(package: str) -> Path:
         candidate = Path(sys.prefix) / "share" / package
         if (candidate / "msg").is_dir():
             return candidate
-        raise LogError(f"interface package {package!r} is not installed (no share/{package}/msg)") from None
+        raise LogError(
+            f"interface package {package!r} is not installed (no share/{package}/msg)"
+        ) from None
 
 
 def _msg_file(package: str, name: str, suffix: str = ".msg") -> Path:
@@ -100,7 +121,7 @@ def _dependencies(text: str, package: str) -> List[str]:
 
 
 def message_definition(type_name: str) -> str:
-    """The ros2msg schema text of ``type_name`` ('pkg/msg/Type'): the .msg file and its dependencies."""
+    """Return the ros2msg schema of ``type_name`` ('pkg/msg/Type'): its .msg and dependencies."""
     seen = set()
 
     def text_of(pkg_type: str) -> str:
@@ -118,7 +139,7 @@ def message_definition(type_name: str) -> str:
 
 
 def type_hash(type_name: str) -> str:
-    """The type's RIHS01 hash as the installed interface package states it."""
+    """Return the type's RIHS01 hash as the installed interface package states it."""
     package, name = _split_type(type_name)
     data = json.loads(_msg_file(package, name, ".json").read_text())
     full = f"{package}/msg/{name}"
@@ -158,8 +179,12 @@ class LogWriter:
         try:
             self._stream = open(self.path, "wb")
         except OSError as exc:
-            raise LogError(f"cannot open {self.path!r} for writing: {exc.strerror or exc}") from None
-        self._writer = Writer(self._stream, chunk_size=chunk_size, compression=CompressionType.ZSTD)
+            raise LogError(
+                f"cannot open {self.path!r} for writing: {exc.strerror or exc}"
+            ) from None
+        self._writer = Writer(
+            self._stream, chunk_size=chunk_size, compression=CompressionType.ZSTD
+        )
         self._schemas: Dict[str, int] = {}
         self._channels: Dict[str, int] = {}
         self._flush_period = flush_period
@@ -167,7 +192,9 @@ class LogWriter:
         self._pending = False
         self._closed = False
         self.messages = 0
-        self._guard(lambda: self._writer.start(profile=PROFILE, library=f"vibrissa_ros {__version__}"))
+        self._guard(
+            lambda: self._writer.start(profile=PROFILE, library=f"vibrissa_ros {__version__}")
+        )
 
     def _guard(self, action):
         try:
@@ -194,12 +221,16 @@ class LogWriter:
             "topic_type_hash": type_hash(spec.type_name),
         }
         cid = self._guard(
-            lambda: self._writer.register_channel(spec.topic, MESSAGE_ENCODING, self._schemas[spec.type_name], metadata)
+            lambda: self._writer.register_channel(
+                spec.topic, MESSAGE_ENCODING, self._schemas[spec.type_name], metadata
+            )
         )
         self._channels[spec.topic] = cid
         return cid
 
-    def write(self, channel_id: int, data: bytes, log_time: int, publish_time: Optional[int] = None) -> None:
+    def write(
+        self, channel_id: int, data: bytes, log_time: int, publish_time: Optional[int] = None
+    ) -> None:
         if self._closed:
             raise LogError(f"{self.path!r} is closed")
         self._guard(lambda: self._writer.add_message(
@@ -211,7 +242,9 @@ class LogWriter:
         self.flush_if_due()
 
     def metadata(self, name: str, data: Dict[str, str]) -> None:
-        self._guard(lambda: self._writer.add_metadata(name, {str(k): str(v) for k, v in data.items()}))
+        self._guard(
+            lambda: self._writer.add_metadata(name, {str(k): str(v) for k, v in data.items()})
+        )
 
     def flush_if_due(self, now: Optional[float] = None) -> None:
         """Close the open chunk if it is older than the flush period (bounded loss on a crash)."""
@@ -235,8 +268,11 @@ class LogWriter:
         self._guard(self._stream.close)
 
     def abandon(self) -> None:
-        """Finish the file as far as possible after a failure, and never raise: what was written
-        stays readable where the disk allows it."""
+        """
+        Finish the file as far as possible after a failure, and never raise.
+
+        What was written stays readable where the disk allows it.
+        """
         if self._closed:
             return
         self._closed = True
@@ -261,7 +297,7 @@ class LogMessage:
 
 
 def read_log(path: str):
-    """(schemas by id, channels by id, metadata list, messages in log-time order) of a finished MCAP."""
+    """Read a finished MCAP: (schemas, channels by id, metadata, messages in log-time order)."""
     if not Path(path).is_file():
         raise FileNotFoundError(2, "no such file", str(path))
     try:
@@ -269,20 +305,30 @@ def read_log(path: str):
             reader = make_reader(stream)
             summary = reader.get_summary()
             if summary is None:
-                raise LogError(f"{path} has no summary (not finished?): run 'vibrissa repair' on it")
+                raise LogError(
+                    f"{path} has no summary (not finished?): run 'vibrissa repair' on it"
+                )
             metadata = list(reader.iter_metadata())
             messages = [
-                LogMessage(channel.topic, schema.name if schema else "", message.log_time, message.publish_time,
-                           message.data)
+                LogMessage(
+                    channel.topic,
+                    schema.name if schema else "",
+                    message.log_time,
+                    message.publish_time,
+                    message.data,
+                )
                 for schema, channel, message in reader.iter_messages(log_time_order=True)
             ]
             return summary.schemas, summary.channels, metadata, messages
     except (McapError, struct.error, ValueError, EOFError) as exc:  # a damaged or cut file
-        raise LogError(f"cannot read {path}: {exc}; if it was not finished, 'vibrissa repair' rewrites it") from None
+        raise LogError(
+            f"cannot read {path}: {exc}; if it was not finished, 'vibrissa repair' rewrites it"
+        ) from None
 
 
 def repair(path: str, output: str) -> int:
-    """Rewrite a log that was not finished (e.g. after kill -9) into a valid one.
+    """
+    Rewrite a log that was not finished (e.g. after kill -9) into a valid one.
 
     Reads the records in order until the data stops making sense (a chunk cut off by the crash);
     every complete chunk's messages, all schemas, channels and metadata are kept. Returns the
@@ -313,9 +359,13 @@ def repair(path: str, output: str) -> int:
     with open(output, "wb") as out:
         writer = Writer(out, compression=CompressionType.ZSTD)
         writer.start(profile=PROFILE, library=f"vibrissa_ros {__version__} (repaired)")
-        schema_ids = {sid: writer.register_schema(s.name, s.encoding, s.data) for sid, s in schemas.items()}
+        schema_ids = {
+            sid: writer.register_schema(s.name, s.encoding, s.data) for sid, s in schemas.items()
+        }
         channel_ids = {
-            cid: writer.register_channel(c.topic, c.message_encoding, schema_ids.get(c.schema_id, 0), dict(c.metadata))
+            cid: writer.register_channel(
+                c.topic, c.message_encoding, schema_ids.get(c.schema_id, 0), dict(c.metadata)
+            )
             for cid, c in channels.items()
         }
         for m in metadata:
@@ -323,7 +373,9 @@ def repair(path: str, output: str) -> int:
         kept = 0
         for m in sorted(messages, key=lambda m: m.log_time):
             if m.channel_id in channel_ids:
-                writer.add_message(channel_ids[m.channel_id], m.log_time, m.data, m.publish_time, m.sequence)
+                writer.add_message(
+                    channel_ids[m.channel_id], m.log_time, m.data, m.publish_time, m.sequence
+                )
                 kept += 1
         writer.finish()
     return kept

@@ -1,4 +1,5 @@
-"""The two nodes' parameters: names, SI units, defaults, ranges, and the configurations they build.
+"""
+The two nodes' parameters: names, SI units, defaults, ranges, and the configurations they build.
 
 No rclpy here. The names are a contract (tests, parameter files and users rely on them); the
 machinery (types, ranges, reasons) is :mod:`vibrissa_ros.parameters`, shared by both nodes.
@@ -49,58 +50,138 @@ _INPUT = (
 )
 
 #: whisker_node's parameters
-PARAMETERS: Tuple[ParameterSpec, ...] = _WHISKER + (
-    ParameterSpec("model", "elastica", "whisker model: 'elastica' (paper §2) or 'rigid' (paper §3)",
-                  choices=MODELS),
-    positive("rigid.spring_stiffness", 0.015,
-             "pivot stiffness c of the rigid model; c = 3 EI/L matches the elastica's "
-             "small-deflection tip stiffness", "N m/rad", maximum=1e9),
-    ParameterSpec("obstacle.type", "parabola",
-                  "obstacle profile: parabola, catenary, circle, two_circles or ellipse; it opens "
-                  "towards world +y", choices=tuple(SHAPE_PARAMETERS)),
-    positive("obstacle.k", 10.0, "parabola: y = apex_y + k (x - apex_x)^2 / 2", "1/m"),
-    positive("obstacle.c", 0.06, "catenary: y = apex_y + c (cosh((x - apex_x)/c) - 1)", "m"),
-    positive("obstacle.radius", 0.1, "circle: radius (lower arc of the circle through the apex)",
-             "m"),
-    positive("obstacle.radius_left", 0.08, "two_circles: radius of the arc left of the apex", "m"),
-    positive("obstacle.radius_right", 0.16, "two_circles: radius of the arc right of the apex",
-             "m"),
-    positive("obstacle.a", 0.14, "ellipse: semi-axis along x", "m"),
-    positive("obstacle.b", 0.09, "ellipse: semi-axis along y", "m"),
-    ParameterSpec("obstacle.apex_x", 0.0, "x of the obstacle's lowest point in the world frame",
-                  "m"),
-    ParameterSpec("obstacle.apex_y", 0.03,
-                  "y of the obstacle's lowest point in the world frame (p0 = apex_y / length for "
-                  "a foot on the world x-axis)", "m"),
-) + _FRAMES + (
-    ParameterSpec("centerline.points", 41, "number of points of the published centerline",
-                  minimum=2, maximum=10000, resets=False),
-    nonnegative("centerline.max_rate", 30.0,
-                "highest rate of the centerline topic (a visualization: it costs more than all "
-                "other outputs together); 0 publishes it for every pose", "Hz", maximum=1e6,
-                resets=False),
-) + _INPUT + (
-    ParameterSpec("noise.enabled", False, "add the seeded sensor-noise model to the published "
-                  "wrench", resets=False),
-    ParameterSpec("noise.seed", 0, "seed of the sensor-noise generator (the same seed, the same "
-                  "readings)", minimum=0, maximum=2**62, resets=False),
-    nonnegative("noise.force_stddev", 0.0,
-                "standard deviation of the Gaussian noise on force x and y", "N", resets=False),
-    nonnegative("noise.torque_stddev", 0.0,
-                "standard deviation of the Gaussian noise on torque z", "N m", resets=False),
-    ParameterSpec("noise.force_bias_x", 0.0, "constant bias of force x", "N", resets=False),
-    ParameterSpec("noise.force_bias_y", 0.0, "constant bias of force y", "N", resets=False),
-    ParameterSpec("noise.torque_bias", 0.0, "constant bias of torque z", "N m", resets=False),
-    nonnegative("noise.force_step", 0.0, "quantization step of the force (0: none)", "N",
-                resets=False),
-    nonnegative("noise.torque_step", 0.0, "quantization step of the torque (0: none)", "N m",
-                resets=False),
-    ParameterSpec("record.path", "",
-                  "record every input pose and output topic to this MCAP file (rosbag2 layout); "
-                  "empty: off. Setting it at runtime starts a new recording, '' finishes the "
-                  "current one", resets=False),
-    positive("diagnostics.period", 1.0, "period of the /diagnostics status", "s", maximum=3600.0,
-             read_only=True, resets=False),
+PARAMETERS: Tuple[ParameterSpec, ...] = (
+    _WHISKER
+    + (
+        ParameterSpec(
+            "model",
+            "elastica",
+            "whisker model: 'elastica' (paper §2) or 'rigid' (paper §3)",
+            choices=MODELS,
+        ),
+        positive(
+            "rigid.spring_stiffness",
+            0.015,
+            "pivot stiffness c of the rigid model; c = 3 EI/L matches the elastica's "
+            "small-deflection tip stiffness",
+            "N m/rad",
+            maximum=1e9,
+        ),
+        ParameterSpec(
+            "obstacle.type",
+            "parabola",
+            "obstacle profile: parabola, catenary, circle, two_circles or ellipse; it opens "
+            "towards world +y",
+            choices=tuple(SHAPE_PARAMETERS),
+        ),
+        positive("obstacle.k", 10.0, "parabola: y = apex_y + k (x - apex_x)^2 / 2", "1/m"),
+        positive("obstacle.c", 0.06, "catenary: y = apex_y + c (cosh((x - apex_x)/c) - 1)", "m"),
+        positive(
+            "obstacle.radius",
+            0.1,
+            "circle: radius (lower arc of the circle through the apex)",
+            "m",
+        ),
+        positive(
+            "obstacle.radius_left", 0.08, "two_circles: radius of the arc left of the apex", "m"
+        ),
+        positive(
+            "obstacle.radius_right", 0.16, "two_circles: radius of the arc right of the apex", "m"
+        ),
+        positive("obstacle.a", 0.14, "ellipse: semi-axis along x", "m"),
+        positive("obstacle.b", 0.09, "ellipse: semi-axis along y", "m"),
+        ParameterSpec(
+            "obstacle.apex_x", 0.0, "x of the obstacle's lowest point in the world frame", "m"
+        ),
+        ParameterSpec(
+            "obstacle.apex_y",
+            0.03,
+            "y of the obstacle's lowest point in the world frame (p0 = apex_y / length for "
+            "a foot on the world x-axis)",
+            "m",
+        ),
+    )
+    + _FRAMES
+    + (
+        ParameterSpec(
+            "centerline.points",
+            41,
+            "number of points of the published centerline",
+            minimum=2,
+            maximum=10000,
+            resets=False,
+        ),
+        nonnegative(
+            "centerline.max_rate",
+            30.0,
+            "highest rate of the centerline topic (a visualization: it costs more than all "
+            "other outputs together); 0 publishes it for every pose",
+            "Hz",
+            maximum=1e6,
+            resets=False,
+        ),
+    )
+    + _INPUT
+    + (
+        ParameterSpec(
+            "noise.enabled",
+            False,
+            "add the seeded sensor-noise model to the published " "wrench",
+            resets=False,
+        ),
+        ParameterSpec(
+            "noise.seed",
+            0,
+            "seed of the sensor-noise generator (the same seed, the same " "readings)",
+            minimum=0,
+            maximum=2**62,
+            resets=False,
+        ),
+        nonnegative(
+            "noise.force_stddev",
+            0.0,
+            "standard deviation of the Gaussian noise on force x and y",
+            "N",
+            resets=False,
+        ),
+        nonnegative(
+            "noise.torque_stddev",
+            0.0,
+            "standard deviation of the Gaussian noise on torque z",
+            "N m",
+            resets=False,
+        ),
+        ParameterSpec("noise.force_bias_x", 0.0, "constant bias of force x", "N", resets=False),
+        ParameterSpec("noise.force_bias_y", 0.0, "constant bias of force y", "N", resets=False),
+        ParameterSpec("noise.torque_bias", 0.0, "constant bias of torque z", "N m", resets=False),
+        nonnegative(
+            "noise.force_step", 0.0, "quantization step of the force (0: none)", "N", resets=False
+        ),
+        nonnegative(
+            "noise.torque_step",
+            0.0,
+            "quantization step of the torque (0: none)",
+            "N m",
+            resets=False,
+        ),
+        ParameterSpec(
+            "record.path",
+            "",
+            "record every input pose and output topic to this MCAP file (rosbag2 layout); "
+            "empty: off. Setting it at runtime starts a new recording, '' finishes the "
+            "current one",
+            resets=False,
+        ),
+        positive(
+            "diagnostics.period",
+            1.0,
+            "period of the /diagnostics status",
+            "s",
+            maximum=3600.0,
+            read_only=True,
+            resets=False,
+        ),
+    )
 )
 
 SPECS: Dict[str, ParameterSpec] = {spec.name: spec for spec in PARAMETERS}
@@ -136,8 +217,8 @@ class WhiskerConfig:
 
 
 def build_config(values: Mapping[str, Any]) -> WhiskerConfig:
-    """Validate a full set of whisker_node parameter values (SI) and build the core's profile,
-    model and units.
+    """
+    Validate whisker_node's parameter values (SI); build the core's profile, model and units.
 
     Values missing from ``values`` take their defaults; keys that are not parameters (a log's
     ``node``, ``resets``) are ignored. Raises :class:`ParameterError` naming the parameter, its
@@ -193,8 +274,10 @@ class ContourConfig:
     def describe(self) -> str:
         """One line: the whisker and the frames."""
         v = self.values
-        return (f"elastica whisker L={v['whisker.length']!r} m, EI={v['whisker.bending_stiffness']!r}"
-                f" N m^2; poses in '{v['world_frame']}', wrenches in '{v['base_frame']}'")
+        return (
+            f"elastica whisker L={v['whisker.length']!r} m, EI={v['whisker.bending_stiffness']!r}"
+            f" N m^2; poses in '{v['world_frame']}', wrenches in '{v['base_frame']}'"
+        )
 
 
 def build_contour_config(values: Mapping[str, Any]) -> ContourConfig:

@@ -1,4 +1,5 @@
-"""The parameter machinery both nodes share: specs with type, unit, range, choices and reasons.
+"""
+The parameter machinery both nodes share: specs with type, unit, range, choices and reasons.
 
 No rclpy here (``vibrissa_ros.ros.params`` turns a spec into a ROS ParameterDescriptor and hooks
 the validation into the node). A spec's default fixes its type; :meth:`ParameterSpec.check`
@@ -17,7 +18,8 @@ from .core.errors import ParameterError
 
 @dataclass(frozen=True)
 class ParameterSpec:
-    """One node parameter: its default (which fixes its type), unit, description and range.
+    """
+    One node parameter: its default (which fixes its type), unit, description and range.
 
     ``minimum``/``maximum`` bound numbers (``exclusive_minimum``: strictly greater); ``choices``
     lists the allowed strings; ``nonempty`` strings must not be blank; ``resets``: a runtime change
@@ -42,7 +44,7 @@ class ParameterSpec:
         return type(self.default)
 
     def allowed(self) -> str:
-        """What values are allowed, in words ('> 0', 'in [2, 10000]', "'a', 'b'")."""
+        """Return what values are allowed, in words ('> 0', 'in [2, 10000]', "'a', 'b'")."""
         if self.choices:
             return ", ".join(repr(c) for c in self.choices)
         lo, hi = self.minimum, self.maximum
@@ -57,7 +59,7 @@ class ParameterSpec:
         return "any finite number" if self.kind in (int, float) else f"any {self.kind.__name__}"
 
     def problem(self, value: Any) -> Optional[str]:
-        """What is wrong with ``value`` ('must be finite', ...), or None if it is allowed."""
+        """Return what is wrong with ``value`` ('must be finite', ...), or None if allowed."""
         if self.kind is bool:
             return None if isinstance(value, bool) else "must be true or false"
         if self.kind is str:
@@ -82,7 +84,7 @@ class ParameterSpec:
         return None
 
     def check(self, value: Any) -> Any:
-        """The value, converted to the spec's type, or :class:`ParameterError` with the reason."""
+        """Return the value in the spec's type; raise :class:`ParameterError` with the reason."""
         problem = self.problem(value)
         if problem is not None:
             unit = f" {self.unit}" if self.unit and problem.startswith("is not") else ""
@@ -91,18 +93,21 @@ class ParameterSpec:
 
 
 def positive(name: str, default: float, description: str, unit: str, **kw) -> ParameterSpec:
-    """A number that must be > 0."""
+    """Return a number that must be > 0."""
     return ParameterSpec(name, default, description, unit, minimum=0.0, exclusive_minimum=True,
                          **kw)
 
 
 def nonnegative(name: str, default: float, description: str, unit: str = "",
                 **kw) -> ParameterSpec:
-    """A number that must be >= 0."""
+    """Return a number that must be >= 0."""
     return ParameterSpec(name, default, description, unit, minimum=0.0, **kw)
 
 
 def validate(specs: Iterable[ParameterSpec], values: Mapping[str, Any]) -> Dict[str, Any]:
-    """Every spec's value (its default where ``values`` has none), checked; the first bad one
-    raises :class:`ParameterError`."""
+    """
+    Return every spec's value (its default where ``values`` has none), checked.
+
+    The first bad one raises :class:`ParameterError`.
+    """
     return {spec.name: spec.check(values.get(spec.name, spec.default)) for spec in specs}

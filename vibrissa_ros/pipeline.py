@@ -1,4 +1,5 @@
-"""What the whisker node does with one foot pose, without ROS: check it, step the whisker, count.
+"""
+What the whisker node does with one foot pose, without ROS: check it, step the whisker, count.
 
 Shared by ``whisker_node`` and the log tools (``vibrissa resim``/``export``), so that a log
 re-simulated offline goes through exactly the node's path, rejections included.
@@ -35,7 +36,8 @@ DROP_REASONS = (
 
 
 def drop_reason(exc: BaseException) -> str:
-    """The /diagnostics key of a rejected pose.
+    """
+    Return the /diagnostics key of a rejected pose.
 
     ``internal_error`` is an exception the core should never raise (not a VibrissaError): the
     node survives it, drops the pose and counts it here.
@@ -61,16 +63,24 @@ class PosePipeline:
         self.noise = SensorNoise(NoiseSpec.from_parameters(config.values))
 
     def reconfigure(self, config: WhiskerConfig, reset: bool) -> None:
-        """Take a new configuration; ``reset``: the whisker is free again and the next pose
-        places it. The sensor-noise generator restarts from its seed."""
+        """
+        Take a new configuration.
+
+        ``reset``: the whisker is free again and the next pose places it. The sensor-noise
+        generator restarts from its seed.
+        """
         self.config = config
         if reset:
             self.tracker = None
         self.noise = SensorNoise(NoiseSpec.from_parameters(config.values))
 
     def reading(self, state: WhiskerState) -> Tuple[SensorReading, Tuple[float, float, float]]:
-        """The exact reading of a state (SI, base frame) and the wrench the sensor reports (with
-        the noise model, if enabled): call once per accepted pose, in order."""
+        """
+        Return the exact reading of a state (SI, base frame) and the wrench the sensor reports.
+
+        The reported wrench has the noise model applied, if enabled: call once per accepted
+        pose, in order.
+        """
         r = sensor_reading(state, self.config.units)
         return r, self.noise.apply(r.force_base[0], r.force_base[1], r.torque_z)
 
@@ -85,7 +95,8 @@ class PosePipeline:
         position: Sequence[float],
         quaternion: Sequence[float],
     ) -> Tuple[WhiskerState, Tuple[Event, ...]]:
-        """Check a pose and take the quasistatic step to it.
+        """
+        Check a pose and take the quasistatic step to it.
 
         Raises :class:`BadInput` (with a ``reason``) or another :class:`VibrissaError`; the
         pipeline then keeps its state.
@@ -117,7 +128,8 @@ class PosePipeline:
 
 
 class PoseStats:
-    """What the node counts between and across /diagnostics periods (no ROS).
+    """
+    What the node counts between and across /diagnostics periods (no ROS).
 
     ``backlog``: poses found already waiting behind the one being processed, largest per period
     (0 when the node keeps up); a step slower than ``slow_step_s`` is counted in ``slow_steps``.

@@ -1,4 +1,5 @@
-"""The scan CSV and events JSON contract (adapter: files; the core never writes files).
+"""
+The scan CSV and events JSON contract (adapter: files; the core never writes files).
 
 CSV columns, exactly: x0,phase,alpha,s1,tip_slope,f,fx,fy,m0,contact_x,contact_y (dimensionless,
 the paper's frame). A free row has phase 0, f = fx = fy = m0 = 0 and empty alpha, s1, contact_x,
@@ -13,7 +14,19 @@ from typing import IO, Iterable
 
 from .core.state import Event, WhiskerState
 
-CSV_COLUMNS = ("x0", "phase", "alpha", "s1", "tip_slope", "f", "fx", "fy", "m0", "contact_x", "contact_y")
+CSV_COLUMNS = (
+    "x0",
+    "phase",
+    "alpha",
+    "s1",
+    "tip_slope",
+    "f",
+    "fx",
+    "fy",
+    "m0",
+    "contact_x",
+    "contact_y",
+)
 
 
 def _num(value) -> str:

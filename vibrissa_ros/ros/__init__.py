@@ -1,4 +1,5 @@
-"""The ROS 2 side of vibrissa_ros: everything that imports rclpy lives in this subpackage.
+"""
+The ROS 2 side of vibrissa_ros: everything that imports rclpy lives in this subpackage.
 
 * :mod:`.whisker_node` and :mod:`.contour_node`: the two nodes (wiring only);
 * :mod:`.messages`: pure builders of every message the nodes publish (testable without DDS);

@@ -1,4 +1,5 @@
-"""ROS 2 node: the scanned contour, live, from a foot pose stream and a base wrench stream.
+"""
+ROS 2 node: the scanned contour, live, from a foot pose stream and a base wrench stream.
 
 Works with any source of the two topics (whisker_node, a real sensor, ``vibrissa replay``): remap
 ``~/foot_pose`` and ``~/wrench``, e.g. ``-r ~/foot_pose:=/whisker_node/foot_pose
@@ -32,7 +33,9 @@ from .run import run_node
 
 POSES_KEPT = 10000  # recent poses kept for pairing
 WRENCHES_WAITING = 1000  # wrenches kept waiting for the pose of their stamp
-QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000, reliability=ReliabilityPolicy.RELIABLE)
+QOS = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST, depth=1000, reliability=ReliabilityPolicy.RELIABLE
+)
 
 
 class ContourNode(Node):

@@ -1,4 +1,5 @@
-"""Every message the nodes publish, built by pure functions (no node, no DDS: unit-testable).
+"""
+Every message the nodes publish, built by pure functions (no node, no DDS: unit-testable).
 
 Numbers come in SI and in the frame named (conversions are :mod:`vibrissa_ros.edge`'s); each
 builder converts to ``float`` explicitly, as ROS_PYTHON_CHECK_FIELDS requires.
@@ -24,7 +25,7 @@ PHASE_COLORS = {1: (0.12, 0.47, 0.71), 2: (0.84, 0.15, 0.16)}
 
 def pose_stamped(x: float, y: float, yaw: float, stamp_ns: int, frame: str = "world",
                  z: float = 0.0) -> PoseStamped:
-    """A planar foot pose [m, m, rad] in ``frame``."""
+    """Return a planar foot pose [m, m, rad] in ``frame``."""
     msg = PoseStamped()
     msg.header.frame_id = frame
     set_stamp(msg.header.stamp, stamp_ns)
@@ -35,7 +36,7 @@ def pose_stamped(x: float, y: float, yaw: float, stamp_ns: int, frame: str = "wo
 
 def fill_wrench(msg: WrenchStamped, stamp, frame: str, force: Tuple[float, float],
                 torque_z: float) -> WrenchStamped:
-    """Write a planar wrench [N, N m] into ``msg`` (reused: building one costs more than a solve)."""
+    """Write a planar wrench [N, N m] into ``msg`` (reused: building one costs a step's time)."""
     msg.header.stamp = stamp
     msg.header.frame_id = frame
     msg.wrench.force.x, msg.wrench.force.y = float(force[0]), float(force[1])
@@ -44,7 +45,7 @@ def fill_wrench(msg: WrenchStamped, stamp, frame: str, force: Tuple[float, float
 
 
 def vector_stamped(stamp, frame: str, xy: Tuple[float, float]) -> Vector3Stamped:
-    """A planar vector (z = 0) in ``frame``."""
+    """Return a planar vector (z = 0) in ``frame``."""
     msg = Vector3Stamped()
     msg.header.stamp, msg.header.frame_id = stamp, frame
     msg.vector.x, msg.vector.y = float(xy[0]), float(xy[1])
@@ -52,7 +53,7 @@ def vector_stamped(stamp, frame: str, xy: Tuple[float, float]) -> Vector3Stamped
 
 
 def point_stamped(stamp, frame: str, xy: Tuple[float, float]) -> PointStamped:
-    """A planar point (z = 0) in ``frame``."""
+    """Return a planar point (z = 0) in ``frame``."""
     msg = PointStamped()
     msg.header.stamp, msg.header.frame_id = stamp, frame
     msg.point.x, msg.point.y = float(xy[0]), float(xy[1])
@@ -68,12 +69,12 @@ def float_msg(value: float) -> Float64:
 
 
 def event_msg(record: EventRecord) -> String:
-    """The ``~/events`` message of one event (JSON, see :func:`vibrissa_ros.edge.encode_event`)."""
+    """Return the ``~/events`` message of an event (JSON, see ``edge.encode_event``)."""
     return String(data=encode_event(record))
 
 
 def centerline_path(stamp, frame: str, points: np.ndarray) -> Path:
-    """The whisker's shape, points (n, 2) [m] from foot to tip, each pose facing along the rod."""
+    """Return the whisker's shape: points (n, 2) [m], foot to tip, each facing along the rod."""
     tangent = np.diff(points, axis=0)
     yaws = np.arctan2(tangent[:, 1], tangent[:, 0])
     yaws = np.append(yaws, yaws[-1])
@@ -102,7 +103,7 @@ def obstacle_points(profile, reach: float = 2.0, n: int = 400) -> np.ndarray:
 
 
 def obstacle_marker(profile, length: float, frame: str, stamp) -> Marker:
-    """The obstacle's profile as a LINE_STRIP [m], up to 2 whisker lengths above its apex."""
+    """Return the obstacle's profile as a LINE_STRIP [m], up to 2 whisker lengths above it."""
     marker = Marker()
     marker.header.frame_id, marker.header.stamp = frame, stamp
     marker.ns, marker.id = "obstacle", 0

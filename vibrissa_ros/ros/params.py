@@ -1,4 +1,5 @@
-"""The shared parameter machinery in ROS: descriptors with ranges, validation with reasons.
+"""
+The shared parameter machinery in ROS: descriptors with ranges, validation with reasons.
 
 Both nodes declare their :class:`~vibrissa_ros.parameters.ParameterSpec` tuple through
 :class:`NodeParameters`: every parameter gets a description (with its unit), its range and
@@ -28,7 +29,7 @@ _INT64 = (-(2**63), 2**63 - 1)
 
 
 def descriptor(spec: ParameterSpec) -> ParameterDescriptor:
-    """The ROS descriptor of a spec: description [unit], allowed values, range, read-only."""
+    """Return the ROS descriptor of a spec: description [unit], allowed, range, read-only."""
     text = spec.description + (f" [{spec.unit}]" if spec.unit else "")
     if spec.choices or spec.exclusive_minimum:
         text += f"; allowed: {spec.allowed()}"
@@ -47,7 +48,8 @@ def descriptor(spec: ParameterSpec) -> ParameterDescriptor:
 
 
 class NodeParameters(Generic[Config]):
-    """Declares a node's parameters and keeps its validated configuration up to date.
+    """
+    Declares a node's parameters and keeps its validated configuration up to date.
 
     ``build(values)`` validates a full set of values and returns the node's configuration (or
     raises :class:`ParameterError`); ``apply(config, names)`` takes an accepted runtime change.

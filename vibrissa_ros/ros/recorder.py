@@ -1,4 +1,5 @@
-"""Records a node's endpoints into an MCAP log (rosbag2 layout), failures handled here.
+"""
+Records a node's endpoints into an MCAP log (rosbag2 layout), failures handled here.
 
 The recorder is given ``{key: endpoint}`` (publishers and subscriptions) and takes each channel's
 topic, type and offered QoS from the endpoint itself. Messages are serialized in the caller's
@@ -27,8 +28,12 @@ from ..mcap_log import CONFIGURATION_METADATA, LogError, LogWriter, TopicSpec
 
 def configuration_record(values: Mapping[str, object], node_name: str, log_time: int,
                          resets: bool) -> Dict[str, str]:
-    """The metadata that says how a log was made: every parameter (JSON-encoded), from which log
-    time on it holds, and whether taking it reset the whisker."""
+    """
+    Return the metadata that says how a log was made.
+
+    Every parameter (JSON-encoded), from which log time on it holds, and whether taking it reset
+    the whisker.
+    """
     record = {name: json.dumps(value) for name, value in values.items()}
     record["node"] = json.dumps(node_name)
     record["vibrissa_ros_version"] = json.dumps(__version__)
@@ -43,7 +48,7 @@ def type_name(msg_type) -> str:
 
 
 def topic_spec(endpoint) -> TopicSpec:
-    """The channel of a publisher or subscription: its topic, type and QoS as offered."""
+    """Return the channel of a publisher or subscription: its topic, type and QoS as offered."""
     qos = endpoint.qos_profile
     return TopicSpec(
         endpoint.topic_name,
@@ -135,8 +140,11 @@ class Recorder:
             self._queued += 1
 
     def close(self) -> None:
-        """Write what is queued, then the summary: a finished, indexed MCAP (or, after a failure,
-        as much of it as could be saved)."""
+        """
+        Write what is queued, then the summary: a finished, indexed MCAP.
+
+        After a failure: as much of it as could be saved.
+        """
         if self._thread.is_alive():
             self._queue.put(self._STOP)
             self._thread.join()

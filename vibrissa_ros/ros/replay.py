@@ -1,4 +1,5 @@
-"""``vibrissa replay``: publish a log's messages into ROS with their recorded timing.
+"""
+``vibrissa replay``: publish a log's messages into ROS with their recorded timing.
 
 At ``rate`` 0 the messages go out as fast as DDS takes them: every publisher keeps all of its
 topic's messages in its history (depth = their number), so none is overwritten before every
@@ -24,7 +25,7 @@ ACK_MIN_SECONDS = 10.0
 
 
 def _qos(offered: str, depth: int) -> QoSProfile:
-    """The QoS to republish a channel with, from rosbag2's ``offered_qos_profiles`` text."""
+    """Return the QoS to republish a channel with, from rosbag2's ``offered_qos_profiles`` text."""
     return QoSProfile(
         history=HistoryPolicy.KEEP_LAST,
         depth=max(1, depth),
@@ -37,7 +38,8 @@ def _qos(offered: str, depth: int) -> QoSProfile:
 
 def replay(path: str, rate: float = 1.0, topics: Optional[Sequence[str]] = None,
            wait_subscribers: float = 5.0, progress=None) -> int:
-    """Publish recorded messages with their recorded relative timing divided by ``rate``.
+    """
+    Publish recorded messages with their recorded relative timing divided by ``rate``.
 
     ``rate`` 0 publishes as fast as DDS takes them, nothing lost (see the module). ``progress``:
     an object with ``update(n)`` (a tqdm bar), or None. Returns the number of messages published;
@@ -60,8 +62,10 @@ def replay(path: str, rate: float = 1.0, topics: Optional[Sequence[str]] = None,
         for m in chosen:
             if m.topic not in publishers:
                 publishers[m.topic] = node.create_publisher(
-                    message_class(m.type_name), m.topic, _qos(offered.get(m.topic, ""),
-                                                               counts[m.topic]))
+                    message_class(m.type_name),
+                    m.topic,
+                    _qos(offered.get(m.topic, ""), counts[m.topic]),
+                )
         end = time.monotonic() + wait_subscribers
         while time.monotonic() < end and not all(p.get_subscription_count()
                                                  for p in publishers.values()):

@@ -17,7 +17,8 @@ from ..core.errors import VibrissaError
 
 
 def run_node(make_node: Callable[[], Node], name: str, args=None) -> int:
-    """Init, build the node, spin until shutdown, clean up.
+    """
+    Init, build the node, spin until shutdown, clean up.
 
     An invalid start-up configuration is reported in one line and gives exit status 2. rclpy's
     experimental EventsExecutor was tried: in the Jazzy wheels it delivered no subscription

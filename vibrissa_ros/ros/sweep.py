@@ -1,4 +1,5 @@
-"""Drive a running whisker_node through a sweep of foot poses and record what it answers.
+"""
+Drive a running whisker_node through a sweep of foot poses and record what it answers.
 
 The adapter behind ``vibrissa sweep``: optionally starts ``whisker_node`` with a parameter file,
 handshakes (publishes the first pose until the node answers: graph matching alone loses messages),
@@ -31,7 +32,16 @@ from ..edge import NS_PER_S, header_ns
 from .messages import pose_stamped
 
 SWEEP_COLUMNS = (
-    "x", "y", "yaw", "phase", "force_x", "force_y", "torque_z", "contact_force", "contact_x", "contact_y",
+    "x",
+    "y",
+    "yaw",
+    "phase",
+    "force_x",
+    "force_y",
+    "torque_z",
+    "contact_force",
+    "contact_x",
+    "contact_y",
     "arc_length",
 )
 
@@ -54,7 +64,7 @@ class SweepRow:
 
 
 def whisker_node_executable() -> str:
-    """The installed ``whisker_node``: beside this Python, on PATH, or through the ament index."""
+    """Return the installed ``whisker_node``: beside Python, on PATH or via the ament index."""
     beside = Path(sys.executable).with_name("whisker_node")
     if beside.exists():
         return str(beside)
@@ -74,8 +84,11 @@ def _forward(stream: IO[str], out: IO[str]) -> None:
 
 def launch_node(params_file: str, namespace: str = "", output: Optional[IO[str]] = None
                 ) -> subprocess.Popen:
-    """Start whisker_node with a parameter file; its log lines go to ``output`` (default
-    stderr) through tqdm."""
+    """
+    Start whisker_node with a parameter file.
+
+    Its log lines go to ``output`` (default stderr) through tqdm.
+    """
     cmd = [whisker_node_executable(), "--ros-args", "--params-file", str(params_file)]
     if namespace:
         cmd += ["-r", f"__ns:={namespace}"]
@@ -93,22 +106,36 @@ def run_sweep(
     timeout: float = 10.0,
     progress: Optional[IO[str]] = None,
 ) -> List[SweepRow]:
-    """Publish ``poses`` ((x, y, yaw) in m, m, rad) to ``node`` one by one; return its answers.
+    """
+    Publish ``poses`` ((x, y, yaw) in m, m, rad) to ``node`` one by one; return its answers.
 
     ``progress``: where to draw a progress bar (a terminal stream), or None for none.
     """
-    qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000, reliability=ReliabilityPolicy.RELIABLE)
+    qos = QoSProfile(
+        history=HistoryPolicy.KEEP_LAST, depth=1000, reliability=ReliabilityPolicy.RELIABLE
+    )
     context = rclpy.Context()
     rclpy.init(context=context)
     driver = rclpy.create_node("vibrissa_sweep", context=context)
     executor = SingleThreadedExecutor(context=context)
     executor.add_node(driver)
     got = {"wrench": {}, "phase": [], "force": [], "contact": {}, "s1": []}
-    driver.create_subscription(WrenchStamped, f"{node}/wrench", lambda m: got["wrench"].__setitem__(header_ns(m), m), qos)
+    driver.create_subscription(
+        WrenchStamped, f"{node}/wrench", lambda m: got["wrench"].__setitem__(header_ns(m), m), qos
+    )
     driver.create_subscription(UInt8, f"{node}/phase", lambda m: got["phase"].append(m.data), qos)
-    driver.create_subscription(Float64, f"{node}/contact_force_magnitude", lambda m: got["force"].append(m.data), qos)
-    driver.create_subscription(PointStamped, f"{node}/contact_point", lambda m: got["contact"].__setitem__(header_ns(m), m), qos)
-    driver.create_subscription(Float64, f"{node}/arc_length", lambda m: got["s1"].append(m.data), qos)
+    driver.create_subscription(
+        Float64, f"{node}/contact_force_magnitude", lambda m: got["force"].append(m.data), qos
+    )
+    driver.create_subscription(
+        PointStamped,
+        f"{node}/contact_point",
+        lambda m: got["contact"].__setitem__(header_ns(m), m),
+        qos,
+    )
+    driver.create_subscription(
+        Float64, f"{node}/arc_length", lambda m: got["s1"].append(m.data), qos
+    )
     pub = driver.create_publisher(PoseStamped, f"{node}/foot_pose", qos)
 
     def message(i: int, pose) -> PoseStamped:
@@ -135,14 +162,31 @@ def run_sweep(
             while time.monotonic() < wait_until and not got["wrench"]:
                 executor.spin_once(timeout_sec=0.01)
         if not got["wrench"]:
-            raise TimeoutError(f"no answer from {node} (is whisker_node running in this ROS_DOMAIN_ID?)")
+            raise TimeoutError(
+                f"no answer from {node} (is whisker_node running in this ROS_DOMAIN_ID?)"
+            )
         t_drain = time.monotonic() + 0.3
         while time.monotonic() < t_drain:
             executor.spin_once(timeout_sec=0.01)
-        w = got["wrench"][header_ns(first)].wrench  # the first pose places a straight, free whisker
+        w = got["wrench"][
+            header_ns(first)
+        ].wrench  # the first pose places a straight, free whisker
         x, y, yaw = poses[0]
-        rows.append(SweepRow(float(x), float(y), float(yaw), int(got["phase"][0]), w.force.x, w.force.y,
-                             w.torque.z, got["force"][0], None, None, None))
+        rows.append(
+            SweepRow(
+                float(x),
+                float(y),
+                float(yaw),
+                int(got["phase"][0]),
+                w.force.x,
+                w.force.y,
+                w.torque.z,
+                got["force"][0],
+                None,
+                None,
+                None,
+            )
+        )
         for key in got:
             got[key].clear()
         bar.update(1)
@@ -151,21 +195,34 @@ def run_sweep(
             stamp = header_ns(msg)
             n = len(got["phase"])
             pub.publish(msg)
-            if not wait(lambda: stamp in got["wrench"] and len(got["phase"]) > n and len(got["force"]) > n):
+            if not wait(
+                lambda: stamp in got["wrench"] and len(got["phase"]) > n and len(got["force"]) > n
+            ):
                 raise TimeoutError(f"{node} did not answer the pose {pose} (dropped? see its log)")
             w = got["wrench"][stamp].wrench
             phase = got["phase"][n]
             contact, s1 = None, None
             if phase:
-                if not wait(lambda: stamp in got["contact"] and len(got["s1"]) >= len(got["contact"])):
+                if not wait(
+                    lambda: stamp in got["contact"] and len(got["s1"]) >= len(got["contact"])
+                ):
                     raise TimeoutError(f"{node} sent no contact point for the pose {pose}")
                 contact, s1 = got["contact"][stamp], got["s1"][len(got["contact"]) - 1]
-            rows.append(SweepRow(
-                x=float(pose[0]), y=float(pose[1]), yaw=float(pose[2]), phase=int(phase),
-                force_x=w.force.x, force_y=w.force.y, torque_z=w.torque.z, contact_force=got["force"][n],
-                contact_x=contact.point.x if contact else None, contact_y=contact.point.y if contact else None,
-                arc_length=s1,
-            ))
+            rows.append(
+                SweepRow(
+                    x=float(pose[0]),
+                    y=float(pose[1]),
+                    yaw=float(pose[2]),
+                    phase=int(phase),
+                    force_x=w.force.x,
+                    force_y=w.force.y,
+                    torque_z=w.torque.z,
+                    contact_force=got["force"][n],
+                    contact_x=contact.point.x if contact else None,
+                    contact_y=contact.point.y if contact else None,
+                    arc_length=s1,
+                )
+            )
             bar.update(1)
     finally:
         bar.close()
@@ -179,7 +236,9 @@ def write_sweep_csv(rows: Sequence[SweepRow], stream: IO[str]) -> None:
     writer = csv.writer(stream, lineterminator="\n")
     writer.writerow(SWEEP_COLUMNS)
     for r in rows:
-        writer.writerow(["" if getattr(r, c) is None else repr(getattr(r, c)) for c in SWEEP_COLUMNS])
+        writer.writerow(
+            ["" if getattr(r, c) is None else repr(getattr(r, c)) for c in SWEEP_COLUMNS]
+        )
 
 
 def stop_node(proc: subprocess.Popen, timeout: float = 10.0) -> int:

@@ -1,4 +1,5 @@
-"""ROS 2 virtual whisker: foot poses in, the follicle sensor's wrench and the contact state out.
+"""
+ROS 2 virtual whisker: foot poses in, the follicle sensor's wrench and the contact state out.
 
 Topics (relative to the node, remappable):
 
@@ -138,7 +139,7 @@ class WhiskerNode(Node):
         self.get_logger().info(f"recording to {path}")
 
     def _recording_failed(self, reason: str) -> None:
-        """Called once per failed recording (from the recorder's thread, possibly)."""
+        """Report a failed recording, once (from the recorder's thread, possibly)."""
         self._record_error = reason
         if self.context.ok():
             self.get_logger().error(f"recording stopped: {reason}; the whisker keeps running "
@@ -227,7 +228,7 @@ class WhiskerNode(Node):
 
     # -- output ---------------------------------------------------------------------------------
     def _listening(self) -> Dict[str, bool]:
-        """Which optional topics have subscribers (a graph query: refreshed every 0.1 s at most)."""
+        """Return which optional topics have subscribers (a graph query, made every 0.1 s)."""
         now = time.monotonic()
         if now - self._listened_at > 0.1:
             self._listened_at = now
