@@ -268,10 +268,9 @@ class QuasistaticTracker:
         self._spend()
         base, u, v = self._base_frame_point(x, y)
         try:
-            a = base.alpha_at_x(u)
+            return base.height_at_x(u) - v
         except ParameterError:
             return math.inf
-        return base.point(a)[1] - v
 
     @staticmethod
     def _tip(pose: FootPose) -> Tuple[float, float]:
@@ -537,9 +536,6 @@ class QuasistaticTracker:
             T = -T
         return T
 
-    def _events_of(self, phase, z):
-        return self.model.events(phase, z)
-
     def _follow(self, path: _Path, contact: _Contact):
         """Follow the contact branch from contact.t towards t = 1.
 
@@ -556,7 +552,7 @@ class QuasistaticTracker:
         Y = np.array([contact.z[0], contact.z[1], contact.t * path.length])
         R, J = self._jacobian(path, phase, side, Y)
         T = self._tangent(J)
-        ev_a = self._events_of(phase, contact.z)
+        ev_a = self.model.events(phase, contact.z)
         # -- careful path: pseudo-arclength continuation --------------------------------------
         h = min(self.options.max_arclength_step, max(tau_end - Y[2], 1e-6))
         steps = 0
@@ -585,7 +581,7 @@ class QuasistaticTracker:
             Rn, Jn = self._jacobian(path, phase, side, Yn)
             Tn = self._tangent(Jn, T)
             zn = (Yn[0], Yn[1])
-            ev_b = self._events_of(phase, zn)
+            ev_b = self.model.events(phase, zn)
             found = []  # (kind, name)
             fold = T[2] > 0.0 >= Tn[2]
             if fold:
@@ -684,8 +680,8 @@ class QuasistaticTracker:
         det_b = a[0] * b[1] - a[1] * b[0]
         if det_a * det_b <= 0.0:
             return False
-        ev_a = self._events_of(phase, (z0, z1))
-        ev_b = self._events_of(phase, z)
+        ev_a = self.model.events(phase, (z0, z1))
+        ev_b = self.model.events(phase, z)
         for key, value in ev_b.items():
             if value <= 0.0 < ev_a[key]:
                 return False
@@ -775,7 +771,7 @@ class QuasistaticTracker:
             if kind == "target":
                 g = lambda Y: Y[2] - tau_end  # noqa: E731
             else:
-                g = lambda Y, name=name: self._events_of(phase, (Y[0], Y[1]))[name]  # noqa: E731
+                g = lambda Y, name=name: self.model.events(phase, (Y[0], Y[1]))[name]  # noqa: E731
             ga, gb = g(Ya), g(Yb)
             if ga == 0.0:
                 p_star = pa
@@ -873,7 +869,6 @@ class QuasistaticTracker:
             contact=None,
             tip=tip,
             shape=(),
-            model=self.model.name,
         )
 
     def _contact_state(self, pose: FootPose, phase: Phase, side: int, z) -> WhiskerState:
@@ -881,9 +876,9 @@ class QuasistaticTracker:
         beta = pose.heading - HALF_PI
         alpha_w = side * z[0] + beta
         cx, cy = self.profile.point(alpha_w)
-        c, s = math.cos(beta), math.sin(beta)
-        ox = side * ox
-        tip = (cx + c * ox - s * oy, cy + s * ox + c * oy)
+        # the tip: the contact point plus the contact-frame offset, turned into the world frame
+        tx, ty = pose.contact_to_world(ox, oy, side)
+        tip = (cx + tx - pose.x, cy + ty - pose.y)
         tip_slope = beta + (phi1_c if side > 0 else math.pi - phi1_c)
         return WhiskerState(
             phase=phase,
@@ -899,7 +894,7 @@ class QuasistaticTracker:
             contact=(cx, cy),
             tip=tip,
             shape=(float(int(phase)), float(z[0]), float(z[1])),
-            model=self.model.name,
+            model=self.model,
         )
 
 
