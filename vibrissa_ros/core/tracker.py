@@ -527,8 +527,15 @@ class QuasistaticTracker:
 
     @staticmethod
     def _tangent(J: np.ndarray, previous=None) -> np.ndarray:
-        T = np.cross(J[0], J[1])
-        T /= np.linalg.norm(T)
+        """Unit tangent of the branch: the kernel of the 2x3 Jacobian (cross product of its rows),
+        oriented along increasing tau or along ``previous``. Scalar arithmetic: numpy's cross and
+        norm cost more than the model evaluation on 3-vectors."""
+        (a0, a1, a2), (b0, b1, b2) = J[0], J[1]
+        t0, t1, t2 = a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
+        norm = math.sqrt(t0 * t0 + t1 * t1 + t2 * t2)
+        if not norm > 0.0 or not math.isfinite(norm):
+            raise ConvergenceError("the branch has no unique tangent here (singular Jacobian)")
+        T = np.array((t0 / norm, t1 / norm, t2 / norm))
         if previous is None:
             if T[2] < 0.0:
                 T = -T
@@ -698,13 +705,11 @@ class QuasistaticTracker:
                 R, J = self._jacobian(path, phase, side, Y)
             except (ValueError, ZeroDivisionError):
                 return None
-            M = np.vstack((J, T))
-            rhs = np.array([R[0], R[1], T @ (Y - Yp)])
-            try:
-                d = np.linalg.solve(M, -rhs)
-            except np.linalg.LinAlgError:
-                return None
-            if not np.all(np.isfinite(d)):
+            d = _solve3(
+                [list(J[0]), list(J[1]), list(T)],
+                [-R[0], -R[1], -float(T @ (Y - Yp))],
+            )
+            if d is None:
                 return None
             Y = Y + d
             if np.max(np.abs(d)) <= self.options.newton_tol * max(1.0, np.max(np.abs(Y))):
@@ -896,6 +901,31 @@ class QuasistaticTracker:
             shape=(float(int(phase)), float(z[0]), float(z[1])),
             model=self.model,
         )
+
+
+def _solve3(m, b) -> Optional[np.ndarray]:
+    """Solve the 3x3 system m x = b by Gaussian elimination with partial pivoting (scalar
+    arithmetic: for 3x3 systems in the continuation's inner loop this is several times faster
+    than LAPACK through numpy). None when singular or not finite."""
+    m = [row[:] + [bi] for row, bi in zip(m, b)]
+    for col in range(3):
+        piv = max(range(col, 3), key=lambda r: abs(m[r][col]))
+        if not m[piv][col] != 0.0:
+            return None
+        m[col], m[piv] = m[piv], m[col]
+        pc = m[col]
+        for r in range(col + 1, 3):
+            factor = m[r][col] / pc[col]
+            if factor != 0.0:
+                row = m[r]
+                for k in range(col, 4):
+                    row[k] -= factor * pc[k]
+    x2 = m[2][3] / m[2][2]
+    x1 = (m[1][3] - m[1][2] * x2) / m[1][1]
+    x0 = (m[0][3] - m[0][1] * x1 - m[0][2] * x2) / m[0][0]
+    if not (math.isfinite(x0) and math.isfinite(x1) and math.isfinite(x2)):
+        return None
+    return np.array((x0, x1, x2))
 
 
 def _as_pose(pose) -> FootPose:
