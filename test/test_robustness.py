@@ -289,3 +289,17 @@ def test_a_step_that_exceeds_its_budget_raises_and_keeps_the_state():
     with pytest.raises(ConvergenceError, match="more than 50 evaluations"):
         tracker.step(FootPose(-2.0, 0.0, HALF_PI))
     assert tracker.state.pose.x == 2.0
+
+
+@pytest.mark.parametrize("make", [lambda v: Catenary(0.3, v), lambda v: Circle(0.3, v), lambda v: Ellipse(0.3, 1.0, v)])
+@pytest.mark.parametrize("size", [1e-300, 1e-7, 1e7, 1e300])
+def test_degenerate_profile_sizes_are_refused_with_the_allowed_range(make, size):
+    """A catenary with c = 1e-300 is a wall of zero width: refused up front, with the range."""
+    with pytest.raises(VibrissaError, match="must be > 0, within"):
+        make(size)
+
+
+def test_the_height_of_a_narrow_catenary_far_out_is_infinite_not_an_overflow():
+    prof = Catenary(0.3, 1e-6)
+    assert prof.height_at_x(1.0) == math.inf
+    assert prof.height_at_x(1e-6) == pytest.approx(0.3 + 1e-6 * (math.cosh(1.0) - 1.0), rel=1e-15)

@@ -268,10 +268,9 @@ class QuasistaticTracker:
         self._spend()
         base, u, v = self._base_frame_point(x, y)
         try:
-            a = base.alpha_at_x(u)
+            return base.height_at_x(u) - v
         except ParameterError:
             return math.inf
-        return base.point(a)[1] - v
 
     @staticmethod
     def _tip(pose: FootPose) -> Tuple[float, float]:
@@ -528,17 +527,21 @@ class QuasistaticTracker:
 
     @staticmethod
     def _tangent(J: np.ndarray, previous=None) -> np.ndarray:
-        T = np.cross(J[0], J[1])
-        T /= np.linalg.norm(T)
+        """Unit tangent of the branch: the kernel of the 2x3 Jacobian (cross product of its rows),
+        oriented along increasing tau or along ``previous``. Scalar arithmetic: numpy's cross and
+        norm cost more than the model evaluation on 3-vectors."""
+        (a0, a1, a2), (b0, b1, b2) = J[0], J[1]
+        t0, t1, t2 = a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
+        norm = math.sqrt(t0 * t0 + t1 * t1 + t2 * t2)
+        if not norm > 0.0 or not math.isfinite(norm):
+            raise ConvergenceError("the branch has no unique tangent here (singular Jacobian)")
+        T = np.array((t0 / norm, t1 / norm, t2 / norm))
         if previous is None:
             if T[2] < 0.0:
                 T = -T
         elif T @ previous < 0.0:
             T = -T
         return T
-
-    def _events_of(self, phase, z):
-        return self.model.events(phase, z)
 
     def _follow(self, path: _Path, contact: _Contact):
         """Follow the contact branch from contact.t towards t = 1.
@@ -556,7 +559,7 @@ class QuasistaticTracker:
         Y = np.array([contact.z[0], contact.z[1], contact.t * path.length])
         R, J = self._jacobian(path, phase, side, Y)
         T = self._tangent(J)
-        ev_a = self._events_of(phase, contact.z)
+        ev_a = self.model.events(phase, contact.z)
         # -- careful path: pseudo-arclength continuation --------------------------------------
         h = min(self.options.max_arclength_step, max(tau_end - Y[2], 1e-6))
         steps = 0
@@ -585,7 +588,7 @@ class QuasistaticTracker:
             Rn, Jn = self._jacobian(path, phase, side, Yn)
             Tn = self._tangent(Jn, T)
             zn = (Yn[0], Yn[1])
-            ev_b = self._events_of(phase, zn)
+            ev_b = self.model.events(phase, zn)
             found = []  # (kind, name)
             fold = T[2] > 0.0 >= Tn[2]
             if fold:
@@ -628,6 +631,12 @@ class QuasistaticTracker:
                 f"{path.pose(t)}: the foot is being driven into the obstacle, which the model does "
                 "not cover"
             )
+        try:
+            near = [name for name, value in self.model.events(phase, z).items() if value < 1e-8]
+        except _NUMERICAL_ERRORS:
+            near = []
+        for name in near:  # the branch ends on a phase boundary: a model limit (WH1) says so
+            self.model.transition(phase, name, z)
         if abs(z[0]) > HALF_PI - 1e-6:
             raise ModelAssumptionError(
                 f"the contact reached the end of the profile's lower arc at {path.pose(t)}: its "
@@ -684,8 +693,8 @@ class QuasistaticTracker:
         det_b = a[0] * b[1] - a[1] * b[0]
         if det_a * det_b <= 0.0:
             return False
-        ev_a = self._events_of(phase, (z0, z1))
-        ev_b = self._events_of(phase, z)
+        ev_a = self.model.events(phase, (z0, z1))
+        ev_b = self.model.events(phase, z)
         for key, value in ev_b.items():
             if value <= 0.0 < ev_a[key]:
                 return False
@@ -702,13 +711,11 @@ class QuasistaticTracker:
                 R, J = self._jacobian(path, phase, side, Y)
             except (ValueError, ZeroDivisionError):
                 return None
-            M = np.vstack((J, T))
-            rhs = np.array([R[0], R[1], T @ (Y - Yp)])
-            try:
-                d = np.linalg.solve(M, -rhs)
-            except np.linalg.LinAlgError:
-                return None
-            if not np.all(np.isfinite(d)):
+            d = _solve3(
+                [list(J[0]), list(J[1]), list(T)],
+                [-R[0], -R[1], -float(T @ (Y - Yp))],
+            )
+            if d is None:
                 return None
             Y = Y + d
             if np.max(np.abs(d)) <= self.options.newton_tol * max(1.0, np.max(np.abs(Y))):
@@ -775,7 +782,7 @@ class QuasistaticTracker:
             if kind == "target":
                 g = lambda Y: Y[2] - tau_end  # noqa: E731
             else:
-                g = lambda Y, name=name: self._events_of(phase, (Y[0], Y[1]))[name]  # noqa: E731
+                g = lambda Y, name=name: self.model.events(phase, (Y[0], Y[1]))[name]  # noqa: E731
             ga, gb = g(Ya), g(Yb)
             if ga == 0.0:
                 p_star = pa
@@ -873,7 +880,6 @@ class QuasistaticTracker:
             contact=None,
             tip=tip,
             shape=(),
-            model=self.model.name,
         )
 
     def _contact_state(self, pose: FootPose, phase: Phase, side: int, z) -> WhiskerState:
@@ -881,9 +887,9 @@ class QuasistaticTracker:
         beta = pose.heading - HALF_PI
         alpha_w = side * z[0] + beta
         cx, cy = self.profile.point(alpha_w)
-        c, s = math.cos(beta), math.sin(beta)
-        ox = side * ox
-        tip = (cx + c * ox - s * oy, cy + s * ox + c * oy)
+        # the tip: the contact point plus the contact-frame offset, turned into the world frame
+        tx, ty = pose.contact_to_world(ox, oy, side)
+        tip = (cx + tx - pose.x, cy + ty - pose.y)
         tip_slope = beta + (phi1_c if side > 0 else math.pi - phi1_c)
         return WhiskerState(
             phase=phase,
@@ -899,8 +905,33 @@ class QuasistaticTracker:
             contact=(cx, cy),
             tip=tip,
             shape=(float(int(phase)), float(z[0]), float(z[1])),
-            model=self.model.name,
+            model=self.model,
         )
+
+
+def _solve3(m, b) -> Optional[np.ndarray]:
+    """Solve the 3x3 system m x = b by Gaussian elimination with partial pivoting (scalar
+    arithmetic: for 3x3 systems in the continuation's inner loop this is several times faster
+    than LAPACK through numpy). None when singular or not finite."""
+    m = [row[:] + [bi] for row, bi in zip(m, b)]
+    for col in range(3):
+        piv = max(range(col, 3), key=lambda r: abs(m[r][col]))
+        if not m[piv][col] != 0.0:
+            return None
+        m[col], m[piv] = m[piv], m[col]
+        pc = m[col]
+        for r in range(col + 1, 3):
+            factor = m[r][col] / pc[col]
+            if factor != 0.0:
+                row = m[r]
+                for k in range(col, 4):
+                    row[k] -= factor * pc[k]
+    x2 = m[2][3] / m[2][2]
+    x1 = (m[1][3] - m[1][2] * x2) / m[1][1]
+    x0 = (m[0][3] - m[0][1] * x1 - m[0][2] * x2) / m[0][0]
+    if not (math.isfinite(x0) and math.isfinite(x1) and math.isfinite(x2)):
+        return None
+    return np.array((x0, x1, x2))
 
 
 def _as_pose(pose) -> FootPose:
