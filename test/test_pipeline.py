@@ -113,3 +113,7 @@ def test_stats_count_and_summarize_a_period():
     empty = stats.period()
     assert empty["solves_in_period"] == 0 and empty["solve_time_median_us"] == ""
     assert empty["backlog_in_period"] == 0 and stats.backlog_max == 3
+    values = stats.values()
+    assert values["poses_received"] == 4 and values["poses_dropped"] == 2
+    assert values["dropped_not_finite"] == 2 and values["slowest_step_ms"] == "50.0"
+    assert {f"dropped_{r}" for r in DROP_REASONS} <= set(values)

@@ -168,6 +168,20 @@ class PoseStats:
         self._period_backlog = max(self._period_backlog, n)
         self.backlog_max = max(self.backlog_max, n)
 
+    def values(self) -> dict:
+        """Return the /diagnostics values of the counters (and of the period now ending)."""
+        return {
+            "poses_received": self.received,
+            "poses_processed": self.processed,
+            "poses_dropped": sum(self.dropped.values()),
+            "snaps": self.snaps,
+            **self.period(),
+            "backlog_max": self.backlog_max,
+            "slow_steps": self.slow_steps,
+            "slowest_step_ms": f"{self.slowest_step_s * 1e3:.1f}",
+            **{f"dropped_{reason}": self.dropped[reason] for reason in DROP_REASONS},
+        }
+
     def period(self) -> dict:
         """Solve-time figures [us] and the backlog of the period now ending; starts a new one."""
         times = np.array(self._solve_times_ns, dtype=float) / 1e3

@@ -1,42 +1,26 @@
 """
 ROS 2 virtual whisker: foot poses in, the follicle sensor's wrench and the contact state out.
 
-Topics (relative to the node, remappable):
-
-* ``~/foot_pose`` (in) geometry_msgs/PoseStamped: the whisker's base in ``world_frame``; x, y and
-  yaw are used, the pose must lie in the plane z = 0 (no roll, no pitch).
-* ``~/wrench`` geometry_msgs/WrenchStamped in ``base_frame``: force (x, y) [N] and torque z [N m]
-  that the whisker applies to its base (with the optional sensor-noise model ``noise.*``; every
-  other topic is exact).
-* ``~/phase`` std_msgs/UInt8: 0 free, 1 tangential contact, 2 tip contact.
-* ``~/contact_force`` geometry_msgs/Vector3Stamped in ``world_frame``: the obstacle's force on the
-  whisker [N] (zero when free); ``~/contact_force_magnitude`` std_msgs/Float64 [N].
-* ``~/contact_point`` geometry_msgs/PointStamped in ``world_frame`` [m] and ``~/arc_length``
-  std_msgs/Float64 (s1 [m] from the base): only while in contact.
-* ``~/events`` std_msgs/String: one JSON object per event (touch, phase, snap, release).
-* ``~/centerline`` nav_msgs/Path in ``world_frame`` (at most ``centerline.max_rate`` Hz);
-  ``~/obstacle`` visualization_msgs/Marker (latched: transient local).
-* ``/diagnostics`` diagnostic_msgs/DiagnosticArray every ``diagnostics.period`` seconds.
-
-Every message with a header carries the stamp of the pose that produced it. The wrench and events
-are always published; the other per-pose topics only while somebody subscribes to them. This
-module only wires: checks and steps are :mod:`vibrissa_ros.pipeline`'s, conversions
-:mod:`vibrissa_ros.edge`'s, messages :mod:`.messages`' and recording :mod:`.recorder`'s.
+In: ``~/foot_pose`` (geometry_msgs/PoseStamped in ``world_frame``). Out: ``~/wrench`` (base frame),
+``~/phase``, ``~/contact_force``, ``~/contact_force_magnitude``, ``~/contact_point``,
+``~/arc_length``, ``~/events``, ``~/centerline``, ``~/obstacle`` (latched) and ``/diagnostics``;
+the README's topic table says what each carries. Every message with a header carries the stamp
+of the pose that produced it; the wrench and events are always published, the other per-pose
+topics only while somebody subscribes (or the node records). This module only wires: checks and
+steps are :mod:`vibrissa_ros.pipeline`'s, conversions :mod:`vibrissa_ros.edge`'s, messages
+:mod:`.messages`', recording :mod:`.recorder`'s and queueing :mod:`.backlog`'s.
 """
 
 from __future__ import annotations
 
 import math
 import time
-from collections import deque
-from typing import Deque, Dict, Optional
+from typing import Dict, Optional
 
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PointStamped, PoseStamped, Vector3Stamped, WrenchStamped
 from nav_msgs.msg import Path
-from rclpy.exceptions import InvalidHandle
 from rclpy.node import Node
-from rclpy.serialization import deserialize_message
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import Float64, String, UInt8
 from visualization_msgs.msg import Marker
@@ -44,8 +28,9 @@ from visualization_msgs.msg import Marker
 from ..edge import event_record, header_ns
 from ..mcap_log import LogError
 from ..node_config import PARAMETERS, WhiskerConfig, build_config
-from ..pipeline import DROP_REASONS, PosePipeline, PoseStats, drop_reason
+from ..pipeline import PosePipeline, PoseStats, drop_reason
 from . import messages as m
+from .backlog import PoseBacklog
 from .params import NodeParameters
 from .recorder import Recorder
 from .run import run_node
@@ -53,7 +38,6 @@ from .run import run_node
 LOG_THROTTLE_S = 1.0  # seconds between two log lines of the same drop reason
 BATCH = 100  # poses processed per executor callback at most (timers and services get a turn)
 TAKE_EVERY = 10  # poses processed between two takes of what DDS holds
-MAX_BACKLOG = 200_000  # poses held by the node at most; beyond, DDS holds them (keep all)
 RELIABLE = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000,
                       reliability=ReliabilityPolicy.RELIABLE)
 # poses: keep all, so that a slow step delays the ones behind it instead of losing them
@@ -91,9 +75,7 @@ class WhiskerNode(Node):
                      for key, (kind, qos) in OUTPUTS.items()}
         self._pub["diagnostics"] = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
         self._sub = self.create_subscription(PoseStamped, "~/foot_pose", self._on_pose, POSES)
-        # poses taken from DDS, not processed yet (serialized): DDS's own queue never fills, so
-        # a fast sender is never throttled by retransmissions, and a slow step loses nothing
-        self._backlog: Deque[bytes] = deque()
+        self._backlog = PoseBacklog(self._sub)
         self._more = self.create_guard_condition(self._work)
         period = float(self.config.values["diagnostics.period"])
         self.create_timer(period, self._publish_diagnostics)
@@ -175,31 +157,16 @@ class WhiskerNode(Node):
             self._process_pose(msg)
         self._work()
 
-    def _take_available(self) -> None:
-        """Move what DDS holds for us into the backlog, serialized (cheap: no executor turn)."""
-        while len(self._backlog) < MAX_BACKLOG:
-            try:
-                with self._sub.handle:
-                    taken = self._sub.handle.take_message(self._sub.msg_type, True)
-            except InvalidHandle:  # the subscription is gone (shutting down)
-                return
-            if taken is None:
-                return
-            self._backlog.append(taken[0])
-
     def _work(self) -> None:
         """Process up to BATCH waiting poses; if more wait, come back after the executor's turn."""
-        self._take_available()
+        self._backlog.take_available()
         for i in range(BATCH):
             if not self._backlog:
                 return
             self._stats.waiting(len(self._backlog))
-            item = self._backlog.popleft()
-            if isinstance(item, bytes):
-                item = deserialize_message(item, PoseStamped)
-            self._process_pose(item)
+            self._process_pose(self._backlog.pop())
             if i % TAKE_EVERY == TAKE_EVERY - 1:
-                self._take_available()
+                self._backlog.take_available()
         if self._backlog:
             self._more.trigger()
 
@@ -291,19 +258,11 @@ class WhiskerNode(Node):
         phase = None if state is None else int(state.phase)
         values = {
             "phase": "none" if phase is None else str(phase),
-            "poses_received": stats.received,
-            "poses_processed": stats.processed,
-            "poses_dropped": sum(stats.dropped.values()),
-            "snaps": stats.snaps,
-            **stats.period(),
-            "backlog_max": stats.backlog_max,
-            "slow_steps": stats.slow_steps,
-            "slowest_step_ms": f"{stats.slowest_step_s * 1e3:.1f}",
+            **stats.values(),
             "configuration": self.config.describe(),
             "recording": recorder.path if recorder is not None else "",
             "recorded_messages": recorder.written if recorder is not None else 0,
             "recording_error": self._record_error,
-            **{f"dropped_{reason}": stats.dropped[reason] for reason in DROP_REASONS},
         }
         status = m.whisker_status(self.get_fully_qualified_name(), phase, values["poses_dropped"],
                                   stats.last_error, self._record_error, values)
