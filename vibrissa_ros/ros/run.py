@@ -6,14 +6,18 @@ from typing import Callable
 
 import rclpy
 from rclpy.exceptions import (
+    InvalidHandle,
     InvalidParameterTypeException,
     InvalidParameterValueException,
     ParameterUninitializedException,
 )
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.impl.implementation_singleton import rclpy_implementation
 from rclpy.node import Node
 
 from ..core.errors import VibrissaError
+
+RCLError = rclpy_implementation.RCLError
 
 
 def run_node(make_node: Callable[[], Node], name: str, args=None) -> int:
@@ -34,6 +38,10 @@ def run_node(make_node: Callable[[], Node], name: str, args=None) -> int:
         executor.spin()
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
+    except (RCLError, InvalidHandle):
+        # SIGINT/SIGTERM shut the context down while a callback was publishing: a clean stop
+        if rclpy.ok():
+            raise
     except (VibrissaError, InvalidParameterValueException, InvalidParameterTypeException,
             ParameterUninitializedException) as exc:
         rclpy.logging.get_logger(name).fatal(f"invalid parameters: {exc}")
