@@ -18,12 +18,8 @@ import time
 from typing import Dict, Optional
 
 from diagnostic_msgs.msg import DiagnosticArray
-from geometry_msgs.msg import PointStamped, PoseStamped, Vector3Stamped, WrenchStamped
-from nav_msgs.msg import Path
+from geometry_msgs.msg import PoseStamped, WrenchStamped
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
-from std_msgs.msg import Float64, String, UInt8
-from visualization_msgs.msg import Marker
 
 from ..edge import event_record, header_ns
 from ..mcap_log import LogError
@@ -34,26 +30,11 @@ from .backlog import PoseBacklog
 from .params import NodeParameters
 from .recorder import Recorder
 from .run import run_node
+from .topics import OPTIONAL, OUTPUTS, POSES
 
 LOG_THROTTLE_S = 1.0  # seconds between two log lines of the same drop reason
 BATCH = 100  # poses processed per executor callback at most (timers and services get a turn)
 TAKE_EVERY = 10  # poses processed between two takes of what DDS holds
-RELIABLE = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000,
-                      reliability=ReliabilityPolicy.RELIABLE)
-# poses: keep all, so that a slow step delays the ones behind it instead of losing them
-POSES = QoSProfile(history=HistoryPolicy.KEEP_ALL, depth=1000,
-                   reliability=ReliabilityPolicy.RELIABLE)
-LATCHED = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,
-                     reliability=ReliabilityPolicy.RELIABLE,
-                     durability=DurabilityPolicy.TRANSIENT_LOCAL)
-OUTPUTS = {  # key: (type, QoS); every topic is ~/key
-    "wrench": (WrenchStamped, RELIABLE), "phase": (UInt8, RELIABLE),
-    "contact_force": (Vector3Stamped, RELIABLE), "contact_force_magnitude": (Float64, RELIABLE),
-    "contact_point": (PointStamped, RELIABLE), "arc_length": (Float64, RELIABLE),
-    "events": (String, RELIABLE), "centerline": (Path, RELIABLE), "obstacle": (Marker, LATCHED),
-}
-OPTIONAL = ("phase", "contact_force", "contact_force_magnitude", "contact_point", "arc_length",
-            "centerline")
 
 
 class WhiskerNode(Node):
