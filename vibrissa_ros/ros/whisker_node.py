@@ -29,7 +29,7 @@ from . import messages as m
 from .backlog import PoseBacklog
 from .params import NodeParameters
 from .recorder import Recorder
-from .run import run_node
+from .run import RCLError, run_node
 from .topics import OPTIONAL, OUTPUTS, POSES
 
 LOG_THROTTLE_S = 1.0  # seconds between two log lines of the same drop reason
@@ -126,6 +126,15 @@ class WhiskerNode(Node):
         if self._recorder is not None:
             self._recorder.write(key, msg, log_time)
 
+    def _send(self, key: str, msg, log_time: int) -> None:
+        """Record, then publish: all the node published is in its log, even after a signal."""
+        self._record(key, msg, log_time)
+        try:
+            self._pub[key].publish(msg)
+        except RCLError:
+            if self.context.ok():
+                raise
+
     def destroy_node(self):
         self._stop_recording()
         return super().destroy_node()
@@ -186,16 +195,13 @@ class WhiskerNode(Node):
     def _emit(self, key: str, make, now: int, listening: Dict[str, bool]) -> None:
         """Publish (and record) an optional topic only when someone takes it."""
         if listening[key] or self._recorder is not None:
-            msg = make()
-            self._pub[key].publish(msg)
-            self._record(key, msg, now)
+            self._send(key, make(), now)
 
     def _publish_state(self, stamp, state, events, now: int) -> None:
         cfg = self.config
         reading, (sx, sy, sz) = self._pipeline.reading(state)
         wrench = m.fill_wrench(self._wrench, stamp, cfg.base_frame, (sx, sy), sz)
-        self._pub["wrench"].publish(wrench)
-        self._record("wrench", wrench, now)
+        self._send("wrench", wrench, now)
         listening = self._listening()
         world = cfg.world_frame
         self._emit("phase", lambda: m.phase_msg(reading.phase), now, listening)
@@ -211,8 +217,7 @@ class WhiskerNode(Node):
         for event in events:
             record = event_record(event, cfg.units)
             msg = m.event_msg(record)
-            self._pub["events"].publish(msg)
-            self._record("events", msg, now)
+            self._send("events", msg, now)
             self.get_logger().info(f"event: {msg.data}")
         max_rate = cfg.values["centerline.max_rate"]
         tick = time.monotonic()
@@ -228,8 +233,7 @@ class WhiskerNode(Node):
         cfg = self.config
         marker = m.obstacle_marker(cfg.profile, cfg.units.length, cfg.world_frame,
                                    self.get_clock().now().to_msg())
-        self._pub["obstacle"].publish(marker)
-        self._record("obstacle", marker, self._now_ns())
+        self._send("obstacle", marker, self._now_ns())
 
     def _publish_diagnostics(self) -> None:
         stats, recorder = self._stats, self._recorder
@@ -248,8 +252,7 @@ class WhiskerNode(Node):
         status = m.whisker_status(self.get_fully_qualified_name(), phase, values["poses_dropped"],
                                   stats.last_error, self._record_error, values)
         array = m.diagnostic_array(self.get_clock().now().to_msg(), [status])
-        self._pub["diagnostics"].publish(array)
-        self._record("diagnostics", array, self._now_ns())
+        self._send("diagnostics", array, self._now_ns())
 
 
 def main(args=None) -> int:
