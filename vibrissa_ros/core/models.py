@@ -292,6 +292,16 @@ def centerline_of(state: WhiskerState, n: int = 101) -> np.ndarray:
     n = int(n)
     if n < 2:
         raise ValueError(f"n = {n} points: need at least 2")
+    if len(state.shape) > 3:  # a general whisker: its shape parameters follow the unknowns
+        from .general import GeneralWhiskerModel, WhiskerShape
+
+        taper, k0, k1, points = state.shape[3:7]
+        general = GeneralWhiskerModel(WhiskerShape(taper, k0, k1), int(points))
+        if state.phase == Phase.FREE:
+            return to_world(state.pose, 1, general.free_centerline(n))
+        phase, z = Phase(int(state.shape[0])), (state.shape[1], state.shape[2])
+        side_model = general.for_side(state.side)
+        return to_world(state.pose, state.side, side_model.centerline_contact_frame(phase, z, n))
     if state.phase == Phase.FREE:
         s = np.linspace(0.0, 1.0, n)
         return to_world(state.pose, 1, np.column_stack((np.zeros(n), s)))

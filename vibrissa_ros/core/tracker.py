@@ -213,9 +213,19 @@ class QuasistaticTracker:
             return math.inf
         return base.point(a)[1] - v
 
-    @staticmethod
-    def _tip(pose: FootPose) -> Tuple[float, float]:
-        return pose.x + math.cos(pose.heading), pose.y + math.sin(pose.heading)
+    def _tip(self, pose: FootPose) -> Tuple[float, float]:
+        """Tip of the unloaded whisker (straight unless the model's whisker is curved)."""
+        free_tip = getattr(self.model, "free_tip", None)
+        if free_tip is None:
+            return pose.x + math.cos(pose.heading), pose.y + math.sin(pose.heading)
+        ux, uy, _ = free_tip()
+        beta = pose.heading - HALF_PI
+        c, s = math.cos(beta), math.sin(beta)
+        return pose.x + c * ux - s * uy, pose.y + s * ux + c * uy
+
+    def _shape_tail(self) -> Tuple[float, ...]:
+        params = getattr(self.model, "shape_params", None)
+        return () if params is None else tuple(params())
 
     def _tip_gap(self, path: _Path, t: float) -> float:
         return self._gap(*self._tip(path.pose(t)))
@@ -340,7 +350,7 @@ class QuasistaticTracker:
             t_s = 1.0 if h == tau_left else t_touch + h / path.length
             pen = -self._tip_gap(path, t_s) * math.cos(alpha_c)
             if pen > 0.0:
-                phase, z = self.model.touch_start(alpha_c, pen)
+                phase, z = self._side_model(side).touch_start(alpha_c, pen)
                 z = self._newton_fixed_t(path, phase, side, z, t_s)
                 if z is not None:
                     return _Contact(phase, side, z, t_s), event
@@ -375,7 +385,7 @@ class QuasistaticTracker:
 
     def _residual(self, path, phase, side, z, t):
         """R = P(z) - Q(alpha, t) and its Jacobian rows w.r.t. (z0, z1, tau)."""
-        px, py, p00, p01, p10, p11 = self.model.load_point(phase, z)
+        px, py, p00, p01, p10, p11 = self._side_model(side).load_point(phase, z)
         qx, qy, qax, qay, qtx, qty = self._profile_cf(path, side, z[0], t)
         inv_len = 1.0 / path.length
         return (
@@ -424,8 +434,14 @@ class QuasistaticTracker:
             T = -T
         return T
 
-    def _events_of(self, phase, z):
-        return self.model.events(phase, z)
+    def _events_of(self, phase, z, side=1):
+        return self._side_model(side).events(phase, z)
+
+    def _side_model(self, side: int):
+        """The model in the contact frame of ``side`` (models whose whisker is not mirror-symmetric,
+        e.g. an intrinsically curved one, give a mirrored copy for side -1)."""
+        for_side = getattr(self.model, "for_side", None)
+        return self.model if for_side is None else for_side(side)
 
     def _follow(self, path: _Path, contact: _Contact):
         """Follow the contact branch from contact.t towards t = 1.
@@ -443,7 +459,7 @@ class QuasistaticTracker:
         Y = np.array([contact.z[0], contact.z[1], contact.t * path.length])
         R, J = self._jacobian(path, phase, side, Y)
         T = self._tangent(J)
-        ev_a = self._events_of(phase, contact.z)
+        ev_a = self._events_of(phase, contact.z, side)
         # -- careful path: pseudo-arclength continuation --------------------------------------
         h = min(self.options.max_arclength_step, max(tau_end - Y[2], 1e-6))
         steps = 0
@@ -468,7 +484,7 @@ class QuasistaticTracker:
             Rn, Jn = self._jacobian(path, phase, side, Yn)
             Tn = self._tangent(Jn, T)
             zn = (Yn[0], Yn[1])
-            ev_b = self._events_of(phase, zn)
+            ev_b = self._events_of(phase, zn, side)
             found = []  # (kind, name)
             fold = T[2] > 0.0 >= Tn[2]
             if fold:
@@ -520,8 +536,8 @@ class QuasistaticTracker:
         det_b = a[0] * b[1] - a[1] * b[0]
         if det_a * det_b <= 0.0:
             return False
-        ev_a = self._events_of(phase, (z0, z1))
-        ev_b = self._events_of(phase, z)
+        ev_a = self._events_of(phase, (z0, z1), side)
+        ev_b = self._events_of(phase, z, side)
         for key, value in ev_b.items():
             if value <= 0.0 < ev_a[key]:
                 return False
@@ -604,7 +620,7 @@ class QuasistaticTracker:
             if kind == "target":
                 g = lambda Y: Y[2] - tau_end  # noqa: E731
             else:
-                g = lambda Y, name=name: self._events_of(phase, (Y[0], Y[1]))[name]  # noqa: E731
+                g = lambda Y, name=name: self._events_of(phase, (Y[0], Y[1]), side)[name]  # noqa: E731
             ga, gb = g(Ya), g(Yb)
             if ga == 0.0:
                 p_star = pa
@@ -688,25 +704,27 @@ class QuasistaticTracker:
 
     def _free_state(self, pose: FootPose) -> WhiskerState:
         tip = self._tip(pose)
+        free_tip = getattr(self.model, "free_tip", None)
+        tail = self._shape_tail()
         return WhiskerState(
             phase=Phase.FREE,
             pose=pose,
             side=0,
             alpha=None,
             s1=None,
-            tip_slope=pose.heading,
+            tip_slope=pose.heading + (free_tip()[2] if free_tip is not None else 0.0),
             f=0.0,
             fx=0.0,
             fy=0.0,
             m0=0.0,
             contact=None,
             tip=tip,
-            shape=(),
+            shape=(0.0, 0.0, 0.0) + tail if tail else (),
             model=self.model.name,
         )
 
     def _contact_state(self, pose: FootPose, phase: Phase, side: int, z) -> WhiskerState:
-        f, m0_c, s1, phi1_c, (ox, oy) = self.model.contact_quantities(phase, z)
+        f, m0_c, s1, phi1_c, (ox, oy) = self._side_model(side).contact_quantities(phase, z)
         beta = pose.heading - HALF_PI
         alpha_w = side * z[0] + beta
         cx, cy = self.profile.point(alpha_w)
@@ -727,7 +745,7 @@ class QuasistaticTracker:
             m0=side * m0_c,
             contact=(cx, cy),
             tip=tip,
-            shape=(float(int(phase)), float(z[0]), float(z[1])),
+            shape=(float(int(phase)), float(z[0]), float(z[1])) + self._shape_tail(),
             model=self.model.name,
         )
 

@@ -1,0 +1,144 @@
+"""The general (tapered, intrinsically curved) whisker: collocation solver against the closed forms,
+its Jacobians, and its convergence."""
+
+import math
+
+import numpy as np
+import pytest
+
+from vibrissa_ros.core import (
+    Catenary,
+    Circle,
+    Ellipse,
+    Parabola,
+    Phase,
+    QuasistaticTracker,
+    TwoCircles,
+    run_scan,
+    scan_grid,
+)
+from vibrissa_ros.core.errors import ParameterError
+from vibrissa_ros.core.general import GeneralWhiskerModel, WhiskerShape
+from vibrissa_ros.core.models import ElasticaModel
+
+FIELDS = ("alpha", "s1", "tip_slope", "f", "fx", "fy", "m0")
+
+CONVEX = [
+    Parabola(0.3),
+    Parabola(0.6),
+    Catenary(0.5, 0.6),
+    Circle(0.4, 0.9),
+    TwoCircles(0.4, 0.8, 1.5),
+    Ellipse(0.3, 1.2, 0.9),
+]
+
+
+def _rel(a, b):
+    return abs(a - b) / max(1.0, abs(a))
+
+
+def assert_scans_agree(exact, numeric, tol=1e-9):
+    worst = 0.0
+    assert len(exact.states) == len(numeric.states)
+    for a, b in zip(exact.states, numeric.states):
+        assert a.phase == b.phase, a.x0
+        assert a.side == b.side, a.x0
+        for name in FIELDS:
+            va, vb = getattr(a, name), getattr(b, name)
+            if va is None:
+                assert vb is None
+                continue
+            worst = max(worst, _rel(va, vb))
+        for pa, pb in ((a.contact, b.contact), (a.tip, b.tip)):
+            if pa is None:
+                assert pb is None
+                continue
+            worst = max(worst, _rel(pa[0], pb[0]), _rel(pa[1], pb[1]))
+    assert worst <= tol, worst
+    assert [(e.kind, e.from_phase, e.to_phase) for e in exact.events] == [
+        (e.kind, e.from_phase, e.to_phase) for e in numeric.events
+    ]
+    for ea, eb in zip(exact.events, numeric.events):
+        assert abs(ea.x0 - eb.x0) <= tol, (ea.kind, ea.x0, eb.x0)
+    return worst
+
+
+@pytest.mark.parametrize("profile", CONVEX, ids=lambda p: p.describe())
+def test_numeric_equals_closed_forms_on_full_scans(profile):
+    """Every field of every state and every event of a back-and-forth scan, to 1e-9."""
+    grid = scan_grid(2.5, -2.5, 0.02, back=True)
+    exact = run_scan(profile, grid)
+    numeric = run_scan(profile, grid, model=GeneralWhiskerModel())
+    assert len(exact.events) >= 4
+    assert_scans_agree(exact, numeric)
+
+
+@pytest.mark.parametrize(
+    "phase, z_exact",
+    [(Phase.TIP, (0.3, 0.2)), (Phase.TIP, (0.8, 0.5)), (Phase.TIP, (0.2, 1.2)),
+     (Phase.TANGENTIAL, (0.3, 0.5)), (Phase.TANGENTIAL, (1.2, 0.9)), (Phase.TANGENTIAL, (0.1, 0.3))],
+)
+def test_collocation_reproduces_the_elliptic_family(phase, z_exact):
+    em, gm = ElasticaModel(), GeneralWhiskerModel()
+    f, m0, s1, phi1, offset = em.contact_quantities(phase, z_exact)
+    P = em.load_point(phase, z_exact)[:2]
+    z = (z_exact[0], f if phase == Phase.TANGENTIAL else z_exact[1])
+    Q = gm.load_point(phase, z)[:2]
+    g = gm.contact_quantities(phase, z)
+    for a, b in [(P[0], Q[0]), (P[1], Q[1]), (f, g[0]), (m0, g[1]), (s1, g[2]), (phi1, g[3]),
+                 (offset[0], g[4][0]), (offset[1], g[4][1])]:
+        assert abs(a - b) < 1e-12
+
+
+@pytest.mark.parametrize("shape", [WhiskerShape(1 / 15, 1.0, -0.5), WhiskerShape(0.3, -2.0, 1.0)])
+@pytest.mark.parametrize("phase, z", [(Phase.TIP, (1.0, 0.5)), (Phase.TANGENTIAL, (0.9, 2.0))])
+def test_jacobian_matches_finite_differences(shape, phase, z):
+    gm = GeneralWhiskerModel(shape)
+    J = np.array(gm.load_point(phase, z)[2:]).reshape(2, 2)
+    h = 1e-6
+    fd = np.empty((2, 2))
+    for j in range(2):
+        zp, zm = list(z), list(z)
+        zp[j] += h
+        zm[j] -= h
+        fd[:, j] = (np.array(gm.load_point(phase, zp)[:2]) - np.array(gm.load_point(phase, zm)[:2])) / (2 * h)
+    assert np.allclose(J, fd, atol=1e-7)
+
+
+def test_spectral_convergence_for_a_rat_like_taper():
+    """Error vs collocation points decays exponentially (taper 1/15, curved, tip contact)."""
+    shape = WhiskerShape(1 / 15, 1.0, -0.5)
+    ref = np.array(GeneralWhiskerModel(shape, n=96).load_point(Phase.TIP, (1.0, 0.5))[:2])
+    errors = []
+    for n in (8, 12, 16, 24):
+        p = np.array(GeneralWhiskerModel(shape, n=n).load_point(Phase.TIP, (1.0, 0.5))[:2])
+        errors.append(np.max(np.abs(p - ref)))
+    assert errors[-1] < 1e-11
+    assert all(b < a for a, b in zip(errors, errors[1:]))
+
+
+def test_mirrored_side_model_flips_the_curvature():
+    gm = GeneralWhiskerModel(WhiskerShape(0.5, 1.0, 0.5))
+    assert gm.for_side(1) is gm
+    mirror = gm.for_side(-1)
+    assert (mirror.shape.k0, mirror.shape.k1) == (-1.0, -0.5)
+    assert mirror.for_side(-1) is mirror and mirror._mirror is gm
+
+
+@pytest.mark.parametrize(
+    "kwargs", [dict(taper=0.0), dict(taper=1.5), dict(taper=math.nan), dict(k0=30.0), dict(k1=math.inf)]
+)
+def test_bad_whisker_shape_is_a_parameter_error(kwargs):
+    with pytest.raises(ParameterError):
+        WhiskerShape(**kwargs)
+
+
+def test_centerline_of_a_general_state_ends_at_the_contact():
+    tracker = QuasistaticTracker(Parabola(0.3), 2.0, model=GeneralWhiskerModel(WhiskerShape(0.5, 0.0, 0.0)))
+    state = tracker.step(0.0).state
+    assert state.phase != Phase.FREE
+    pts = state.centerline(201)
+    assert np.allclose(pts[0], (0.0, 0.0), atol=1e-14)
+    assert np.allclose(pts[-1], state.tip, atol=1e-12)
+    seg = np.hypot(*np.diff(pts, axis=0).T)
+    assert abs(seg.sum() - 1.0) < 1e-4  # inextensible

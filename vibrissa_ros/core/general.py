@@ -1,0 +1,566 @@
+"""The general whisker: tapered, intrinsically curved, solved by Chebyshev spectral collocation.
+
+Model (dimensionless: L = 1, EI_b = bending stiffness at the base): bending stiffness
+B(s) = (1 - (1 - taper) s)^4 (a solid cone, taper = tip radius / base radius), intrinsic curvature
+kappa0(s) = k0 + k1 s (counter-clockwise positive), constitutive law M = B (theta' - kappa0).
+A frictionless point force f (sin alpha, -cos alpha) acts at arc length s1 (the obstacle's outward
+normal at the contact, alpha = the obstacle's tangent slope there); beyond s1 the whisker is
+unloaded and keeps its intrinsic shape.
+
+Because the force is constant on [0, s1] its moment is known in closed form from the positions:
+
+    M(s) = f [cos(alpha) (x(s) - x(s1)) + sin(alpha) (y(s) - y(s1))]      (M(s1) = 0, M' = f cos(theta - alpha))
+
+so the whole equilibrium is one integral equation for the slope theta on [0, s1]
+(foot frame: foot at the origin, unloaded whisker leaving along +y, theta(0) = pi/2):
+
+    theta(s) = pi/2 + int_0^s [kappa0(u) + M(u) / B(u)] du,   x = int cos(theta), y = int sin(theta).
+
+It is discretized on n Chebyshev points of [0, s1] with the spectral integration matrix S
+(Clenshaw-Curtis weights in its last row): theta = pi/2 + h S kappa0 + f h^2 A cos(theta - alpha)
+with h = s1/2 and A = S diag(1/B) (S - 1 w). Newton on this n x n system (n + 1 with s1 in
+tangential contact, closed by theta(s1) = alpha) converges quadratically; the sensitivities to the
+branch unknowns come from the same factorization. The error decays exponentially in n (README:
+convergence study).
+
+The model works in the *unmirrored* foot frame (``mirrored = False``): the intrinsic curvature is
+not mirror-symmetric, so both bending directions are solved as they are. Unknowns of a contact
+branch: ``z = (alpha, f)`` in both phases (continuous across the tip <-> tangential switch);
+f = 0 is an ordinary point of the branch (release, or a side-first touch of a curved whisker).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from functools import lru_cache
+from typing import Dict, Optional, Tuple
+
+import numpy as np
+from numpy.polynomial import chebyshev as C
+
+from .errors import ConvergenceError, ParameterError
+from .state import Phase
+
+HALF_PI = 0.5 * math.pi
+
+#: default number of Chebyshev points (error below 1e-12 for the paper's scans; README)
+DEFAULT_POINTS = 40
+
+
+@dataclass(frozen=True)
+class WhiskerShape:
+    """Taper and intrinsic curvature of a whisker (dimensionless).
+
+    Attributes
+    ----------
+    taper : float
+        rho = tip radius / base radius in (0, 1]; B(s) = (1 - (1 - rho) s)^4 [EI_b].
+    k0, k1 : float
+        Intrinsic curvature kappa0(s) = k0 + k1 s [1/L], counter-clockwise positive.
+    """
+
+    taper: float = 1.0
+    k0: float = 0.0
+    k1: float = 0.0
+
+    def __post_init__(self):
+        for key in ("taper", "k0", "k1"):
+            value = getattr(self, key)
+            try:
+                value = float(value)
+            except (TypeError, ValueError):
+                raise ParameterError(f"whisker {key} = {value!r} is not a number") from None
+            if not math.isfinite(value):
+                raise ParameterError(f"whisker {key} = {value!r} must be finite")
+            object.__setattr__(self, key, value)
+        if not 0.0 < self.taper <= 1.0:
+            raise ParameterError(
+                f"whisker taper = {self.taper!r} is not allowed; taper (tip radius / base radius) must be in (0, 1]"
+            )
+        if abs(self.k0) + abs(self.k1) > 20.0:
+            raise ParameterError(
+                f"intrinsic curvature k0 = {self.k0!r}, k1 = {self.k1!r}: |k0| + |k1| must be <= 20 "
+                "(the whisker would curl more than about three turns)"
+            )
+
+    @property
+    def is_paper(self) -> bool:
+        """True for the paper's whisker (uniform and straight): the closed forms apply."""
+        return self.taper == 1.0 and self.k0 == 0.0 and self.k1 == 0.0
+
+    def stiffness(self, s):
+        """B(s) [EI_b]."""
+        return (1.0 - (1.0 - self.taper) * np.asarray(s, dtype=float)) ** 4
+
+    def intrinsic_slope(self, s):
+        """Slope of the unloaded whisker relative to its heading: int_0^s kappa0 [rad]."""
+        s = np.asarray(s, dtype=float)
+        return self.k0 * s + 0.5 * self.k1 * s * s
+
+    def linear_compliance(self, d: float = 1.0) -> float:
+        """int_0^d (d - s)^2 / B(s) ds: the small-deflection compliance at s = d (units L^3/EI_b)."""
+        x, w = np.polynomial.legendre.leggauss(64)
+        s = 0.5 * d * (x + 1.0)
+        return float(0.5 * d * np.sum(w * (d - s) ** 2 / self.stiffness(s)))
+
+
+@lru_cache(maxsize=16)
+def chebyshev_operators(n: int):
+    """Chebyshev points on [-1, 1] (ascending), the cumulative integration matrix S (from -1),
+    and the matrix taking nodal values to Chebyshev coefficients."""
+    if n < 4:
+        raise ParameterError(f"collocation points n = {n}: need at least 4")
+    k = np.arange(n)
+    x = -np.cos(math.pi * k / (n - 1))
+    V = C.chebvander(x, n - 1)  # V[j, k] = T_k(x_j)
+    Vinv = np.linalg.inv(V)
+    integ = np.empty((n, n))
+    for j in range(n):
+        e = np.zeros(n)
+        e[j] = 1.0
+        integ[:, j] = C.chebval(x, C.chebint(e, lbnd=-1.0))
+    S = integ @ Vinv
+    S[0, :] = 0.0
+    for a in (x, S, Vinv):
+        a.setflags(write=False)
+    return x, S, Vinv
+
+
+def _intrinsic_offset(shape: WhiskerShape, s_a: float, theta_a: float, s_b: float = 1.0):
+    """Displacement from s_a to s_b along the unloaded part, starting at slope theta_a (Gauss-Legendre)."""
+    if s_b <= s_a:
+        return 0.0, 0.0
+    x, w = _gauss()
+    u = s_a + 0.5 * (s_b - s_a) * (x + 1.0)
+    th = theta_a + shape.k0 * (u - s_a) + 0.5 * shape.k1 * (u * u - s_a * s_a)
+    half = 0.5 * (s_b - s_a)
+    return float(half * (w @ np.cos(th))), float(half * (w @ np.sin(th)))
+
+
+@lru_cache(maxsize=1)
+def _gauss():
+    return np.polynomial.legendre.leggauss(48)
+
+
+def free_centerline(shape: WhiskerShape, s) -> np.ndarray:
+    """Points of the unloaded whisker in the foot frame (foot at the origin, heading +y), shape (m, 2)."""
+    s = np.atleast_1d(np.asarray(s, dtype=float))
+    out = np.empty((s.size, 2))
+    if shape.k0 == 0.0 and shape.k1 == 0.0:
+        out[:, 0] = 0.0
+        out[:, 1] = s
+        return out
+    for i, si in enumerate(s):
+        out[i] = _intrinsic_offset(shape, 0.0, HALF_PI, si)
+    return out
+
+
+class _Ops:
+    """Collocation operators on [0, s1] for one s1 (internal).
+
+    Nodes t in [0, 1] (Chebyshev) are mapped to arc length by s(t): linearly (s = s1 t) for a
+    cylinder, and for a cone by s_p - s = s_p r^t with s_p = 1/(1 - taper) (where B would vanish)
+    and r = 1 - s1/s_p, which makes B(s(t)) = r^(4t) an entire function of t: the tip's boundary
+    layer of a thin cone costs no extra points.
+    """
+
+    __slots__ = ("s1", "s", "sp", "ds", "dsp", "Sig", "w", "A", "b", "db", "k", "Sigk")
+
+    def __init__(self, model: "GeneralWhiskerModel", s1: float):
+        sh = model.shape
+        t = model._t
+        S = model._S
+        self.s1 = s1
+        if sh.taper == 1.0:
+            s = s1 * t
+            sp = np.full_like(t, s1)
+            ds = t
+            dsp = np.ones_like(t)
+        else:
+            s_p = 1.0 / (1.0 - sh.taper)
+            r = 1.0 - s1 / s_p
+            L = math.log1p(-s1 / s_p)
+            e = np.exp(t * L)
+            s = -s_p * np.expm1(t * L)
+            sp = -s_p * L * e
+            ds = t * e / r
+            dsp = (1.0 + t * L) * e / r
+        self.s, self.sp, self.ds, self.dsp = s, sp, ds, dsp
+        Sig = 0.5 * S * sp  # integration in s from 0
+        self.Sig = Sig
+        self.w = Sig[-1].copy()
+        base = 1.0 - (1.0 - sh.taper) * s
+        self.b = base ** -4
+        self.db = 4.0 * (1.0 - sh.taper) * base ** -5  # d(1/B)/ds
+        self.A = (Sig * self.b) @ (Sig - self.w)
+        self.k = sh.k0 + sh.k1 * s
+        self.Sigk = Sig @ self.k
+
+
+class _Solution:
+    """A converged collocation solution and its sensitivities (internal).
+
+    ``mu`` is the second branch unknown (f in phase 1, the tip rotation gamma in phase 2) and
+    ``extra`` the scalar unknown of the inner system (s1 in phase 1, f in phase 2); ``*_a`` and
+    ``*_m`` are derivatives with respect to alpha and mu.
+    """
+
+    __slots__ = ("phase", "alpha", "mu", "theta", "extra", "th_a", "th_m", "ex_a", "ex_m", "P", "dP", "ops")
+
+    def __init__(self, phase, alpha, mu, theta, extra, th_a, th_m, ex_a, ex_m, P, dP, ops):
+        self.phase, self.alpha, self.mu = phase, alpha, mu
+        self.theta, self.extra = theta, extra
+        self.th_a, self.th_m, self.ex_a, self.ex_m = th_a, th_m, ex_a, ex_m
+        self.P, self.dP, self.ops = P, dP, ops
+
+    @property
+    def tangential(self) -> bool:
+        return self.phase == Phase.TANGENTIAL
+
+    @property
+    def f(self) -> float:
+        return self.mu if self.tangential else self.extra
+
+    @property
+    def s1(self) -> float:
+        return self.extra if self.tangential else 1.0
+
+    def moments(self) -> np.ndarray:
+        """M at the nodes: f (Sig - 1 w) cos(theta - alpha)."""
+        ops = self.ops
+        return self.f * ((ops.Sig - ops.w) @ np.cos(self.theta - self.alpha))
+
+
+class GeneralWhiskerModel:
+    """The tapered, intrinsically curved elastica behind the tracker's model interface.
+
+    Parameters
+    ----------
+    shape : WhiskerShape
+    n : int
+        Chebyshev points on the loaded part [0, s1].
+
+    Unknowns (contact frame): phase 1 (tangential, theta(s1) = alpha, s1 < 1) ``z = (alpha, f)``;
+    phase 2 (tip, s1 = 1, theta(1) >= alpha) ``z = (alpha, gamma)``, gamma = theta0(1) - theta(1).
+    """
+
+    name = "general"
+    release_by_gap = False
+    #: a Newton correction this small leaves an error of its square (quadratic convergence)
+    _NEWTON_TOL = 1e-9
+    _MAX_ITER = 40
+
+    def __init__(self, shape: Optional[WhiskerShape] = None, n: int = DEFAULT_POINTS):
+        self.shape = shape if shape is not None else WhiskerShape()
+        self.n = int(n)
+        x, S, Vinv = chebyshev_operators(self.n)
+        self._x, self._S, self._Vinv = x, S, Vinv
+        self._t = 0.5 * (x + 1.0)
+        self._eye = np.eye(self.n)
+        self._tip_ops = _Ops(self, 1.0)  # phase 2 (s1 = 1): constant
+        self._last: Optional[_Solution] = None
+        self._memo: Dict[tuple, _Solution] = {}
+        self._mirror: Optional["GeneralWhiskerModel"] = None
+
+    def for_side(self, side: int) -> "GeneralWhiskerModel":
+        """The model in the contact frame of ``side``: mirrored (curvature -kappa0) for side -1."""
+        if side >= 0 or self.is_straight:
+            return self
+        if self._mirror is None:
+            sh = self.shape
+            self._mirror = GeneralWhiskerModel(WhiskerShape(sh.taper, -sh.k0, -sh.k1), self.n)
+            self._mirror._mirror = self
+        return self._mirror
+
+    def _t_of_s(self, s, s1: float):
+        """Node variable t in [0, 1] of arc length s on [0, s1] (inverse of the map)."""
+        s = np.asarray(s, dtype=float)
+        if self.shape.taper == 1.0:
+            return s / s1
+        s_p = 1.0 / (1.0 - self.shape.taper)
+        return np.log1p(-s / s_p) / math.log1p(-s1 / s_p)
+
+    def _guess(self, phase: Phase, alpha: float, mu: float):
+        last = self._last
+        if last is None or last.phase != phase:
+            return self._intrinsic_guess(phase, alpha)
+        da, dm = alpha - last.alpha, mu - last.mu
+        theta = last.theta + last.th_a * da + last.th_m * dm
+        extra = last.extra + last.ex_a * da + last.ex_m * dm
+        if phase == Phase.TANGENTIAL and not 0.0 < extra <= 1.5:
+            return self._intrinsic_guess(phase, alpha)
+        return theta, extra
+
+    def _intrinsic_guess(self, phase: Phase, alpha: float):
+        s1 = self._intrinsic_tangent_point(alpha) if phase == Phase.TANGENTIAL else 1.0
+        theta = HALF_PI + self.shape.intrinsic_slope(_Ops(self, s1).s)
+        return theta, (s1 if phase == Phase.TANGENTIAL else 0.0)
+
+    def _intrinsic_tangent_point(self, alpha: float) -> float:
+        """Arc length where the unloaded whisker has slope alpha (or a guess of 0.5)."""
+        sh = self.shape
+        u = np.linspace(0.0, 1.0, 201)
+        g = HALF_PI + sh.intrinsic_slope(u) - alpha
+        idx = np.nonzero(np.sign(g[:-1]) != np.sign(g[1:]))[0]
+        if idx.size:
+            i = idx[0]
+            return float(u[i] - g[i] * (u[i + 1] - u[i]) / (g[i + 1] - g[i]))
+        return 0.5
+
+    def solve(self, phase: Phase, alpha: float, mu: float, guess=None) -> _Solution:
+        """The collocation solution for the branch unknowns (alpha, mu) (raises ConvergenceError)."""
+        key = (int(phase), alpha, mu)
+        sol = self._memo.get(key)
+        if sol is not None:
+            return sol
+        tries = [guess] if guess is not None else []
+        tries.append(self._guess(phase, alpha, mu))
+        if self._last is not None:
+            tries.append(self._intrinsic_guess(phase, alpha))
+        for theta0, extra0 in tries:
+            sol = self._newton(phase, alpha, mu, np.array(theta0, dtype=float), float(extra0))
+            if sol is not None:
+                break
+        else:
+            sol = self._homotopy(phase, alpha, mu)
+        if sol is None:
+            raise ConvergenceError(
+                f"general whisker: no equilibrium found for alpha = {alpha!r}, "
+                f"{'f' if phase == Phase.TANGENTIAL else 'tip rotation'} = {mu!r} (phase {int(phase)})"
+            )
+        self._last = sol
+        if len(self._memo) > 64:
+            self._memo.clear()
+        self._memo[key] = sol
+        return sol
+
+    def _homotopy(self, phase: Phase, alpha: float, gamma: float) -> Optional[_Solution]:
+        """Cold start of a tip contact: rotate the tip from the unloaded shape in small steps."""
+        if phase != Phase.TIP:
+            return None
+        theta, extra = self._intrinsic_guess(phase, alpha)
+        sol = None
+        steps = 16
+        for k in range(1, steps + 1):
+            gk = gamma * k / steps
+            if sol is not None:
+                theta = sol.theta + sol.th_m * (gk - sol.mu)
+                extra = sol.extra + sol.ex_m * (gk - sol.mu)
+            sol = self._newton(phase, alpha, gk, theta, extra)
+            if sol is None:
+                return None
+        return sol
+
+    def _newton(self, phase, alpha, mu, theta, extra) -> Optional[_Solution]:
+        """Newton on the bordered collocation system.
+
+        phase 1: unknowns (theta, s1), f = mu, closed by theta(s1) = alpha;
+        phase 2: unknowns (theta, f), s1 = 1, closed by theta(1) = theta0(1) - gamma (gamma = mu).
+        """
+        n = self.n
+        tangential = phase == Phase.TANGENTIAL
+        S = self._S
+        k1 = self.shape.k1
+        ops = self._tip_ops
+        M = np.zeros((n + 1, n + 1))
+        M[n, n - 1] = 1.0
+        rhs = np.zeros((n + 1, 3))
+        if tangential:
+            f = mu
+            rhs[n, 1] = 1.0  # d(theta(s1) - alpha)/d alpha = -1
+            target = alpha
+        else:
+            f = extra
+            rhs[n, 2] = -1.0  # d(theta(1) - theta0(1) + gamma)/d gamma = 1
+            target = HALF_PI + float(self.shape.intrinsic_slope(1.0)) - mu
+        for it in range(self._MAX_ITER):
+            if tangential:
+                if not 0.0 < extra <= 1.5:
+                    return None
+                ops = _Ops(self, extra)
+            A = ops.A
+            d = theta - alpha
+            cd, sd = np.cos(d), np.sin(d)
+            Ac = A @ cd
+            F = theta - HALF_PI - ops.Sigk - f * Ac
+            M[:n, :n] = self._eye + f * (A * sd)
+            rhs[:n, 0] = -F
+            rhs[n, 0] = target - theta[-1]
+            rhs[:n, 1] = f * (A @ sd)  # -dF/dalpha
+            if tangential:
+                Sig, w, b = ops.Sig, ops.w, ops.b
+                dsp = ops.dsp
+                u = Sig @ cd - (w @ cd)  # G c
+                dGc = 0.5 * (S @ (dsp * cd)) - 0.5 * float(S[-1] @ (dsp * cd))
+                M[:n, n] = (
+                    -0.5 * (S @ (dsp * ops.k))
+                    - Sig @ (k1 * ops.ds)
+                    - f * 0.5 * (S @ (dsp * b * u))
+                    - f * (Sig @ (ops.db * ops.ds * u))
+                    - f * (Sig @ (b * dGc))
+                )  # dF/ds1
+                rhs[:n, 2] = Ac  # -dF/df
+            else:
+                M[:n, n] = -Ac  # dF/df
+            try:
+                sol = np.linalg.solve(M, rhs)
+            except np.linalg.LinAlgError:
+                return None
+            step = sol[:n, 0]
+            dex = sol[n, 0]
+            size = float(np.max(np.abs(step))) + abs(dex)
+            if not math.isfinite(size):
+                return None
+            if size > 0.5:  # damped far from the solution (cold starts)
+                step, dex = step * (0.5 / size), dex * (0.5 / size)
+            theta = theta + step
+            extra = extra + dex
+            if not tangential:
+                f = extra
+            if size <= self._NEWTON_TOL:
+                break
+        else:
+            return None
+        if tangential:
+            if not 0.0 < extra <= 1.5:
+                return None
+            ops = _Ops(self, extra)
+        th_a, th_m = sol[:n, 1], sol[:n, 2]
+        ex_a, ex_m = float(sol[n, 1]), float(sol[n, 2])
+        w = ops.w
+        c, sn = np.cos(theta), np.sin(theta)
+        P = (float(w @ c), float(w @ sn))
+        wsn, wc = w * sn, w * c
+        if tangential:
+            # dP/dz = w (-sin, cos) theta_z + (1/2) S[-1] (ds'/ds1 (cos, sin)) s1_z
+            qx = 0.5 * float(S[-1] @ (ops.dsp * c))
+            qy = 0.5 * float(S[-1] @ (ops.dsp * sn))
+        else:
+            qx = qy = 0.0
+        dP = (
+            -float(wsn @ th_a) + qx * ex_a,
+            -float(wsn @ th_m) + qx * ex_m,
+            float(wc @ th_a) + qy * ex_a,
+            float(wc @ th_m) + qy * ex_m,
+        )
+        return _Solution(phase, alpha, mu, theta, extra, th_a, th_m, ex_a, ex_m, P, dP, ops)
+
+    # -- the tracker's model interface -------------------------------------------------------
+    def load_point(self, phase: Phase, z):
+        """Contact point on the whisker (foot frame) and its Jacobian (Px, Py, dPx/dz0, dPx/dz1, dPy/dz0, dPy/dz1)."""
+        try:
+            sol = self.solve(phase, float(z[0]), float(z[1]))
+        except ConvergenceError as exc:
+            raise ValueError(str(exc)) from None
+        return (sol.P[0], sol.P[1]) + sol.dP
+
+    def valid(self, phase: Phase, z) -> bool:
+        alpha, f = z
+        # as for the closed forms: the contact force has a component towards the foot (|alpha| < pi/2)
+        return math.isfinite(alpha) and math.isfinite(f) and -HALF_PI < alpha < HALF_PI and f > -1.0
+
+    def events(self, phase: Phase, z) -> Dict[str, float]:
+        """phase 1: ``tip`` = 1 - s1, ``release`` = f; phase 2: ``tangential`` = theta(1) - alpha
+        (the tip becomes tangent to the obstacle), ``release`` = f."""
+        alpha, mu = float(z[0]), float(z[1])
+        sol = self.solve(phase, alpha, mu)
+        if phase == Phase.TANGENTIAL:
+            return {"tip": 1.0 - sol.s1, "release": mu}
+        return {"tangential": float(sol.theta[-1]) - alpha, "release": sol.f}
+
+    def transition(self, phase: Phase, event: str, z):
+        alpha, mu = float(z[0]), float(z[1])
+        if event == "release":
+            return Phase.FREE, None
+        # at the switch (s1 = 1, theta(1) = alpha) both phases have the same solution: seed with it
+        sol = self.solve(phase, alpha, mu)
+        if phase == Phase.TANGENTIAL and event == "tip":
+            gamma = HALF_PI + float(self.shape.intrinsic_slope(1.0)) - alpha
+            self.solve(Phase.TIP, alpha, gamma, guess=(sol.theta, mu))
+            return Phase.TIP, (alpha, gamma)
+        if phase == Phase.TIP and event == "tangential":
+            self.solve(Phase.TANGENTIAL, alpha, sol.f, guess=(sol.theta, 1.0))
+            return Phase.TANGENTIAL, (alpha, sol.f)
+        raise AssertionError(f"no transition for event {event!r} in phase {phase!r}")
+
+    def touch_start(self, alpha0: float, penetration: float):
+        """Tip-contact guess after a tip-first touch (linear theory of the straightened whisker):
+        a normal tip force F deflects the tip by F c2 and turns it by F c1."""
+        sa = math.sin(alpha0)
+        c2 = self.shape.linear_compliance()
+        x, w = np.polynomial.legendre.leggauss(32)
+        u = 0.5 * (x + 1.0)
+        c1 = float(0.5 * np.sum(w * (1.0 - u) / self.shape.stiffness(u)))
+        gamma = penetration * c1 / (c2 * sa)
+        self._last = None
+        return Phase.TIP, (alpha0, gamma)
+
+    def side_touch_start(self, s_touch: float, alpha: float):
+        """The branch point of a side-first touch at arc length ``s_touch``: zero force."""
+        theta = HALF_PI + self.shape.intrinsic_slope(_Ops(self, s_touch).s)
+        self._last = None
+        self._memo.clear()
+        self.solve(Phase.TANGENTIAL, alpha, 0.0, guess=(theta, s_touch))
+        return Phase.TANGENTIAL, (alpha, 0.0)
+
+    def tip_rotation(self, phase: Phase, z) -> float:
+        if phase == Phase.TIP:
+            return float(z[1])
+        return HALF_PI + float(self.shape.intrinsic_slope(1.0)) - float(self.contact_quantities(phase, z)[3])
+
+    def free_tip(self) -> Tuple[float, float, float]:
+        """Tip of the unloaded whisker in the foot frame and its slope relative to the heading."""
+        x, y = _intrinsic_offset(self.shape, 0.0, HALF_PI, 1.0)
+        return x, y, float(self.shape.intrinsic_slope(1.0))
+
+    @property
+    def is_straight(self) -> bool:
+        return self.shape.k0 == 0.0 and self.shape.k1 == 0.0
+
+    def contact_quantities(self, phase: Phase, z):
+        """(f, m0, s1, tip_slope, tip_offset), contact frame; tip_offset = tip - contact."""
+        alpha, mu = float(z[0]), float(z[1])
+        sol = self.solve(phase, alpha, mu)
+        m0 = float(sol.moments()[0])
+        if phase == Phase.TANGENTIAL:
+            s1 = sol.s1
+            tip_slope = alpha + float(self.shape.intrinsic_slope(1.0) - self.shape.intrinsic_slope(s1))
+            return mu, m0, s1, tip_slope, _intrinsic_offset(self.shape, s1, alpha, 1.0)
+        return sol.f, m0, 1.0, float(sol.theta[-1]), (0.0, 0.0)
+
+    def moment_profile(self, phase: Phase, z, s) -> np.ndarray:
+        """Bending moment M(s) [EI_b] at arc lengths ``s`` (0 beyond the contact)."""
+        sol = self.solve(phase, float(z[0]), float(z[1]))
+        s = np.asarray(s, dtype=float)
+        out = np.zeros_like(s)
+        inside = s <= sol.s1
+        x = 2.0 * self._t_of_s(s[inside], sol.s1) - 1.0
+        out[inside] = C.chebval(x, self._Vinv @ sol.moments())
+        return out
+
+    def centerline_contact_frame(self, phase: Phase, z, n: int) -> np.ndarray:
+        """``n`` points from foot to tip in the foot frame (not mirrored), shape (n, 2)."""
+        alpha, f = float(z[0]), float(z[1])
+        sol = self.solve(phase, alpha, f)
+        s = np.linspace(0.0, 1.0, n)
+        pts = np.empty((n, 2))
+        half_sp = 0.5 * sol.ops.sp
+        cx = C.chebint(self._Vinv @ (np.cos(sol.theta) * half_sp), lbnd=-1.0)
+        cy = C.chebint(self._Vinv @ (np.sin(sol.theta) * half_sp), lbnd=-1.0)
+        loaded = s <= sol.s1
+        x = 2.0 * self._t_of_s(s[loaded], sol.s1) - 1.0
+        pts[loaded, 0] = C.chebval(x, cx)
+        pts[loaded, 1] = C.chebval(x, cy)
+        for i in np.nonzero(~loaded)[0]:
+            ox, oy = _intrinsic_offset(self.shape, sol.s1, alpha, s[i])
+            pts[i] = (sol.P[0] + ox, sol.P[1] + oy)
+        return pts
+
+    def free_centerline(self, n: int) -> np.ndarray:
+        return free_centerline(self.shape, np.linspace(0.0, 1.0, n))
+
+    def shape_params(self) -> Tuple[float, ...]:
+        """What a state stores to redraw its centerline (see models.centerline_of)."""
+        sh = self.shape
+        return (sh.taper, sh.k0, sh.k1, float(self.n))
