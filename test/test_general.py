@@ -82,7 +82,7 @@ def test_collocation_reproduces_the_elliptic_family(phase, z_exact):
     em, gm = ElasticaModel(), GeneralWhiskerModel()
     f, m0, s1, phi1, offset = em.contact_quantities(phase, z_exact)
     P = em.load_point(phase, z_exact)[:2]
-    z = (z_exact[0], f if phase == Phase.TANGENTIAL else z_exact[1])
+    z = (z_exact[0], s1 if phase == Phase.TANGENTIAL else z_exact[1])
     Q = gm.load_point(phase, z)[:2]
     g = gm.contact_quantities(phase, z)
     for a, b in [(P[0], Q[0]), (P[1], Q[1]), (f, g[0]), (m0, g[1]), (s1, g[2]), (phi1, g[3]),
@@ -91,7 +91,7 @@ def test_collocation_reproduces_the_elliptic_family(phase, z_exact):
 
 
 @pytest.mark.parametrize("shape", [WhiskerShape(1 / 15, 1.0, -0.5), WhiskerShape(0.3, -2.0, 1.0)])
-@pytest.mark.parametrize("phase, z", [(Phase.TIP, (1.0, 0.5)), (Phase.TANGENTIAL, (0.9, 2.0))])
+@pytest.mark.parametrize("phase, z", [(Phase.TIP, (1.0, 0.5)), (Phase.TANGENTIAL, (1.4, 0.7))])
 def test_jacobian_matches_finite_differences(shape, phase, z):
     gm = GeneralWhiskerModel(shape)
     J = np.array(gm.load_point(phase, z)[2:]).reshape(2, 2)
@@ -142,3 +142,80 @@ def test_centerline_of_a_general_state_ends_at_the_contact():
     assert np.allclose(pts[-1], state.tip, atol=1e-12)
     seg = np.hypot(*np.diff(pts, axis=0).T)
     assert abs(seg.sum() - 1.0) < 1e-4  # inextensible
+
+
+# -- pegs -------------------------------------------------------------------------------------
+from vibrissa_ros.core import FootPose, Peg  # noqa: E402
+from vibrissa_ros.core.errors import ModelAssumptionError  # noqa: E402
+
+
+@pytest.mark.parametrize("p0, R", [(0.4, 0.9), (0.3, 1.5)])
+def test_a_peg_reaching_past_the_whisker_is_the_circle_profile(p0, R):
+    grid = scan_grid(2.5, -2.5, 0.02, back=True)
+    exact = run_scan(Circle(p0, R), grid)
+    numeric = run_scan(Peg(0.0, p0 + R, R), grid, model=GeneralWhiskerModel())
+    assert_scans_agree(exact, numeric)
+
+
+def _scan_peg(model, peg, grid):
+    return run_scan(peg, grid, model=model)
+
+
+def test_tapered_curved_whisker_touches_a_peg_side_first_and_slips_off():
+    model = GeneralWhiskerModel(WhiskerShape(1 / 15, 1.0, 0.0))
+    peg = Peg(0.0, 0.6, 0.05)
+    scan = _scan_peg(model, peg, scan_grid(1.0, -1.0, 0.01, back=True))
+    kinds = [(e.kind, e.from_phase, e.to_phase) for e in scan.events]
+    assert kinds[0] == ("touch", Phase.FREE, Phase.TANGENTIAL)
+    assert ("snap", Phase.TANGENTIAL, Phase.FREE) in kinds
+    for state in scan.states:
+        if state.phase == Phase.FREE:
+            continue
+        assert 0.0 <= state.f
+        assert state.s1 < 1.0
+        # the whole centerline stays outside the peg (it touches at the contact)
+        pts = state.centerline(401)
+        assert np.min(np.hypot(pts[:, 0] - peg.x, pts[:, 1] - peg.y)) >= peg.r - 1e-9
+        # the contact point lies on the peg and the whisker passes through it
+        assert abs(math.hypot(state.contact[0] - peg.x, state.contact[1] - peg.y) - peg.r) < 1e-12
+        # moment balance: m0 = r x f about the foot
+        rx, ry = state.contact[0] - state.pose.x, state.contact[1] - state.pose.y
+        assert abs(state.m0 - (rx * state.fy - ry * state.fx)) < 1e-10
+
+
+def test_side_touch_starts_at_zero_force_and_release_returns_there():
+    model = GeneralWhiskerModel(WhiskerShape(0.5, -0.5, 0.0))
+    peg = Peg(0.0, 0.5, 0.1)
+    tracker = QuasistaticTracker(peg, FootPose(-1.0, 0.0), model=model)
+    touch = [e for e in tracker.step(FootPose(0.1, 0.0)).events if e.kind == "touch"]
+    assert len(touch) == 1 and touch[0].to_phase == Phase.TANGENTIAL
+    back = tracker.step(FootPose(-1.0, 0.0))
+    release = [e for e in back.events if e.kind == "release"]
+    assert len(release) == 1
+    assert abs(release[0].x0 - touch[0].x0) < 1e-10
+    assert back.state.phase == Phase.FREE
+
+
+def test_a_point_peg_lets_the_tip_slip_off():
+    model = GeneralWhiskerModel(WhiskerShape(0.3, 0.0, 0.0))
+    scan = run_scan(Peg(0.0, 0.9, 0.0), scan_grid(0.5, -0.5, 0.01), model=model)
+    kinds = [(e.kind, e.from_phase, e.to_phase) for e in scan.events]
+    assert kinds[0] == ("touch", Phase.FREE, Phase.TANGENTIAL)
+    assert kinds[1][0] == "snap" and kinds[1][1] == Phase.TANGENTIAL
+    assert all(s.phase != Phase.TIP for s in scan.states)
+
+
+def test_closed_forms_refuse_a_side_first_touch():
+    tracker = QuasistaticTracker(Peg(0.0, 0.5, 0.1), FootPose(-1.0, 0.0))
+    with pytest.raises(ModelAssumptionError, match="side"):
+        tracker.step(FootPose(0.0, 0.0))
+    assert tracker.state.phase == Phase.FREE
+
+
+def test_peg_parameters():
+    with pytest.raises(ParameterError):
+        Peg(0.0, 1.0, -0.1)
+    with pytest.raises(ParameterError):
+        Peg(math.nan, 1.0, 0.1)
+    moved = Peg(1.0, 2.0, 0.5).placed(1.0, 0.0, math.pi / 2)
+    assert (moved.x, moved.y, moved.r) == pytest.approx((-1.0, 1.0, 0.5), abs=1e-15)

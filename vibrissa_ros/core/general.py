@@ -201,9 +201,9 @@ class _Ops:
 class _Solution:
     """A converged collocation solution and its sensitivities (internal).
 
-    ``mu`` is the second branch unknown (f in phase 1, the tip rotation gamma in phase 2) and
-    ``extra`` the scalar unknown of the inner system (s1 in phase 1, f in phase 2); ``*_a`` and
-    ``*_m`` are derivatives with respect to alpha and mu.
+    ``mu`` is the second branch unknown (s1 in phase 1, the tip rotation gamma in phase 2) and
+    ``extra`` the scalar unknown of the inner system, f; ``*_a`` and ``*_m`` are derivatives with
+    respect to alpha and mu.
     """
 
     __slots__ = ("phase", "alpha", "mu", "theta", "extra", "th_a", "th_m", "ex_a", "ex_m", "P", "dP", "ops")
@@ -220,11 +220,11 @@ class _Solution:
 
     @property
     def f(self) -> float:
-        return self.mu if self.tangential else self.extra
+        return self.extra
 
     @property
     def s1(self) -> float:
-        return self.extra if self.tangential else 1.0
+        return self.mu if self.tangential else 1.0
 
     def moments(self) -> np.ndarray:
         """M at the nodes: f (Sig - 1 w) cos(theta - alpha)."""
@@ -241,7 +241,7 @@ class GeneralWhiskerModel:
     n : int
         Chebyshev points on the loaded part [0, s1].
 
-    Unknowns (contact frame): phase 1 (tangential, theta(s1) = alpha, s1 < 1) ``z = (alpha, f)``;
+    Unknowns (contact frame): phase 1 (tangential, theta(s1) = alpha, s1 < 1) ``z = (alpha, s1)``;
     phase 2 (tip, s1 = 1, theta(1) >= alpha) ``z = (alpha, gamma)``, gamma = theta0(1) - theta(1).
     """
 
@@ -288,25 +288,11 @@ class GeneralWhiskerModel:
         da, dm = alpha - last.alpha, mu - last.mu
         theta = last.theta + last.th_a * da + last.th_m * dm
         extra = last.extra + last.ex_a * da + last.ex_m * dm
-        if phase == Phase.TANGENTIAL and not 0.0 < extra <= 1.5:
-            return self._intrinsic_guess(phase, alpha)
         return theta, extra
 
-    def _intrinsic_guess(self, phase: Phase, alpha: float):
-        s1 = self._intrinsic_tangent_point(alpha) if phase == Phase.TANGENTIAL else 1.0
-        theta = HALF_PI + self.shape.intrinsic_slope(_Ops(self, s1).s)
-        return theta, (s1 if phase == Phase.TANGENTIAL else 0.0)
-
-    def _intrinsic_tangent_point(self, alpha: float) -> float:
-        """Arc length where the unloaded whisker has slope alpha (or a guess of 0.5)."""
-        sh = self.shape
-        u = np.linspace(0.0, 1.0, 201)
-        g = HALF_PI + sh.intrinsic_slope(u) - alpha
-        idx = np.nonzero(np.sign(g[:-1]) != np.sign(g[1:]))[0]
-        if idx.size:
-            i = idx[0]
-            return float(u[i] - g[i] * (u[i + 1] - u[i]) / (g[i + 1] - g[i]))
-        return 0.5
+    def _intrinsic_guess(self, phase: Phase, alpha: float, mu: float = 1.0):
+        s1 = mu if phase == Phase.TANGENTIAL and 0.0 < mu <= 1.0 else 1.0
+        return HALF_PI + self.shape.intrinsic_slope(_Ops(self, s1).s), 0.0
 
     def solve(self, phase: Phase, alpha: float, mu: float, guess=None) -> _Solution:
         """The collocation solution for the branch unknowns (alpha, mu) (raises ConvergenceError)."""
@@ -317,7 +303,7 @@ class GeneralWhiskerModel:
         tries = [guess] if guess is not None else []
         tries.append(self._guess(phase, alpha, mu))
         if self._last is not None:
-            tries.append(self._intrinsic_guess(phase, alpha))
+            tries.append(self._intrinsic_guess(phase, alpha, mu))
         for theta0, extra0 in tries:
             sol = self._newton(phase, alpha, mu, np.array(theta0, dtype=float), float(extra0))
             if sol is not None:
@@ -327,7 +313,7 @@ class GeneralWhiskerModel:
         if sol is None:
             raise ConvergenceError(
                 f"general whisker: no equilibrium found for alpha = {alpha!r}, "
-                f"{'f' if phase == Phase.TANGENTIAL else 'tip rotation'} = {mu!r} (phase {int(phase)})"
+                f"{'s1' if phase == Phase.TANGENTIAL else 'tip rotation'} = {mu!r} (phase {int(phase)})"
             )
         self._last = sol
         if len(self._memo) > 64:
@@ -352,99 +338,91 @@ class GeneralWhiskerModel:
                 return None
         return sol
 
-    def _newton(self, phase, alpha, mu, theta, extra) -> Optional[_Solution]:
-        """Newton on the bordered collocation system.
+    def _newton(self, phase, alpha, mu, theta, f) -> Optional[_Solution]:
+        """Newton on the bordered collocation system in the unknowns (theta at the nodes, f).
 
-        phase 1: unknowns (theta, s1), f = mu, closed by theta(s1) = alpha;
-        phase 2: unknowns (theta, f), s1 = 1, closed by theta(1) = theta0(1) - gamma (gamma = mu).
+        phase 1: s1 = mu, closed by theta(s1) = alpha (tangency);
+        phase 2: s1 = 1, closed by theta(1) = theta0(1) - gamma (gamma = mu, the tip rotation).
         """
         n = self.n
         tangential = phase == Phase.TANGENTIAL
-        S = self._S
-        k1 = self.shape.k1
-        ops = self._tip_ops
-        M = np.zeros((n + 1, n + 1))
-        M[n, n - 1] = 1.0
-        rhs = np.zeros((n + 1, 3))
         if tangential:
-            f = mu
-            rhs[n, 1] = 1.0  # d(theta(s1) - alpha)/d alpha = -1
+            if not 0.0 < mu <= 1.0 + 1e-9:
+                return None
+            ops = self._tip_ops if mu == 1.0 else _Ops(self, mu)
             target = alpha
         else:
-            f = extra
-            rhs[n, 2] = -1.0  # d(theta(1) - theta0(1) + gamma)/d gamma = 1
+            ops = self._tip_ops
             target = HALF_PI + float(self.shape.intrinsic_slope(1.0)) - mu
+        A = ops.A
+        M = np.zeros((n + 1, n + 1))
+        M[n, n - 1] = 1.0
+        M[:n, :n] = self._eye
+        rhs = np.zeros((n + 1, 3))
         for it in range(self._MAX_ITER):
-            if tangential:
-                if not 0.0 < extra <= 1.5:
-                    return None
-                ops = _Ops(self, extra)
-            A = ops.A
             d = theta - alpha
             cd, sd = np.cos(d), np.sin(d)
             Ac = A @ cd
             F = theta - HALF_PI - ops.Sigk - f * Ac
             M[:n, :n] = self._eye + f * (A * sd)
+            M[:n, n] = -Ac  # dF/df
             rhs[:n, 0] = -F
             rhs[n, 0] = target - theta[-1]
-            rhs[:n, 1] = f * (A @ sd)  # -dF/dalpha
-            if tangential:
-                Sig, w, b = ops.Sig, ops.w, ops.b
-                dsp = ops.dsp
-                u = Sig @ cd - (w @ cd)  # G c
-                dGc = 0.5 * (S @ (dsp * cd)) - 0.5 * float(S[-1] @ (dsp * cd))
-                M[:n, n] = (
-                    -0.5 * (S @ (dsp * ops.k))
-                    - Sig @ (k1 * ops.ds)
-                    - f * 0.5 * (S @ (dsp * b * u))
-                    - f * (Sig @ (ops.db * ops.ds * u))
-                    - f * (Sig @ (b * dGc))
-                )  # dF/ds1
-                rhs[:n, 2] = Ac  # -dF/df
-            else:
-                M[:n, n] = -Ac  # dF/df
             try:
-                sol = np.linalg.solve(M, rhs)
+                step = np.linalg.solve(M, rhs[:, 0])
             except np.linalg.LinAlgError:
                 return None
-            step = sol[:n, 0]
-            dex = sol[n, 0]
-            size = float(np.max(np.abs(step))) + abs(dex)
+            size = float(np.max(np.abs(step)))
             if not math.isfinite(size):
                 return None
             if size > 0.5:  # damped far from the solution (cold starts)
-                step, dex = step * (0.5 / size), dex * (0.5 / size)
-            theta = theta + step
-            extra = extra + dex
-            if not tangential:
-                f = extra
+                step = step * (0.5 / size)
+            theta = theta + step[:n]
+            f = f + step[n]
             if size <= self._NEWTON_TOL:
                 break
         else:
             return None
+        # sensitivities at the solution: d(theta, f)/d(alpha, mu)
+        d = theta - alpha
+        cd, sd = np.cos(d), np.sin(d)
+        Ac = A @ cd
+        M[:n, :n] = self._eye + f * (A * sd)
+        M[:n, n] = -Ac
+        rhs[:, 0] = 0.0
+        rhs[:n, 1] = f * (A @ sd)  # -dF/dalpha
         if tangential:
-            if not 0.0 < extra <= 1.5:
-                return None
-            ops = _Ops(self, extra)
-        th_a, th_m = sol[:n, 1], sol[:n, 2]
-        ex_a, ex_m = float(sol[n, 1]), float(sol[n, 2])
+            rhs[n, 1] = 1.0  # -d(theta(s1) - alpha)/dalpha
+            S, Sig, w, b, dsp = self._S, ops.Sig, ops.w, ops.b, ops.dsp
+            u = Sig @ cd - (w @ cd)  # G c
+            dGc = 0.5 * (S @ (dsp * cd)) - 0.5 * float(S[-1] @ (dsp * cd))
+            rhs[:n, 2] = (
+                0.5 * (S @ (dsp * ops.k))
+                + Sig @ (self.shape.k1 * ops.ds)
+                + f * 0.5 * (S @ (dsp * b * u))
+                + f * (Sig @ (ops.db * ops.ds * u))
+                + f * (Sig @ (b * dGc))
+            )  # -dF/ds1
+            rhs[n, 2] = 0.0
+        else:
+            rhs[n, 1] = 0.0
+            rhs[:n, 2] = 0.0
+            rhs[n, 2] = -1.0  # -d(theta(1) - theta0(1) + gamma)/dgamma
+        try:
+            sens = np.linalg.solve(M, rhs[:, 1:])
+        except np.linalg.LinAlgError:
+            return None
+        th_a, th_m = sens[:n, 0], sens[:n, 1]
+        ex_a, ex_m = float(sens[n, 0]), float(sens[n, 1])
         w = ops.w
         c, sn = np.cos(theta), np.sin(theta)
         P = (float(w @ c), float(w @ sn))
         wsn, wc = w * sn, w * c
-        if tangential:
-            # dP/dz = w (-sin, cos) theta_z + (1/2) S[-1] (ds'/ds1 (cos, sin)) s1_z
-            qx = 0.5 * float(S[-1] @ (ops.dsp * c))
-            qy = 0.5 * float(S[-1] @ (ops.dsp * sn))
-        else:
-            qx = qy = 0.0
-        dP = (
-            -float(wsn @ th_a) + qx * ex_a,
-            -float(wsn @ th_m) + qx * ex_m,
-            float(wc @ th_a) + qy * ex_a,
-            float(wc @ th_m) + qy * ex_m,
-        )
-        return _Solution(phase, alpha, mu, theta, extra, th_a, th_m, ex_a, ex_m, P, dP, ops)
+        dP = [-float(wsn @ th_a), -float(wsn @ th_m), float(wc @ th_a), float(wc @ th_m)]
+        if tangential:  # the nodes move with s1: + (1/2) S[-1] (ds'/ds1 (cos, sin))
+            dP[1] += 0.5 * float(self._S[-1] @ (ops.dsp * c))
+            dP[3] += 0.5 * float(self._S[-1] @ (ops.dsp * sn))
+        return _Solution(phase, alpha, mu, theta, f, th_a, th_m, ex_a, ex_m, P, tuple(dP), ops)
 
     # -- the tracker's model interface -------------------------------------------------------
     def load_point(self, phase: Phase, z):
@@ -457,8 +435,14 @@ class GeneralWhiskerModel:
 
     def valid(self, phase: Phase, z) -> bool:
         alpha, f = z
-        # as for the closed forms: the contact force has a component towards the foot (|alpha| < pi/2)
-        return math.isfinite(alpha) and math.isfinite(f) and -HALF_PI < alpha < HALF_PI and f > -1.0
+        if not (math.isfinite(alpha) and math.isfinite(f)):
+            return False
+        if phase == Phase.TIP:
+            # as for the closed forms: the tip force has a component towards the foot
+            return -HALF_PI < alpha < HALF_PI
+        # a side contact of a curved whisker may face away from the foot (alpha is not wrapped
+        # along a branch); f is s1 here
+        return -1.5 * math.pi < alpha < 1.5 * math.pi and 0.0 < f <= 1.0 + 1e-9
 
     def events(self, phase: Phase, z) -> Dict[str, float]:
         """phase 1: ``tip`` = 1 - s1, ``release`` = f; phase 2: ``tangential`` = theta(1) - alpha
@@ -466,7 +450,7 @@ class GeneralWhiskerModel:
         alpha, mu = float(z[0]), float(z[1])
         sol = self.solve(phase, alpha, mu)
         if phase == Phase.TANGENTIAL:
-            return {"tip": 1.0 - sol.s1, "release": mu}
+            return {"tip": 1.0 - mu, "release": sol.f}
         return {"tangential": float(sol.theta[-1]) - alpha, "release": sol.f}
 
     def transition(self, phase: Phase, event: str, z):
@@ -477,11 +461,11 @@ class GeneralWhiskerModel:
         sol = self.solve(phase, alpha, mu)
         if phase == Phase.TANGENTIAL and event == "tip":
             gamma = HALF_PI + float(self.shape.intrinsic_slope(1.0)) - alpha
-            self.solve(Phase.TIP, alpha, gamma, guess=(sol.theta, mu))
+            self.solve(Phase.TIP, alpha, gamma, guess=(sol.theta, sol.f))
             return Phase.TIP, (alpha, gamma)
         if phase == Phase.TIP and event == "tangential":
-            self.solve(Phase.TANGENTIAL, alpha, sol.f, guess=(sol.theta, 1.0))
-            return Phase.TANGENTIAL, (alpha, sol.f)
+            self.solve(Phase.TANGENTIAL, alpha, 1.0, guess=(sol.theta, sol.f))
+            return Phase.TANGENTIAL, (alpha, 1.0)
         raise AssertionError(f"no transition for event {event!r} in phase {phase!r}")
 
     def touch_start(self, alpha0: float, penetration: float):
@@ -496,13 +480,19 @@ class GeneralWhiskerModel:
         self._last = None
         return Phase.TIP, (alpha0, gamma)
 
+    def seed(self, phase: Phase, z, f: float) -> None:
+        """Solve a branch point from scratch, knowing its force (e.g. to redraw a stored state)."""
+        alpha, mu = float(z[0]), float(z[1])
+        theta = self._intrinsic_guess(phase, alpha, mu)[0]
+        self.solve(phase, alpha, mu, guess=(theta, float(f)))
+
     def side_touch_start(self, s_touch: float, alpha: float):
         """The branch point of a side-first touch at arc length ``s_touch``: zero force."""
         theta = HALF_PI + self.shape.intrinsic_slope(_Ops(self, s_touch).s)
         self._last = None
         self._memo.clear()
-        self.solve(Phase.TANGENTIAL, alpha, 0.0, guess=(theta, s_touch))
-        return Phase.TANGENTIAL, (alpha, 0.0)
+        self.solve(Phase.TANGENTIAL, alpha, s_touch, guess=(theta, 0.0))
+        return Phase.TANGENTIAL, (alpha, s_touch)
 
     def tip_rotation(self, phase: Phase, z) -> float:
         if phase == Phase.TIP:
@@ -526,7 +516,7 @@ class GeneralWhiskerModel:
         if phase == Phase.TANGENTIAL:
             s1 = sol.s1
             tip_slope = alpha + float(self.shape.intrinsic_slope(1.0) - self.shape.intrinsic_slope(s1))
-            return mu, m0, s1, tip_slope, _intrinsic_offset(self.shape, s1, alpha, 1.0)
+            return sol.f, m0, s1, tip_slope, _intrinsic_offset(self.shape, s1, alpha, 1.0)
         return sol.f, m0, 1.0, float(sol.theta[-1]), (0.0, 0.0)
 
     def moment_profile(self, phase: Phase, z, s) -> np.ndarray:

@@ -301,6 +301,7 @@ def centerline_of(state: WhiskerState, n: int = 101) -> np.ndarray:
             return to_world(state.pose, 1, general.free_centerline(n))
         phase, z = Phase(int(state.shape[0])), (state.shape[1], state.shape[2])
         side_model = general.for_side(state.side)
+        side_model.seed(phase, z, state.f)
         return to_world(state.pose, state.side, side_model.centerline_contact_frame(phase, z, n))
     if state.phase == Phase.FREE:
         s = np.linspace(0.0, 1.0, n)

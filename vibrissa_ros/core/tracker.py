@@ -111,6 +111,10 @@ class QuasistaticTracker:
         self.profile = profile
         self.model = make_model(model) if isinstance(model, str) else model
         self.options = options or TrackerOptions()
+        # pegs and curved whiskers: contact may start on the whisker's side (see _find_touch_shape)
+        self._shape_mode = hasattr(profile, "signed_distance") or not getattr(self.model, "is_straight", True)
+        self._free_nodes = None
+        self._peg_side_ref = None
         pose = _as_pose(pose)
         self._check_straight_free(pose, what="the initial pose")
         self._pose = pose
@@ -160,6 +164,10 @@ class QuasistaticTracker:
             kind = outcome[0]
             if kind == "target":
                 break
+            if kind == "phase" and outcome[1] == "tip" and getattr(self.profile, "is_point", False):
+                contact, t, ev = self._snap(path, contact)  # a point cannot hold the tip: it slips off
+                events.append(ev)
+                continue
             if kind == "phase":
                 name = outcome[1]
                 old = contact.phase
@@ -206,6 +214,9 @@ class QuasistaticTracker:
 
         The obstacle is the region above its lower boundary curve (for closed shapes: the strip
         above the lower arc)."""
+        signed_distance = getattr(self.profile, "signed_distance", None)
+        if signed_distance is not None:
+            return float(signed_distance(x, y))
         base, u, v = self._base_frame_point(x, y)
         try:
             a = base.alpha_at_x(u)
@@ -269,6 +280,8 @@ class QuasistaticTracker:
 
     def _rod_clearance(self, pose: FootPose) -> float:
         """Smallest gap along the straight whisker (convex in s: bounded scalar minimization)."""
+        if self._shape_mode:
+            return self._free_clearance(pose)[0]
         c, s = math.cos(pose.heading), math.sin(pose.heading)
         fun = lambda u: self._gap(pose.x + u * c, pose.y + u * s)  # noqa: E731
         g0, g1 = fun(0.0), fun(1.0)
@@ -291,6 +304,8 @@ class QuasistaticTracker:
         reach the obstacle before t + distance / length; near contact the sign change of the
         signed gap is bracketed and refined with brentq.
         """
+        if self._shape_mode:
+            return self._find_touch_shape(path, t)
         speed = path.length
         eps = 1e-10
         for _ in range(10000):
@@ -323,6 +338,8 @@ class QuasistaticTracker:
         return None
 
     def _start_contact(self, path: _Path, t_touch: float) -> Optional[Tuple[_Contact, Event]]:
+        if self._shape_mode:
+            return self._start_contact_shape(path, t_touch)
         pose = path.pose(t_touch)
         tx, ty = self._tip(pose)
         base, u, _ = self._base_frame_point(tx, ty)
@@ -356,6 +373,190 @@ class QuasistaticTracker:
                     return _Contact(phase, side, z, t_s), event
             h *= 0.25
         return None  # the tip only grazes the profile
+
+    # -- free whisker of any shape, any obstacle (pegs, curved whiskers) ------------------------
+    def _free_point(self, s: float) -> Tuple[float, float]:
+        """Point at arc length s of the unloaded whisker, foot frame (heading along +y)."""
+        if getattr(self.model, "is_straight", True):
+            return 0.0, s
+        from .general import free_centerline
+
+        return tuple(free_centerline(self.model.shape, [s])[0])
+
+    def _free_sample(self):
+        if self._free_nodes is None:
+            s = 0.5 - 0.5 * np.cos(np.linspace(0.0, math.pi, 41))
+            if getattr(self.model, "is_straight", True):
+                pts = np.column_stack((np.zeros_like(s), s))
+            else:
+                from .general import free_centerline
+
+                pts = free_centerline(self.model.shape, s)
+            self._free_nodes = (s, pts)
+        return self._free_nodes
+
+    def _world_gap(self, pose: FootPose, fx: float, fy: float) -> float:
+        beta = pose.heading - HALF_PI
+        c, s = math.cos(beta), math.sin(beta)
+        return self._gap(pose.x + c * fx - s * fy, pose.y + s * fx + c * fy)
+
+    def _free_clearance(self, pose: FootPose) -> Tuple[float, float]:
+        """(smallest gap along the unloaded whisker, its arc length). For a peg the gap is the
+        Euclidean distance to the peg; for a curved whisker against a convex profile the vertical gap."""
+        s, pts = self._free_sample()
+        beta = pose.heading - HALF_PI
+        c, sn = math.cos(beta), math.sin(beta)
+        wx = pose.x + c * pts[:, 0] - sn * pts[:, 1]
+        wy = pose.y + sn * pts[:, 0] + c * pts[:, 1]
+        signed_distance = getattr(self.profile, "signed_distance", None)
+        if signed_distance is not None:
+            d = signed_distance(wx, wy)
+        else:
+            d = np.array([self._gap(x, y) for x, y in zip(wx, wy)])
+        i = int(np.argmin(d))
+        best, s_best = float(d[i]), float(s[i])
+        lo, hi = s[max(i - 1, 0)], s[min(i + 1, len(s) - 1)]
+        fun = lambda u: self._world_gap(pose, *self._free_point(u))  # noqa: E731
+        res = minimize_scalar(fun, bounds=(lo, hi), method="bounded", options={"xatol": 1e-12})
+        if float(res.fun) < best:
+            best, s_best = float(res.fun), float(res.x)
+        if signed_distance is not None and self._peg_side_ref is not None:
+            # a point (or a peg's centre) crossing the whisker: the side it lies on decides the sign
+            side = self._peg_side(pose, s_best)
+            if side != 0 and side != self._peg_side_ref:
+                best = -best - 2.0 * self.profile.r
+        return best, s_best
+
+    def _peg_side(self, pose: FootPose, s: float) -> int:
+        """+1 when the peg's centre is to the left of the unloaded whisker at s, -1 right, 0 beyond its ends."""
+        if not 0.0 < s < 1.0:
+            return 0
+        fx, fy = self._free_point(s)
+        slope = 0.0 if getattr(self.model, "is_straight", True) else float(self.model.shape.intrinsic_slope(s))
+        beta = pose.heading - HALF_PI
+        cb, sb = math.cos(beta), math.sin(beta)
+        px, py = pose.x + cb * fx - sb * fy, pose.y + sb * fx + cb * fy
+        th = pose.heading + slope
+        cross = math.cos(th) * (self.profile.y - py) - math.sin(th) * (self.profile.x - px)
+        return 1 if cross > 0.0 else -1
+
+    def _find_touch_shape(self, path: _Path, t: float) -> Optional[float]:
+        """First t in [t, 1] where the unloaded whisker meets the obstacle anywhere along it.
+
+        Against a peg the clearance is a distance and every whisker point moves at most
+        ``path.length`` per unit t: conservative advancement, then brentq. Against a convex profile
+        (curved whisker) the clearance is sampled every 1e-3 L of motion and the sign change refined.
+        """
+        self._peg_side_ref = None
+        if hasattr(self.profile, "signed_distance"):
+            pose0 = path.pose(t)
+            self._peg_side_ref = self._peg_side(pose0, self._free_clearance(pose0)[1]) or None
+        try:
+            return self._find_touch_shape_signed(path, t)
+        finally:
+            self._peg_side_ref = None
+
+    def _find_touch_shape_signed(self, path: _Path, t: float) -> Optional[float]:
+        clearance = lambda u: self._free_clearance(path.pose(u))[0]  # noqa: E731
+        speed = path.length
+        c0 = clearance(t)
+        if c0 <= 0.0:  # touching (e.g. just released): a touch only if the whisker moves in
+            t_b = min(1.0, t + 1e-9 / speed)
+            c_b = clearance(t_b)
+            if c_b <= 0.0 or t_b >= 1.0:
+                return t if c_b <= 0.0 else None
+            t, c0 = t_b, c_b
+        peg = hasattr(self.profile, "signed_distance")
+        eps = 1e-10
+        for _ in range(100000):
+            if peg:
+                t_next = t + (max(c0, 0.5 * eps) / speed)
+            else:
+                t_next = t + 1e-3 / speed
+            t_next = min(t_next, 1.0)
+            c1 = clearance(t_next)
+            if c1 <= 0.0:
+                if c1 == 0.0:
+                    return t_next
+                return brentq(clearance, t, t_next, xtol=1e-16, rtol=1e-15)
+            if t_next >= 1.0:
+                return None
+            if peg and c1 <= eps:
+                t_b = min(1.0, t_next + 8.0 * eps / speed)
+                cb = clearance(t_b)
+                if cb < 0.0:
+                    return brentq(clearance, t_next, t_b, xtol=1e-16, rtol=1e-15)
+                t_next, c1 = t_b, cb
+                if t_b >= 1.0:
+                    return None
+            t, c0 = t_next, c1
+        raise ConvergenceError("touch search did not terminate")
+
+    def _start_contact_shape(self, path: _Path, t_touch: float) -> Optional[Tuple[_Contact, Event]]:
+        pose = path.pose(t_touch)
+        _, s_star = self._free_clearance(pose)
+        fx, fy = self._free_point(s_star)
+        beta = pose.heading - HALF_PI
+        cb, sb = math.cos(beta), math.sin(beta)
+        wx, wy = pose.x + cb * fx - sb * fy, pose.y + sb * fx + cb * fy
+        normal_slope = getattr(self.profile, "normal_slope", None)
+        if normal_slope is not None:
+            alpha_w = normal_slope(wx, wy)
+        else:
+            base, u, _ = self._base_frame_point(wx, wy)
+            alpha_w = base.alpha_at_x(u) + (self.profile.rotation if isinstance(self.profile, PlacedProfile) else 0.0)
+        slope = 0.0 if getattr(self.model, "is_straight", True) else float(self.model.shape.intrinsic_slope(s_star))
+        theta_f = HALF_PI + slope
+        if normal_slope is not None and s_star < 1.0 - 1e-9:
+            # side touch of a peg: the normal is the whisker's (exact also for a point, r = 0)
+            peg_side = self._peg_side(path.pose(max(t_touch - 1e-6 / path.length, 0.0)), s_star)
+            alpha_w = beta + theta_f - (0.0 if peg_side >= 0 else math.pi)
+        alpha_f = math.remainder(alpha_w - beta, _TWO_PI)
+        side = 1 if math.cos(theta_f - alpha_f) > 0.0 else -1  # obstacle on the whisker's left: +1
+        alpha_c = math.remainder(side * alpha_f, _TWO_PI)
+        model = self._side_model(side)
+        tip_first = s_star >= 1.0 - 1e-9
+        if tip_first and getattr(self.profile, "is_point", False):
+            raise ModelAssumptionError(
+                "the tip meets a point obstacle head first: a point (peg radius 0) takes side contact only"
+            )
+        if tip_first:
+            if not abs(alpha_c) < HALF_PI:
+                raise ModelAssumptionError(
+                    f"first touch where the obstacle's slope relative to the whisker is {alpha_f!r} rad: "
+                    "the contact force would pull the tip away from the foot"
+                )
+            if abs(alpha_c) < 1e-9:
+                raise ModelAssumptionError(
+                    "the tip touches the obstacle head-on (contact force along the whisker's axis): "
+                    "the buckling that follows is not modelled"
+                )
+            event = Event("touch", Phase.FREE, Phase.TIP, pose, alpha_w)
+            tau_left = (1.0 - t_touch) * path.length
+            if tau_left <= 1e-13:
+                return None
+            h = min(tau_left, 1e-3)
+            for _ in range(40):
+                t_s = 1.0 if h == tau_left else t_touch + h / path.length
+                tx, ty = self._tip(path.pose(t_s))
+                gap = self._gap(tx, ty)
+                pen = -gap if normal_slope is not None else -gap * math.cos(alpha_c)
+                if pen > 0.0:
+                    phase, z = model.touch_start(alpha_c, pen)
+                    z = self._newton_fixed_t(path, phase, side, z, t_s)
+                    if z is not None:
+                        return _Contact(phase, side, z, t_s), event
+                h *= 0.25
+            return None
+        side_touch_start = getattr(model, "side_touch_start", None)
+        if side_touch_start is None:
+            raise ModelAssumptionError(
+                "the side of the whisker meets the obstacle first: the closed forms cover tip-first "
+                "touches only; use the general (numeric) solver"
+            )
+        phase, z = side_touch_start(s_star, alpha_c)
+        event = Event("touch", Phase.FREE, phase, pose, alpha_w)
+        return _Contact(phase, side, z, t_touch), event
 
     # -- contact branch ----------------------------------------------------------------------
     def _profile_cf(self, path: _Path, side: int, alpha: float, t: float):
