@@ -17,6 +17,8 @@ TOOLS = ["colcon-common-extensions", "colcon-ros", "ros-jazzy-ament-package", "r
 # two independent readers of our logs, for the round-trip tests
 READERS = ["mcap-ros2-support", "rosbags"]
 PLOTS = ["matplotlib>=3.7"]
+# the core's own tests: they also run on numpy 1.x (.ci/run), without ROS
+CORE_TEST = ["pytest>=7", "mpmath>=1.3", "hypothesis>=6.100"]
 
 setup(
     name=package_name,
@@ -33,7 +35,8 @@ setup(
         # ROS 2 Jazzy from PyPI wheels (no sourcing needed), for the node and its tools
         "ros": ROS + PLOTS,
         "plots": PLOTS,
-        "test": ROS + TOOLS + READERS + PLOTS + ["pytest>=7", "mpmath>=1.3", "catkin_pkg>=1.0"],
+        "core-test": CORE_TEST,
+        "test": ROS + TOOLS + READERS + PLOTS + CORE_TEST + ["catkin_pkg>=1.0"],
     },
     zip_safe=True,
     maintainer="vibrissa_ros maintainers",

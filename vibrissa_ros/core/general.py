@@ -262,6 +262,8 @@ class GeneralWhiskerModel:
         self._last: Optional[_Solution] = None
         self._memo: Dict[tuple, _Solution] = {}
         self._mirror: Optional["GeneralWhiskerModel"] = None
+        #: solutions of reported states (contact_quantities), to redraw their centerlines later
+        self._reported: Dict[tuple, _Solution] = {}
 
     def for_side(self, side: int) -> "GeneralWhiskerModel":
         """The model in the contact frame of ``side``: mirrored (curvature -kappa0) for side -1."""
@@ -494,6 +496,14 @@ class GeneralWhiskerModel:
         self.solve(Phase.TANGENTIAL, alpha, s_touch, guess=(theta, 0.0))
         return Phase.TANGENTIAL, (alpha, s_touch)
 
+    def step_scale(self, phase: Phase, z) -> float:
+        """Scale of the continuation's steps (the unknowns stay O(1) on every branch)."""
+        return 1.0
+
+    def released(self, phase: Phase, z) -> bool:
+        """Releases are the ``release`` event (f = 0), located like any other."""
+        return False
+
     def tip_rotation(self, phase: Phase, z) -> float:
         if phase == Phase.TIP:
             return float(z[1])
@@ -512,6 +522,9 @@ class GeneralWhiskerModel:
         """(f, m0, s1, tip_slope, tip_offset), contact frame; tip_offset = tip - contact."""
         alpha, mu = float(z[0]), float(z[1])
         sol = self.solve(phase, alpha, mu)
+        if len(self._reported) > 4096:
+            self._reported.clear()
+        self._reported[(int(phase), alpha, mu)] = sol
         m0 = float(sol.moments()[0])
         if phase == Phase.TANGENTIAL:
             s1 = sol.s1
@@ -531,8 +544,8 @@ class GeneralWhiskerModel:
 
     def centerline_contact_frame(self, phase: Phase, z, n: int) -> np.ndarray:
         """``n`` points from foot to tip in the foot frame (not mirrored), shape (n, 2)."""
-        alpha, f = float(z[0]), float(z[1])
-        sol = self.solve(phase, alpha, f)
+        alpha, mu = float(z[0]), float(z[1])
+        sol = self._reported.get((int(phase), alpha, mu)) or self.solve(phase, alpha, mu)
         s = np.linspace(0.0, 1.0, n)
         pts = np.empty((n, 2))
         half_sp = 0.5 * sol.ops.sp
@@ -549,8 +562,3 @@ class GeneralWhiskerModel:
 
     def free_centerline(self, n: int) -> np.ndarray:
         return free_centerline(self.shape, np.linspace(0.0, 1.0, n))
-
-    def shape_params(self) -> Tuple[float, ...]:
-        """What a state stores to redraw its centerline (see models.centerline_of)."""
-        sh = self.shape
-        return (sh.taper, sh.k0, sh.k1, float(self.n))
