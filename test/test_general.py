@@ -219,3 +219,43 @@ def test_peg_parameters():
         Peg(math.nan, 1.0, 0.1)
     moved = Peg(1.0, 2.0, 0.5).placed(1.0, 0.0, math.pi / 2)
     assert (moved.x, moved.y, moved.r) == pytest.approx((-1.0, 1.0, 0.5), abs=1e-15)
+
+
+# -- second, independent method: shooting (DOP853) on the 4th-order system --------------------
+from vibrissa_ros.core.general_shooting import shoot_state  # noqa: E402
+from vibrissa_ros.core.scan import run_poses  # noqa: E402
+
+
+def _assert_shooting_agrees(shape, peg, scan, every=1):
+    checked = 0
+    phases = set()
+    for state in scan.states[::every]:
+        if state.phase == Phase.FREE:
+            continue
+        shot = shoot_state(shape, peg, state)
+        assert abs(shot.f - state.f) <= 1e-9 * max(1.0, state.f)
+        assert abs(shot.m0 - state.m0) <= 1e-9 * max(1.0, abs(state.m0))
+        assert abs(shot.alpha - state.alpha) <= 1e-9
+        assert abs(shot.s1 - state.s1) <= 1e-9
+        checked += 1
+        phases.add(state.phase)
+    return checked, phases
+
+
+def test_shooting_agrees_on_a_tapered_curved_whisker_translating_past_a_peg():
+    shape = WhiskerShape(1 / 15, 1.0, 0.5)
+    peg = Peg(0.0, 0.6, 0.05)
+    scan = run_scan(peg, scan_grid(1.0, -1.0, 0.05, back=True), model=GeneralWhiskerModel(shape))
+    checked, _ = _assert_shooting_agrees(shape, peg, scan, every=2)
+    assert checked >= 5
+
+
+def test_shooting_agrees_on_a_whisking_whisker_in_tip_and_side_contact():
+    shape = WhiskerShape(0.3, -0.8, 0.3)
+    peg = Peg(0.15, 0.97, 0.1)
+    poses = [FootPose(0.0, 0.0, math.pi / 2 + 0.3 - 0.02 * i) for i in range(40)]
+    scan = run_poses(peg, poses, model=GeneralWhiskerModel(shape))
+    kinds = [(e.kind, e.to_phase) for e in scan.events]
+    assert kinds[:2] == [("touch", Phase.TIP), ("phase", Phase.TANGENTIAL)]
+    checked, phases = _assert_shooting_agrees(shape, peg, scan)
+    assert checked >= 4 and phases == {Phase.TIP, Phase.TANGENTIAL}

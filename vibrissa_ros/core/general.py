@@ -439,12 +439,11 @@ class GeneralWhiskerModel:
         alpha, f = z
         if not (math.isfinite(alpha) and math.isfinite(f)):
             return False
-        if phase == Phase.TIP:
-            # as for the closed forms: the tip force has a component towards the foot
-            return -HALF_PI < alpha < HALF_PI
-        # a side contact of a curved whisker may face away from the foot (alpha is not wrapped
-        # along a branch); f is s1 here
-        return -1.5 * math.pi < alpha < 1.5 * math.pi and 0.0 < f <= 1.0 + 1e-9
+        # a curved whisker may touch with a force that points away from the foot (alpha is not
+        # wrapped along a branch)
+        if not -1.5 * math.pi < alpha < 1.5 * math.pi:
+            return False
+        return phase == Phase.TIP or 0.0 < f <= 1.0 + 1e-9  # (f is s1 in phase 1)
 
     def events(self, phase: Phase, z) -> Dict[str, float]:
         """phase 1: ``tip`` = 1 - s1, ``release`` = f; phase 2: ``tangential`` = theta(1) - alpha

@@ -628,7 +628,10 @@ class QuasistaticTracker:
                 "the tip meets a point obstacle head first: a point (peg radius 0) takes side contact only"
             )
         if tip_first:
-            if not abs(alpha_c) < HALF_PI:
+            # the tip may touch where the obstacle's normal points along the tip's tangent or behind it
+            phi_c = theta_f if side > 0 else math.pi - theta_f
+            closed_forms = not hasattr(model, "side_touch_start")  # their domain: |alpha| < pi/2
+            if not 0.0 < phi_c - alpha_c < math.pi or (closed_forms and not abs(alpha_c) < HALF_PI):
                 raise ModelAssumptionError(
                     f"first touch where the obstacle's slope relative to the whisker is {alpha_f!r} rad: "
                     "the contact force would pull the tip away from the foot"
