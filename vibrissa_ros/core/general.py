@@ -226,9 +226,18 @@ class _Solution:
     def s1(self) -> float:
         return self.mu if self.tangential else 1.0
 
-    def moments(self) -> np.ndarray:
+    def base_moment(self) -> float:
+        """M(0) = f [cos(alpha) (0 - x(s1)) + sin(alpha) (0 - y(s1))]: the contact force's moment."""
+        return -self.f * (self.P[0] * math.cos(self.alpha) + self.P[1] * math.sin(self.alpha))
+
+    def operators(self, model: "GeneralWhiskerModel") -> "_Ops":
+        if self.ops is None:
+            self.ops = _Ops(model, self.s1)
+        return self.ops
+
+    def moments(self, model: "GeneralWhiskerModel") -> np.ndarray:
         """M at the nodes: f (Sig - 1 w) cos(theta - alpha)."""
-        ops = self.ops
+        ops = self.operators(model)
         return self.f * ((ops.Sig - ops.w) @ np.cos(self.theta - self.alpha))
 
 
@@ -247,8 +256,9 @@ class GeneralWhiskerModel:
 
     name = "general"
     release_by_gap = False
-    #: a Newton correction this small leaves an error of its square (quadratic convergence)
-    _NEWTON_TOL = 1e-9
+    #: a Newton correction this small leaves an error of about its square (quadratic convergence;
+    #: the numeric-vs-exact scans agree to ~1e-14 with it)
+    _NEWTON_TOL = 1e-7
     _MAX_ITER = 40
 
     def __init__(self, shape: Optional[WhiskerShape] = None, n: int = DEFAULT_POINTS):
@@ -302,6 +312,22 @@ class GeneralWhiskerModel:
         sol = self._memo.get(key)
         if sol is not None:
             return sol
+        last = self._last
+        if guess is None and last is not None and last.phase == phase:
+            da, dm = alpha - last.alpha, mu - last.mu
+            if abs(da) + abs(dm) <= 1e-10:
+                # the tracker's Newton ends a hair (its last correction) from the last solve:
+                # the first-order update is exact to O(1e-20)
+                sol = _Solution(
+                    phase, alpha, mu,
+                    last.theta + last.th_a * da + last.th_m * dm,
+                    last.extra + last.ex_a * da + last.ex_m * dm,
+                    last.th_a, last.th_m, last.ex_a, last.ex_m,
+                    (last.P[0] + last.dP[0] * da + last.dP[1] * dm, last.P[1] + last.dP[2] * da + last.dP[3] * dm),
+                    last.dP, last.ops if (phase == Phase.TIP or dm == 0.0) else None,
+                )
+                self._remember(key, sol)
+                return sol
         tries = [lambda: guess] if guess is not None else []
         tries.append(lambda: self._guess(phase, alpha, mu))
         if self._last is not None:
@@ -318,11 +344,14 @@ class GeneralWhiskerModel:
                 f"general whisker: no equilibrium found for alpha = {alpha!r}, "
                 f"{'s1' if phase == Phase.TANGENTIAL else 'tip rotation'} = {mu!r} (phase {int(phase)})"
             )
+        self._remember(key, sol)
+        return sol
+
+    def _remember(self, key, sol: _Solution) -> None:
         self._last = sol
         if len(self._memo) > 64:
             self._memo.clear()
         self._memo[key] = sol
-        return sol
 
     def _homotopy(self, phase: Phase, alpha: float, gamma: float) -> Optional[_Solution]:
         """Cold start of a tip contact: rotate the tip from the unloaded shape in small steps."""
@@ -519,7 +548,7 @@ class GeneralWhiskerModel:
         if len(self._reported) > 4096:
             self._reported.clear()
         self._reported[(int(phase), alpha, mu)] = sol
-        m0 = float(sol.moments()[0])
+        m0 = sol.base_moment()
         if phase == Phase.TANGENTIAL:
             s1 = sol.s1
             tip_slope = alpha + float(self.shape.intrinsic_slope(1.0) - self.shape.intrinsic_slope(s1))
@@ -533,7 +562,7 @@ class GeneralWhiskerModel:
         out = np.zeros_like(s)
         inside = s <= sol.s1
         x = 2.0 * self._t_of_s(s[inside], sol.s1) - 1.0
-        out[inside] = C.chebval(x, self._Vinv @ sol.moments())
+        out[inside] = C.chebval(x, self._Vinv @ sol.moments(self))
         return out
 
     def centerline_contact_frame(self, phase: Phase, z, n: int) -> np.ndarray:
@@ -542,7 +571,7 @@ class GeneralWhiskerModel:
         sol = self._reported.get((int(phase), alpha, mu)) or self.solve(phase, alpha, mu)
         s = np.linspace(0.0, 1.0, n)
         pts = np.empty((n, 2))
-        half_sp = 0.5 * sol.ops.sp
+        half_sp = 0.5 * sol.operators(self).sp
         cx = C.chebint(self._Vinv @ (np.cos(sol.theta) * half_sp), lbnd=-1.0)
         cy = C.chebint(self._Vinv @ (np.sin(sol.theta) * half_sp), lbnd=-1.0)
         loaded = s <= sol.s1
