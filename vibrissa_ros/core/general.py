@@ -272,6 +272,7 @@ class GeneralWhiskerModel:
         self._last: Optional[_Solution] = None
         self._memo: Dict[tuple, _Solution] = {}
         self._mirror: Optional["GeneralWhiskerModel"] = None
+        self._free_series = None
         #: solutions of reported states (contact_quantities), to redraw their centerlines later
         self._reported: Dict[tuple, _Solution] = {}
 
@@ -582,6 +583,18 @@ class GeneralWhiskerModel:
             ox, oy = _intrinsic_offset(self.shape, sol.s1, alpha, s[i])
             pts[i] = (sol.P[0] + ox, sol.P[1] + oy)
         return pts
+
+    def free_point(self, s: float) -> Tuple[float, float]:
+        """Point of the unloaded whisker at arc length s, foot frame (a Chebyshev series, ~1e-15)."""
+        if self._free_series is None:
+            x, S, Vinv = chebyshev_operators(48)
+            th = HALF_PI + self.shape.intrinsic_slope(0.5 * (x + 1.0))
+            cx = C.chebint(Vinv @ (0.5 * np.cos(th)), lbnd=-1.0)
+            cy = C.chebint(Vinv @ (0.5 * np.sin(th)), lbnd=-1.0)
+            self._free_series = (cx, cy)
+        cx, cy = self._free_series
+        u = 2.0 * s - 1.0
+        return float(C.chebval(u, cx)), float(C.chebval(u, cy))
 
     def free_centerline(self, n: int) -> np.ndarray:
         return free_centerline(self.shape, np.linspace(0.0, 1.0, n))
