@@ -9,6 +9,8 @@
    on a sample of the same contact poses (warm-started from the previous pose's solution, as the
    tracker is), the median speed ratio and the largest difference.
 
+3. Published mechanics: Solomon & Hartmann's small-angle stiffness and Hires et al.'s slip-off angles.
+
 Run: python bench/bench_general.py [--poses 4000] [--sample 20]
 """
 
@@ -140,6 +142,32 @@ def speed(n_poses: int, sample: int):
           f"largest difference {worst:.1e}")
 
 
+def published():
+    """Solomon & Hartmann 2006 (small-angle rotational stiffness) and Hires et al. 2013 (slip-off)."""
+    print("rotational stiffness dM/dtheta at 1e-5 rad against a point at radial distance d (units EI_b/L):")
+    print("  taper   d     collocation         linear theory d^2/int (d-s)^2/B")
+    for taper in (1.0, 1 / 15):
+        shape = WhiskerShape(taper)
+        for d in (0.3, 0.6, 0.9):
+            tracker = QuasistaticTracker(Peg(0.0, d, 0.0), FootPose(0.0, 0.0, math.pi / 2 + 0.05),
+                                         model=GeneralWhiskerModel(shape))
+            tracker.step(FootPose(0.0, 0.0, math.pi / 2))
+            m0 = tracker.step(FootPose(0.0, 0.0, math.pi / 2 - 1e-5)).state.m0
+            print(f"  {taper:<6.4g}  {d:<4}  {abs(m0) / 1e-5:<18.12g}  {d * d / shape.linear_compliance(d):.12g}")
+    print("slip-off push angle [deg] of a straight whisker whisked against a point pole at radial distance d")
+    print("  (none: no slip-off up to 86 deg)")
+    print("  d     " + "  ".join(f"taper {t:<6.4g}" for t in (1.0, 0.2, 1 / 15)))
+    for d in (0.3, 0.5, 0.7, 0.9):
+        row = []
+        for taper in (1.0, 0.2, 1 / 15):
+            tracker = QuasistaticTracker(Peg(0.0, d, 0.0), FootPose(0.0, 0.0, math.pi / 2 + 0.05),
+                                         model=GeneralWhiskerModel(WhiskerShape(taper)))
+            events = tracker.step(FootPose(0.0, 0.0, math.pi / 2 - 1.5)).events
+            snaps = [e for e in events if e.kind == "snap"]
+            row.append(f"{math.degrees(math.pi / 2 - snaps[0].pose.heading):<12.2f}" if snaps else f"{'none':<12}")
+        print(f"  {d:<4}  " + "  ".join(row))
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--poses", type=int, default=4000)
@@ -150,6 +178,7 @@ def main(argv=None):
         os.sched_setaffinity(0, {sorted(os.sched_getaffinity(0))[0]})  # one core
     if not args.skip_convergence:
         convergence()
+        published()
     speed(args.poses, args.sample)
 
 

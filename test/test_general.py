@@ -259,3 +259,43 @@ def test_shooting_agrees_on_a_whisking_whisker_in_tip_and_side_contact():
     assert kinds[:2] == [("touch", Phase.TIP), ("phase", Phase.TANGENTIAL)]
     checked, phases = _assert_shooting_agrees(shape, peg, scan)
     assert checked >= 4 and phases == {Phase.TIP, Phase.TANGENTIAL}
+
+
+# -- published mechanics ------------------------------------------------------------------------
+def _rotate_against_point(shape, d, push):
+    """A whisker whose foot turns clockwise (whisking) against a point peg at radial distance d."""
+    tracker = QuasistaticTracker(Peg(0.0, d, 0.0), FootPose(0.0, 0.0, math.pi / 2 + 0.05),
+                                 model=GeneralWhiskerModel(shape))
+    touch = tracker.step(FootPose(0.0, 0.0, math.pi / 2)).events
+    result = tracker.step(FootPose(0.0, 0.0, math.pi / 2 - push))
+    return touch, result
+
+
+@pytest.mark.parametrize("taper", [1.0, 1 / 15, 0.3])
+@pytest.mark.parametrize("d", [0.3, 0.6, 0.9])
+def test_small_angle_rotational_stiffness_matches_linear_theory(taper, d):
+    """Solomon & Hartmann 2006: dM/dtheta -> 3 EI / d (cylinder); a cone gives
+    d^2 / int_0^d (d - s)^2 / B(s) ds (units EI_b)."""
+    shape = WhiskerShape(taper)
+    dtheta = 1e-5
+    touch, result = _rotate_against_point(shape, d, dtheta)
+    assert [e.kind for e in touch] == ["touch"]
+    stiffness = abs(result.state.m0) / dtheta
+    expected = d * d / shape.linear_compliance(d)
+    if taper == 1.0:
+        assert expected == pytest.approx(3.0 / d, rel=1e-14)
+    assert stiffness == pytest.approx(expected, rel=1e-8)
+
+
+@pytest.mark.parametrize("d", [0.3, 0.5, 0.7])
+def test_tapered_whiskers_slip_off_a_pole_cylindrical_ones_do_not(d):
+    """Hires et al. 2013: pushed against a pole, a conical whisker slips off at a critical angle,
+    a cylindrical one does not within plausible angles (here: 60 degrees)."""
+    push = math.radians(60.0)
+    _, cone = _rotate_against_point(WhiskerShape(1 / 15), d, push)
+    snaps = [e for e in cone.events if e.kind == "snap"]
+    assert len(snaps) == 1 and snaps[0].from_phase == Phase.TANGENTIAL
+    assert math.pi / 2 - snaps[0].pose.heading < push
+    _, cylinder = _rotate_against_point(WhiskerShape(1.0), d, push)
+    assert not [e for e in cylinder.events if e.kind == "snap"]
+    assert cylinder.state.phase == Phase.TANGENTIAL
