@@ -5,6 +5,7 @@ import io
 import json
 import math
 
+import numpy as np
 import pytest
 
 from vibrissa_ros.cli import main
@@ -122,3 +123,37 @@ def test_poses_and_grid_are_exclusive(tmp_path, capsys):
     code, _, err = _run(["scan", "--profile", "peg", "--param", "x=0", "--param", "y=0.5", "--poses", str(bad),
                          "--csv", str(tmp_path / "o.csv")], capsys)
     assert code == 2 and "y" in err
+
+
+def test_plot_of_a_whisking_scan_is_drawn_against_the_heading(tmp_path, capsys):
+    pytest.importorskip("matplotlib")
+    poses = tmp_path / "whisk.csv"
+    lines = ["x,y,heading"] + [f"0,0,{math.pi / 2 - 0.3 + 0.03 * i!r}" for i in range(41)]
+    poses.write_text("\n".join(lines) + "\n")
+    png = tmp_path / "whisk.png"
+    code, _, err = _run(
+        ["scan", "--profile", "peg", "--param", "x=-0.3", "--param", "y=0.6", "--param", "r=0.04",
+         "--taper", "0.0667", "--curvature", "1,0.5", "--poses", str(poses), "--csv", str(tmp_path / "o.csv"),
+         "--plot", str(png)],
+        capsys,
+    )
+    assert code == 0, err
+    assert png.stat().st_size > 10_000
+
+
+def test_plot_runs_draws_a_peg_and_heading_axis():
+    pytest.importorskip("matplotlib")
+    from vibrissa_ros.core import FootPose, GeneralWhiskerModel, Peg, WhiskerShape
+    from vibrissa_ros.core.scan import run_poses
+    from vibrissa_ros.plots import PlotRun, plot_runs
+
+    peg = Peg(-0.3, 0.6, 0.04)
+    poses = [FootPose(0.0, 0.0, math.pi / 2 - 0.3 + 0.03 * i) for i in range(41)]
+    scan = run_poses(peg, poses, model=GeneralWhiskerModel(WhiskerShape(0.0667, 1.0, 0.5)))
+    fig = plot_runs([PlotRun("general", scan.states, scan.events, scan.event_steps)], peg, abscissa="heading")
+    ax = fig.axes["m0"]
+    assert ax.get_xlabel() == "foot heading [rad]"
+    lines = [l for l in ax.get_lines() if l.get_gid() == "general:m0:0"]
+    assert np.allclose(lines[0].get_xdata(), [p.heading for p in poses])
+    assert [l for l in fig.axes["sketch"].get_lines() if l.get_gid() == "obstacle"]
+    fig.figure.clf()

@@ -274,7 +274,10 @@ def _cmd_scan(args) -> int:
             return 2
 
         title = f"{profile.describe()}: " + " vs ".join(name for name, _ in results)
-        figure = plot_runs([PlotRun(name, r.states, r.events, r.event_steps) for name, r in results], profile, title=title)
+        # foot poses that only turn the whisker (whisking) are drawn against the heading
+        abscissa = "heading" if poses is not None and len({p.x for p in poses}) == 1 else "x0"
+        figure = plot_runs([PlotRun(name, r.states, r.events, r.event_steps) for name, r in results], profile,
+                           title=title, abscissa=abscissa)
         figure.save(args.plot, small=args.small_png)
     return 0
 
