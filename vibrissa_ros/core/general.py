@@ -270,9 +270,12 @@ class GeneralWhiskerModel:
         self._eye = np.eye(self.n)
         self._tip_ops = _Ops(self, 1.0)  # phase 2 (s1 = 1): constant
         self._last: Optional[_Solution] = None
+        self._base: Optional[_Solution] = None  # the last solution from Newton (not an update)
         self._memo: Dict[tuple, _Solution] = {}
         self._mirror: Optional["GeneralWhiskerModel"] = None
         self._free_series = None
+        taper = self.shape.taper
+        self._s1_max = 1.05 if taper == 1.0 else min(1.05, 1.0 + 0.5 * taper / (1.0 - taper))
         #: solutions of reported states (contact_quantities), to redraw their centerlines later
         self._reported: Dict[tuple, _Solution] = {}
 
@@ -313,12 +316,12 @@ class GeneralWhiskerModel:
         sol = self._memo.get(key)
         if sol is not None:
             return sol
-        last = self._last
+        last = self._base
         if guess is None and last is not None and last.phase == phase:
             da, dm = alpha - last.alpha, mu - last.mu
-            if abs(da) + abs(dm) <= 1e-10:
-                # the tracker's Newton ends a hair (its last correction) from the last solve:
-                # the first-order update is exact to O(1e-20)
+            if abs(da) + abs(dm) <= 1e-7:
+                # within 1e-7 of the last Newton solution (the tracker's last correction, its
+                # convergence check): the first-order update from it is exact to O(|dz|^2) ~ 1e-14
                 sol = _Solution(
                     phase, alpha, mu,
                     last.theta + last.th_a * da + last.th_m * dm,
@@ -346,6 +349,7 @@ class GeneralWhiskerModel:
                 f"{'s1' if phase == Phase.TANGENTIAL else 'tip rotation'} = {mu!r} (phase {int(phase)})"
             )
         self._remember(key, sol)
+        self._base = sol
         return sol
 
     def _remember(self, key, sol: _Solution) -> None:
@@ -380,7 +384,7 @@ class GeneralWhiskerModel:
         n = self.n
         tangential = phase == Phase.TANGENTIAL
         if tangential:
-            if not 0.0 < mu <= 1.0 + 1e-9:
+            if not 0.0 < mu <= self._s1_max:
                 return None
             ops = self._tip_ops if mu == 1.0 else _Ops(self, mu)
             target = alpha
@@ -431,8 +435,9 @@ class GeneralWhiskerModel:
         w = ops.w
         c, sn = np.cos(theta), np.sin(theta)
         P = (float(w @ c), float(w @ sn))
-        wsn, wc = w * sn, w * c
-        dP = [-float(wsn @ th_a), -float(wsn @ th_m), float(wc @ th_a), float(wc @ th_m)]
+        # dP/d(alpha, mu) = w (-sin, cos) d theta / d(alpha, mu), both at once
+        dpx, dpy = (-(w * sn)) @ sens[:n], (w * c) @ sens[:n]
+        dP = [float(dpx[0]), float(dpx[1]), float(dpy[0]), float(dpy[1])]
         if tangential:  # the nodes move with s1: + (1/2) S[-1] (ds'/ds1 (cos, sin))
             dP[1] += 0.5 * float(self._S[-1] @ (ops.dsp * c))
             dP[3] += 0.5 * float(self._S[-1] @ (ops.dsp * sn))
@@ -442,13 +447,11 @@ class GeneralWhiskerModel:
         """-dF/ds1 at fixed nodal values (the nodes, B and kappa0 move with s1)."""
         S, Sig, w, b, dsp = self._S, ops.Sig, ops.w, ops.b, ops.dsp
         u = Sig @ cd - (w @ cd)  # G c
-        dGc = 0.5 * (S @ (dsp * cd)) - 0.5 * float(S[-1] @ (dsp * cd))
-        return (
-            0.5 * (S @ (dsp * ops.k))
-            + Sig @ (self.shape.k1 * ops.ds)
-            + f * 0.5 * (S @ (dsp * b * u))
-            + f * (Sig @ (ops.db * ops.ds * u))
-            + f * (Sig @ (b * dGc))
+        dspc = dsp * cd
+        dGc = 0.5 * (S @ dspc - S[-1] @ dspc)
+        # d/ds1 of Sig (k + f b G c): through the node spacing, and through k, b and G c
+        return 0.5 * (S @ (dsp * (ops.k + f * b * u))) + Sig @ (
+            ops.ds * (self.shape.k1 + f * ops.db * u) + f * b * dGc
         )
 
     # -- the tracker's model interface -------------------------------------------------------
@@ -468,7 +471,9 @@ class GeneralWhiskerModel:
         # wrapped along a branch)
         if not -1.5 * math.pi < alpha < 1.5 * math.pi:
             return False
-        return phase == Phase.TIP or 0.0 < f <= 1.0 + 1e-9  # (f is s1 in phase 1)
+        # (f is s1 in phase 1; a little beyond the tip is allowed so that the continuation can step
+        # over the tip event and locate it)
+        return phase == Phase.TIP or 0.0 < f <= self._s1_max
 
     def events(self, phase: Phase, z) -> Dict[str, float]:
         """phase 1: ``tip`` = 1 - s1, ``release`` = f; phase 2: ``tangential`` = theta(1) - alpha
@@ -503,7 +508,7 @@ class GeneralWhiskerModel:
         u = 0.5 * (x + 1.0)
         c1 = float(0.5 * np.sum(w * (1.0 - u) / self.shape.stiffness(u)))
         gamma = penetration * c1 / (c2 * sa)
-        self._last = None
+        self._last = self._base = None
         return Phase.TIP, (alpha0, gamma)
 
     def seed(self, phase: Phase, z, f: float) -> None:
@@ -515,7 +520,7 @@ class GeneralWhiskerModel:
     def side_touch_start(self, s_touch: float, alpha: float):
         """The branch point of a side-first touch at arc length ``s_touch``: zero force."""
         theta = HALF_PI + self.shape.intrinsic_slope(_Ops(self, s_touch).s)
-        self._last = None
+        self._last = self._base = None
         self._memo.clear()
         self.solve(Phase.TANGENTIAL, alpha, s_touch, guess=(theta, 0.0))
         return Phase.TANGENTIAL, (alpha, s_touch)
