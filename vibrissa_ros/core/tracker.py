@@ -886,6 +886,12 @@ class QuasistaticTracker:
                 f"{path.pose(t)}: the foot is being driven into the obstacle, which the model does "
                 "not cover"
             )
+        try:
+            near = [name for name, value in self.model.events(phase, z).items() if value < 1e-8]
+        except _NUMERICAL_ERRORS:
+            near = []
+        for name in near:  # the branch ends on a phase boundary: a model limit (WH1) says so
+            self.model.transition(phase, name, z)
         if abs(z[0]) > HALF_PI - 1e-6:
             raise ModelAssumptionError(
                 f"the contact reached the end of the profile's lower arc at {path.pose(t)}: its "
