@@ -70,7 +70,7 @@ class TrackerOptions:
     max_arclength_step: float = _H_MAX
     newton_tol: float = _NEWTON_TOL
     #: model and profile evaluations one step may use before it raises ConvergenceError
-    max_evaluations: int = 400_000
+    max_evaluations: int = 100_000
 
 
 class _Path:
@@ -189,6 +189,8 @@ class QuasistaticTracker:
         exiting = False  # the tip has just left the profile at t (release, graze)
         if path.length == 0.0:
             return StepResult(self._state, (), 0, 0)
+        if contact is None:
+            exiting = self._starts_leaving(path)
         for _ in range(4 * _MAX_EVENTS):
             if len(events) > _MAX_EVENTS:
                 raise ConvergenceError(
@@ -424,6 +426,14 @@ class QuasistaticTracker:
                 "not covered by the model (the profile is not a graph over the whisker's normal)"
             )
         return None
+
+    def _starts_leaving(self, path: _Path) -> bool:
+        """A free whisker whose tip lies on the profile (released at the previous pose) and moves
+        out of the obstacle: its touch search must start beyond the profile, not touch at t = 0."""
+        g0 = self._tip_gap(path, 0.0)
+        if not -1e-12 <= g0 <= 1e-12:
+            return False
+        return self._tip_gap(path, min(1.0, 1e-8 / path.length)) > g0
 
     def _leave_profile(self, path: _Path, t: float) -> Optional[float]:
         """The first t' > t (by doubling offsets from 1e-12 of the path) where the tip is outside the
