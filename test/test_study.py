@@ -128,3 +128,18 @@ def test_a_missing_study_file_is_one_line(tmp_path, capsys):
 def test_dry_run_prints_the_size(capsys):
     assert main(["batch", str(ROOT / "config" / "study_small.yaml"), "--out", "unused", "--dry-run"]) == 0
     assert "336 tasks" in capsys.readouterr().out
+
+
+def test_the_readme_shows_the_example_study():
+    import re
+
+    section = (ROOT / "README.md").read_text().split("## Studies at scale", 1)[1]
+    shown = re.search(r"```yaml\n(.+?)```", section, re.S).group(1)
+    assert parse_study(shown).tasks == load_study(str(ROOT / "config" / "study_small.yaml")).tasks
+
+
+def test_scan_place_takes_three_numbers(tmp_path, capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["scan", "--profile", "parabola", "--param", "p0=0.3", "--place", "0,1", "--from", "1", "--to", "-1",
+              "--step", "0.5", "--csv", str(tmp_path / "x.csv")])
+    assert exc.value.code == 2 and "is not X,Y,DEG" in capsys.readouterr().err

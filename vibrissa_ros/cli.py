@@ -228,6 +228,10 @@ def _cmd_batch(args) -> int:
     except OSError as exc:  # e.g. the scheduler cannot be reached
         print(f"vibrissa batch: error: {exc}", file=sys.stderr)
         return 1
+    if report.computed == 0 and not report.errors:
+        print(f"vibrissa batch: all {report.tasks} tasks of {args.study} are already in {args.out}; nothing to do",
+              file=sys.stderr)
+        return 0
     rate = report.computed / report.seconds if report.seconds > 0 else 0.0
     print(f"vibrissa batch: {report.computed} tasks computed ({report.failed} failed, reasons in "
           f"{args.out}/failures), {report.already_done} were already done; {report.workers} workers, "
