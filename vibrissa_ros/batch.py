@@ -20,11 +20,11 @@ import sys
 import time
 import warnings
 from dataclasses import dataclass
-from typing import IO, Dict, List, Optional, Sequence, Tuple
+from typing import IO, List, Optional, Tuple
 
 from .core.errors import VibrissaError
 from .core.scan import run_scan
-from .dataset import StudyWriter, TaskTables, failure_tables, result_tables, schemas
+from .dataset import Layout, StudyWriter, TaskTables, failure_tables, result_tables
 from .study import Study, Task
 
 #: how often Dask re-runs a task that raised an unexpected exception (not a VibrissaError)
@@ -53,7 +53,7 @@ class BatchReport:
         return self.already_done + self.computed == self.tasks
 
 
-def run_task(task: Task, schema: Dict, study_params: Sequence[str]) -> TaskTables:
+def run_task(task: Task, layout: Layout) -> TaskTables:
     """Compute one task (on a worker): its scan's tables, or its failure when the scan raises a
     :class:`VibrissaError` (a model assumption left, a pose that cannot be placed, ...)."""
     try:
@@ -63,8 +63,8 @@ def run_task(task: Task, schema: Dict, study_params: Sequence[str]) -> TaskTable
             warnings.filterwarnings("ignore", category=RuntimeWarning, module="scipy.optimize")
             result = run_scan(task.obstacle(), task.grid(), model=task.whisker_model())
     except VibrissaError as exc:
-        return failure_tables(task, exc, schema, study_params)
-    return result_tables(task, result, schema, study_params)
+        return failure_tables(task, exc, layout)
+    return result_tables(task, result, layout)
 
 
 def _client(workers: Optional[int], scheduler: Optional[str]):
@@ -106,7 +106,7 @@ def run_study(study: Study, out: str, workers: Optional[int] = None, scheduler: 
     writer = StudyWriter.create(out, study)
     done = writer.done()
     todo = [t for t in study.tasks if t.index not in done]
-    schema = schemas(study)
+    layout = Layout.of(study)
     failed = 0
     errors: List[Tuple[int, str]] = []
     computed = 0
@@ -122,7 +122,7 @@ def run_study(study: Study, out: str, workers: Optional[int] = None, scheduler: 
         n_workers = len(client.scheduler_info().get("workers", {}))
         bar.set_postfix(failed=0, workers=n_workers)
         keys = [f"vibrissa-task-{study.digest[:12]}-{t.index}" for t in todo]
-        futures = client.map(run_task, todo, schema=schema, study_params=study.param_names, key=keys,
+        futures = client.map(run_task, todo, layout=layout, key=keys,
                              retries=retries, pure=False)
         for future in as_completed(futures):
             index = int(future.key.rsplit("-", 1)[1])

@@ -222,8 +222,8 @@ def _cmd_batch(args) -> int:
         print(f"vibrissa batch: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        print(f"vibrissa batch: interrupted; the tasks written are kept: run the same command again to "
-              f"compute the rest", file=sys.stderr)
+        print("vibrissa batch: interrupted; the tasks written are kept: run the same command again to "
+              "compute the rest", file=sys.stderr)
         return 130
     except OSError as exc:  # e.g. the scheduler cannot be reached
         print(f"vibrissa batch: error: {exc}", file=sys.stderr)

@@ -19,10 +19,11 @@ is either done with all its rows or not done at all.
 from __future__ import annotations
 
 import builtins
+import functools
 import json
 import os
 from dataclasses import dataclass
-from typing import Dict, Iterable, List, Optional, Sequence, Set
+from typing import Dict, Iterable, List, Optional, Sequence, Set, Tuple
 
 import pyarrow as pa
 import pyarrow.parquet as pq
@@ -47,18 +48,36 @@ class DatasetError(VibrissaError):
 
 # -- schema ---------------------------------------------------------------------------------------
 
-def parameter_fields(study: Study) -> List[pa.Field]:
-    """The task-parameter columns of this study, in order (profile parameters: the study's union)."""
+@dataclass(frozen=True)
+class Layout:
+    """What decides a study's columns: its profile parameter names (in order) and whether it has noise.
+
+    Small, so that it travels with every task to the workers; the schemas are built there, once."""
+
+    param_names: Tuple[str, ...]
+    noise: bool
+
+    @classmethod
+    def of(cls, study: Study) -> "Layout":
+        return cls(tuple(study.param_names), bool(study.has_noise))
+
+    @property
+    def schemas(self) -> Dict[str, pa.Schema]:
+        return _schemas(self)
+
+
+def parameter_fields(layout: Layout) -> List[pa.Field]:
+    """The task-parameter columns, in order (profile parameters: the union of the study's profiles')."""
     fields = [
         pa.field("model", pa.string(), nullable=False),
         pa.field("spring_stiffness", pa.float64()),
         pa.field("profile", pa.string(), nullable=False),
     ]
-    fields += [pa.field(name, pa.float64()) for name in study.param_names]
+    fields += [pa.field(name, pa.float64()) for name in layout.param_names]
     fields += [pa.field(k, pa.float64(), nullable=False) for k in ("x", "y", "rotation_deg")]
     fields += [pa.field(k, pa.float64(), nullable=False) for k in ("sweep_from", "sweep_to", "sweep_step")]
     fields.append(pa.field("back", pa.bool_(), nullable=False))
-    if study.has_noise:
+    if layout.noise:
         fields += [pa.field(k, pa.float64(), nullable=False) for k in _NOISE_FIELDS]
         fields.append(pa.field("noise_seed", pa.uint64(), nullable=False))
     return fields
@@ -66,7 +85,12 @@ def parameter_fields(study: Study) -> List[pa.Field]:
 
 def schemas(study: Study) -> Dict[str, pa.Schema]:
     """The schema of each table of this study's dataset."""
-    params = parameter_fields(study)
+    return _schemas(Layout.of(study))
+
+
+@functools.lru_cache(maxsize=8)
+def _schemas(layout: Layout) -> Dict[str, pa.Schema]:
+    params = parameter_fields(layout)
     task = pa.field("task", pa.int64(), nullable=False)
     step = pa.field("step", pa.int32(), nullable=False)
     contract = []
@@ -76,7 +100,7 @@ def schemas(study: Study) -> Dict[str, pa.Schema]:
         else:
             nullable = name in ("alpha", "s1", "contact_x", "contact_y")
             contract.append(pa.field(name, pa.float64(), nullable=nullable))
-    noisy = [pa.field(k, pa.float64(), nullable=False) for k in _NOISY] if study.has_noise else []
+    noisy = [pa.field(k, pa.float64(), nullable=False) for k in _NOISY] if layout.noise else []
     return {
         "tasks": pa.schema([task] + params + [pa.field("command", pa.string(), nullable=False)]),
         "poses": pa.schema([task, step] + contract + noisy + params),
@@ -119,8 +143,9 @@ def _repeat(schema: pa.Schema, columns: Dict[str, object], n: int) -> Dict[str, 
     return {k: pa.array([v] * n, type=schema.field(k).type) for k, v in columns.items()}
 
 
-def result_tables(task: Task, result: ScanResult, schema: Dict[str, pa.Schema], study_params: Sequence[str]) -> TaskTables:
+def result_tables(task: Task, result: ScanResult, layout: Layout) -> TaskTables:
     """The poses and events tables of a task's scan (columns exactly as the scan contract's)."""
+    schema, study_params = layout.schemas, layout.param_names
     states = result.states
     n = len(states)
     cols: Dict[str, object] = {
@@ -161,8 +186,9 @@ def result_tables(task: Task, result: ScanResult, schema: Dict[str, pa.Schema], 
     return TaskTables(task.index, poses, events, None)
 
 
-def failure_tables(task: Task, exc: BaseException, schema: Dict[str, pa.Schema], study_params: Sequence[str]) -> TaskTables:
+def failure_tables(task: Task, exc: BaseException, layout: Layout) -> TaskTables:
     """The failures row of a task whose scan raised ``exc``."""
+    schema, study_params = layout.schemas, layout.param_names
     cols = {"task": pa.array([task.index], pa.int64()), "error": pa.array([type(exc).__name__]),
             "reason": pa.array([str(exc) or type(exc).__name__])}
     cols.update(_repeat(schema["failures"], task_parameters(task, study_params), 1))
