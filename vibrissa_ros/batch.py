@@ -73,7 +73,7 @@ def _client(workers: Optional[int], scheduler: Optional[str]):
 
     if scheduler:
         return Client(scheduler, timeout="30s"), None
-    n = workers or os.cpu_count() or 1
+    n = workers or (len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()) or 1
     cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0",
                            silence_logs=40)
     return Client(cluster), cluster
