@@ -181,7 +181,7 @@ def test_a_worker_killed_mid_study_loses_and_duplicates_nothing(client, study, r
 
     killer = threading.Thread(target=kill_one_worker_mid_study)
     killer.start()
-    report = run_study(study[1], str(out), client=client, progress=None)
+    report = run_study(study[1], str(out), client=client, progress=None, window=6)  # refilled as tasks end
     killer.join()
     assert killed, "the study ended before a worker could be killed"
     assert report.complete and report.computed == 32 and not report.errors

@@ -15,6 +15,7 @@ the tasks that are missing.
 
 from __future__ import annotations
 
+import itertools
 import os
 import sys
 import time
@@ -29,6 +30,8 @@ from .study import Study, Task
 
 #: how often Dask re-runs a task that raised an unexpected exception (not a VibrissaError)
 RETRIES = 2
+#: at most this many tasks in Dask's graph at once
+WINDOW = 20_000
 
 
 @dataclass(frozen=True)
@@ -80,7 +83,8 @@ def _client(workers: Optional[int], scheduler: Optional[str]):
 
 
 def run_study(study: Study, out: str, workers: Optional[int] = None, scheduler: Optional[str] = None,
-              client=None, progress: Optional[IO[str]] = sys.stderr, retries: int = RETRIES) -> BatchReport:
+              client=None, progress: Optional[IO[str]] = sys.stderr, retries: int = RETRIES,
+              window: int = WINDOW) -> BatchReport:
     """Run the study's missing tasks on Dask and write their results into ``out``.
 
     Parameters
@@ -98,6 +102,10 @@ def run_study(study: Study, out: str, workers: Optional[int] = None, scheduler: 
         An existing client to use instead (it is left open).
     progress : text stream or None
         Where the progress bar goes (None: no bar).
+    retries : int
+        How often Dask re-runs a task that raised an unexpected exception.
+    window : int
+        At most this many tasks are submitted at a time (more as they complete).
     """
     from distributed import as_completed
     from tqdm import tqdm
@@ -118,13 +126,26 @@ def run_study(study: Study, out: str, workers: Optional[int] = None, scheduler: 
         client, cluster = _client(workers, scheduler)
     bar = tqdm(total=len(study.tasks), initial=len(done), unit="task", desc="vibrissa batch", file=progress,
                disable=progress is None, dynamic_ncols=True, smoothing=0.05)
+    earlier_failures = writer.failures()
+    pending = iter(todo)
+
+    def submit(n: int):
+        tasks = list(itertools.islice(pending, n))
+        keys = [f"vibrissa-task-{study.digest[:12]}-{t.index}" for t in tasks]
+        return client.map(run_task, tasks, layout=layout, key=keys, retries=retries, pure=False) if tasks else []
+
     try:
         n_workers = len(client.scheduler_info().get("workers", {}))
-        bar.set_postfix(failed=0, workers=n_workers)
-        keys = [f"vibrissa-task-{study.digest[:12]}-{t.index}" for t in todo]
-        futures = client.map(run_task, todo, layout=layout, key=keys,
-                             retries=retries, pure=False)
-        for future in as_completed(futures):
+        bar.set_postfix(failed=earlier_failures, workers=n_workers)
+        # at most `window` tasks in the graph at a time (a 240k-task study would weigh on the scheduler's
+        # memory); Dask schedules, balances and retries them
+        running = as_completed(submit(window))
+        since_refill = 0
+        for future in running:
+            since_refill += 1
+            if since_refill >= max(1, window // 2):
+                running.update(submit(since_refill))
+                since_refill = 0
             index = int(future.key.rsplit("-", 1)[1])
             try:
                 tables = future.result()
@@ -137,7 +158,7 @@ def run_study(study: Study, out: str, workers: Optional[int] = None, scheduler: 
             computed += 1
             if tables.failure is not None:
                 failed += 1
-                bar.set_postfix(failed=failed, workers=n_workers, refresh=False)
+                bar.set_postfix(failed=earlier_failures + failed, workers=n_workers, refresh=False)
             bar.update(1)
     finally:
         bar.close()

@@ -308,6 +308,10 @@ class StudyWriter:
         """Indices of the tasks whose result (poses or failure) is on disk."""
         return _done(self.dir)
 
+    def failures(self) -> int:
+        """How many failed tasks are on disk."""
+        return len(_task_files(self.dir, "failures"))
+
     def write(self, result: TaskTables) -> None:
         """Write one task's tables atomically: events first, the poses (or failure) file last."""
         if result.version != __version__:
