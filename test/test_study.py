@@ -143,3 +143,15 @@ def test_scan_place_takes_three_numbers(tmp_path, capsys):
         main(["scan", "--profile", "parabola", "--param", "p0=0.3", "--place", "0,1", "--from", "1", "--to", "-1",
               "--step", "0.5", "--csv", str(tmp_path / "x.csv")])
     assert exc.value.code == 2 and "is not X,Y,DEG" in capsys.readouterr().err
+
+
+def test_out_must_be_a_new_or_a_study_directory(tmp_path, capsys):
+    study = tmp_path / "s.yaml"
+    study.write_text("obstacles: [{profile: parabola, params: {p0: 0.3}}]\nmotion: {from: 2, to: -2, step: 0.5}\n")
+    (tmp_path / "file").write_text("x")
+    (tmp_path / "full").mkdir()
+    (tmp_path / "full" / "notes.txt").write_text("mine")
+    for out, expected in (("file", "is a file"), ("full", "is not a study dataset")):
+        assert main(["batch", str(study), "--out", str(tmp_path / out), "--quiet"]) == 2
+        assert expected in capsys.readouterr().err
+    assert (tmp_path / "full" / "notes.txt").read_text() == "mine" and len(list((tmp_path / "full").iterdir())) == 1

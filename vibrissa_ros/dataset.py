@@ -274,6 +274,8 @@ class StudyWriter:
         """
         path = os.path.join(study_dir, "manifest.json")
         expected = manifest(study)
+        if os.path.exists(study_dir) and not os.path.isdir(study_dir):
+            raise DatasetError(f"{study_dir} is a file; --out needs a directory")
         if os.path.exists(path):
             try:
                 with builtins.open(path, encoding="utf-8") as stream:
