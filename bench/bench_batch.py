@@ -67,7 +67,7 @@ def _cluster(n):
     from distributed import Client, LocalCluster
 
     cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0",
-                           silence_logs=50)
+                           silence_logs=False)
     return cluster, Client(cluster)
 
 

@@ -25,7 +25,7 @@ from typing import IO, List, Optional, Tuple
 
 from .core.errors import VibrissaError
 from .core.scan import run_scan
-from .dataset import Layout, StudyWriter, TaskTables, failure_tables, result_tables
+from .dataset import Layout, StudyWriter, TaskFiles, encode, failure_tables, result_tables
 from .study import Study, Task
 
 #: how often Dask re-runs a task that raised an unexpected exception (not a VibrissaError)
@@ -56,9 +56,9 @@ class BatchReport:
         return self.already_done + self.computed == self.tasks
 
 
-def run_task(task: Task, layout: Layout) -> TaskTables:
+def run_task(task: Task, layout: Layout) -> TaskFiles:
     """Compute one task (on a worker): its scan's tables, or its failure when the scan raises a
-    :class:`VibrissaError` (a model assumption left, a pose that cannot be placed, ...)."""
+    :class:`VibrissaError` (a model assumption left, a pose that cannot be placed, ...), as Parquet files."""
     try:
         with warnings.catch_warnings():
             # scipy's bounded minimizer of the rod's clearance meets infinite gaps (no profile point
@@ -66,8 +66,8 @@ def run_task(task: Task, layout: Layout) -> TaskTables:
             warnings.filterwarnings("ignore", category=RuntimeWarning, module="scipy.optimize")
             result = run_scan(task.obstacle(), task.grid(), model=task.whisker_model())
     except VibrissaError as exc:
-        return failure_tables(task, exc, layout)
-    return result_tables(task, result, layout)
+        return encode(failure_tables(task, exc, layout))
+    return encode(result_tables(task, result, layout))
 
 
 def _client(workers: Optional[int], scheduler: Optional[str]):
@@ -148,15 +148,15 @@ def run_study(study: Study, out: str, workers: Optional[int] = None, scheduler: 
                 since_refill = 0
             index = int(future.key.rsplit("-", 1)[1])
             try:
-                tables = future.result()
+                files = future.result()
             except Exception as exc:  # noqa: BLE001 - Dask gave up on it (after its retries): report it
                 errors.append((index, f"{type(exc).__name__}: {exc}"))
                 future.release()
                 continue
             future.release()
-            writer.write(tables)
+            writer.write(files)
             computed += 1
-            if tables.failure is not None:
+            if files.failed:
                 failed += 1
                 bar.set_postfix(failed=earlier_failures + failed, workers=n_workers, refresh=False)
             bar.update(1)

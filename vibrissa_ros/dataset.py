@@ -139,6 +139,31 @@ class TaskTables:
     version: str = __version__
 
 
+@dataclass(frozen=True)
+class TaskFiles:
+    """One task's result as the Parquet files to write, ``{table: file bytes}``: encoded on the worker,
+    so that the driver, which writes every task's files, only moves bytes."""
+
+    task: int
+    files: Dict[str, bytes]
+    version: str = __version__
+
+    @property
+    def failed(self) -> bool:
+        return "failures" in self.files
+
+
+def encode(tables: TaskTables) -> TaskFiles:
+    """A task's tables as Parquet files (zstd)."""
+    files = {}
+    for name, table in (("events", tables.events), ("poses", tables.poses), ("failures", tables.failure)):
+        if table is not None:
+            sink = pa.BufferOutputStream()
+            pq.write_table(table, sink, compression="zstd")
+            files[name] = sink.getvalue().to_pybytes()
+    return TaskFiles(tables.task, files, tables.version)
+
+
 def _repeat(schema: pa.Schema, columns: Dict[str, object], n: int) -> Dict[str, pa.Array]:
     return {k: pa.array([v] * n, type=schema.field(k).type) for k, v in columns.items()}
 
@@ -231,6 +256,14 @@ def _write_parquet(path: str, table: pa.Table) -> None:
     _atomic(path, lambda tmp: pq.write_table(table, tmp, compression="zstd"))
 
 
+def _write_bytes(path: str, data: bytes) -> None:
+    def write(tmp):
+        with builtins.open(tmp, "wb") as stream:
+            stream.write(data)
+
+    _atomic(path, write)
+
+
 def _write_text(path: str, text: str) -> None:
     def write(tmp):
         with builtins.open(tmp, "w", encoding="utf-8") as stream:
@@ -314,17 +347,14 @@ class StudyWriter:
         """How many failed tasks are on disk."""
         return len(_task_files(self.dir, "failures"))
 
-    def write(self, result: TaskTables) -> None:
-        """Write one task's tables atomically: events first, the poses (or failure) file last."""
+    def write(self, result: TaskFiles) -> None:
+        """Write one task's files atomically: events first, the poses (or failure) file last."""
         if result.version != __version__:
             raise DatasetError(f"task {result.task} was computed by a worker with vibrissa_ros {result.version}; "
                                f"this study runs {__version__}: install the same version on every worker")
-        if result.failure is not None:
-            _write_parquet(_task_file(self.dir, "failures", result.task, self.width), result.failure)
-            return
-        if result.events is not None:
-            _write_parquet(_task_file(self.dir, "events", result.task, self.width), result.events)
-        _write_parquet(_task_file(self.dir, "poses", result.task, self.width), result.poses)
+        for table in ("events", "poses", "failures"):
+            if table in result.files:
+                _write_bytes(_task_file(self.dir, table, result.task, self.width), result.files[table])
 
 
 # -- reading ---------------------------------------------------------------------------------------------
