@@ -67,12 +67,23 @@ def _cluster(n):
     from distributed import Client, LocalCluster
 
     cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0",
-                           silence_logs=False)
+                           silence_logs=logging.ERROR)
     return cluster, Client(cluster)
+
+
+def _compute(stream):
+    """Seconds the workers spent computing tasks, from Dask's task stream."""
+    return sum(ss["stop"] - ss["start"] for rec in stream.data for ss in rec["startstops"] if ss["action"] == "compute")
 
 
 def _subset(study, tasks):
     return dataclasses.replace(study, tasks=tuple(tasks))
+
+
+def _close(cluster, client):
+    client.close()
+    cluster.close()
+    logging.getLogger("distributed").setLevel(logging.ERROR)  # closing restores the cluster's log level
 
 
 def _timed_run(study, client, root):
@@ -100,19 +111,28 @@ def main(argv=None):
     print(f"study: {len(big.tasks):,} tasks, {big.poses:,} poses ({os.cpu_count()} cores)")
     try:
         # 1. scaling, 1 vs 2 workers, alternately
+        from distributed import get_task_stream
+
         scaling = _subset(big, sorted(rng.sample(big.tasks, args.scaling_tasks), key=lambda t: t.index))
         clusters = {n: _cluster(n) for n in (1, 2)}
         walls = {1: [], 2: []}
+        busy = {1: [], 2: []}
+        load = os.getloadavg()[0]
         for _ in range(args.repeats):
             for n in (1, 2):
-                walls[n].append(_timed_run(scaling, clusters[n][1], root)[0])
+                with get_task_stream(clusters[n][1]) as stream:
+                    wall = _timed_run(scaling, clusters[n][1], root)[0]
+                walls[n].append(wall)
+                busy[n].append(_compute(stream) / (n * wall))
         m1, m2 = statistics.median(walls[1]), statistics.median(walls[2])
         print(f"scaling: {args.scaling_tasks} tasks, 1 worker {m1:.2f} s, 2 workers {m2:.2f} s (medians of "
               f"{args.repeats}); 2 workers = {m1 / m2:.2f}x the throughput of 1")
+        print(f"scaling: workers busy computing {100 * statistics.median(busy[1]):.0f}% (1) and "
+              f"{100 * statistics.median(busy[2]):.0f}% (2) of the wall time; load average "
+              f"{load:.1f} -> {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores (above the workers' count: "
+              "the machine is shared and the ratio understates the engine)")
 
         # 2. overhead per task for ~1 s tasks, on 1 worker, from Dask's task stream
-        from distributed import get_task_stream
-
         slow = parse_study(SLOW_TASKS)
         slow = _subset(slow, slow.tasks[: args.overhead_tasks])
         client = clusters[1][1]
@@ -120,8 +140,7 @@ def main(argv=None):
         for _ in range(args.repeats):
             with get_task_stream(client) as stream:
                 wall, _ = _timed_run(slow, client, root)
-            compute = sum(ss["stop"] - ss["start"] for rec in stream.data for ss in rec["startstops"]
-                          if ss["action"] == "compute")
+            compute = _compute(stream)
             n = len(slow.tasks)
             overheads.append((wall - compute) / n)
             computes.append(compute / n)
@@ -130,16 +149,14 @@ def main(argv=None):
               f"overhead {oh * 1e3:.1f} ms per task = {100 * oh / task:.1f}% (scheduling, transfer, writing; "
               f"median of {args.repeats})")
         for cluster, c in clusters.values():
-            c.close()
-            cluster.close()
+            _close(cluster, c)
 
         # 3. the random-profile study: a sample (or all of it)
         n = min(args.sample, len(big.tasks))
         sample = big if n == len(big.tasks) else _subset(big, sorted(rng.sample(big.tasks, n), key=lambda t: t.index))
         cluster, client = _cluster(args.workers)
         wall, report = _timed_run(sample, client, root)
-        client.close()
-        cluster.close()
+        _close(cluster, client)
         poses = sum(len(t.grid()) for t in sample.tasks)
         core_s = wall * args.workers / n
         print(f"random profiles: {n} tasks ({report.failed} failed) on {args.workers} workers in {wall:.1f} s: "
