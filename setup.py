@@ -22,6 +22,8 @@ PLOTS = ["matplotlib>=3.7"]
 BATCH = ["dask[distributed]>=2024.8.0", "pyarrow>=16.0", "pandas>=2.2.2", "tqdm>=4.60", "pyyaml>=5.4"]
 # the dataset's other readers, for the read-back tests
 DATASET_READERS = ["dask[dataframe]>=2024.8.0", "polars>=1.0"]
+# the core's own tests: they also run on numpy 1.x (.ci/run), without ROS
+CORE_TEST = ["pytest>=7", "mpmath>=1.3", "hypothesis>=6.100"]
 
 setup(
     name=package_name,
@@ -39,7 +41,8 @@ setup(
         "ros": ROS + PLOTS,
         "plots": PLOTS,
         "batch": BATCH,
-        "test": ROS + TOOLS + READERS + PLOTS + BATCH + DATASET_READERS + ["pytest>=7", "mpmath>=1.3", "catkin_pkg>=1.0"],
+        "core-test": CORE_TEST,
+        "test": ROS + TOOLS + READERS + PLOTS + BATCH + DATASET_READERS + CORE_TEST + ["catkin_pkg>=1.0"],
     },
     zip_safe=True,
     maintainer="vibrissa_ros maintainers",

@@ -88,9 +88,7 @@ def estimate_contact(pose: FootPose, fx: float, fy: float, m0: float, min_force:
     else:
         phase, s1 = Phase.TIP, 1.0
     px, py = (float(v) for v in family_centerline(alpha, gamma, sqrt_f, [s1])[0])
-    c, s = math.cos(beta), math.sin(beta)
-    px *= side
-    contact = (pose.x + c * px - s * py, pose.y + s * px + c * py)
+    contact = pose.contact_to_world(px, py, side)
     return ContactEstimate(pose, phase, contact, alpha_w, s1, side, delta)
 
 

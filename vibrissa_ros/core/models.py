@@ -21,7 +21,7 @@ import numpy as np
 
 from .elastica import family, family_centerline, family_domain_ok
 from .errors import ModelAssumptionError
-from .state import FootPose, Phase, WhiskerState
+from .state import Phase
 
 HALF_PI = 0.5 * math.pi
 
@@ -141,6 +141,17 @@ class ElasticaModel:
         """gamma = pi/2 - phi(1) (contact frame); small values mean the force is nearly zero."""
         return HALF_PI - z[0] if phase == Phase.TANGENTIAL else z[1]
 
+    def step_scale(self, phase: Phase, z) -> float:
+        """Scale of the continuation's steps: lam = 1/sqrt(f) grows without bound as a tangential
+        contact runs to a point of the profile parallel to the whisker (f -> 0), and is followed
+        in steps proportional to it."""
+        return max(1.0, z[1]) if phase == Phase.TANGENTIAL else 1.0
+
+    def released(self, phase: Phase, z) -> bool:
+        """A tangential contact whose force has vanished (f < 1e-12: the whisker is straight to
+        ~1e-12, touching the profile where its tangent turns parallel to the whisker)."""
+        return phase == Phase.TANGENTIAL and z[1] > 1e6
+
     # -- results ---------------------------------------------------------------------------
     def contact_quantities(self, phase: Phase, z):
         """(f, m0, s1, tip_slope, tip_offset) in the contact frame; tip_offset = tip - contact."""
@@ -244,6 +255,13 @@ class RigidModel:
     def tip_rotation(self, phase: Phase, z) -> float:
         return HALF_PI - z[0] if phase == Phase.TANGENTIAL else z[1]
 
+    def step_scale(self, phase: Phase, z) -> float:
+        return 1.0
+
+    def released(self, phase: Phase, z) -> bool:
+        """Mode 1 unloads where the profile's tangent turns parallel to the upright rod."""
+        return phase == Phase.TANGENTIAL and HALF_PI - z[0] < 1e-12
+
     def contact_quantities(self, phase: Phase, z):
         alpha, mu = z
         k = self.stiffness
@@ -276,25 +294,3 @@ def make_model(name: str, **options):
     if name not in MODELS:
         raise ParameterError(f"unknown model {name!r}; allowed: {', '.join(MODELS)}")
     return MODELS[name](**options)
-
-
-def to_world(pose: FootPose, side: int, pts: np.ndarray) -> np.ndarray:
-    """Contact-frame points -> world: mirror by ``side``, rotate by heading - pi/2, translate."""
-    beta = pose.heading - HALF_PI
-    c, s = math.cos(beta), math.sin(beta)
-    x = pts[:, 0] * (side if side else 1)
-    y = pts[:, 1]
-    return np.column_stack((pose.x + c * x - s * y, pose.y + s * x + c * y))
-
-
-def centerline_of(state: WhiskerState, n: int = 101) -> np.ndarray:
-    """Sample a state's centerline (world frame), ``n`` >= 2 points from foot to tip."""
-    n = int(n)
-    if n < 2:
-        raise ValueError(f"n = {n} points: need at least 2")
-    if state.phase == Phase.FREE:
-        s = np.linspace(0.0, 1.0, n)
-        return to_world(state.pose, 1, np.column_stack((np.zeros(n), s)))
-    model = make_model(state.model)
-    phase, z = Phase(int(state.shape[0])), (state.shape[1], state.shape[2])
-    return to_world(state.pose, state.side, model.centerline_contact_frame(phase, z, n))

@@ -91,6 +91,10 @@ class ConvexProfile:
             raise ParameterError(f"{self.name}: no profile point at x = {x!r}")
         return brentq(lambda a: self.point(a)[0] - x, lo, hi, xtol=1e-15, rtol=1e-15)
 
+    def height_at_x(self, x: float) -> float:
+        """eta at abscissa x (the profile as a graph y(x)); ParameterError where it has no point."""
+        return self.point(self.alpha_at_x(x))[1]
+
     def alpha_at_height(self, y: float, side: int) -> float:
         """The slope alpha on the right (side=+1) or left (side=-1) flank where eta(alpha) = y."""
         lo, hi = self._open_bracket()
@@ -123,10 +127,22 @@ class ConvexProfile:
         return f"{self.name}({args})"
 
 
-def _positive(profile: str, name: str, value: float) -> float:
+#: sizes of a profile (radii, semi-axes, the catenary's c, 1/k of the parabola) in whisker lengths:
+#: outside this range the shape is degenerate for the model (a wall of zero width, a flat plane)
+SIZE_RANGE = (1e-6, 1e6)
+
+
+def _positive(profile: str, name: str, value: float, inverse: bool = False) -> float:
+    """A shape size within SIZE_RANGE (``inverse``: a curvature-like parameter, 1/value in range)."""
     value = float(value)
-    if not math.isfinite(value) or value <= 0.0:
-        raise ParameterError(f"{profile}: {name} = {value!r} is not allowed; {name} must be > 0")
+    lo, hi = SIZE_RANGE
+    if inverse:
+        lo, hi = 1.0 / hi, 1.0 / lo
+    if not (math.isfinite(value) and lo <= value <= hi):
+        raise ParameterError(
+            f"{profile}: {name} = {value!r} is not allowed; {name} must be > 0, within "
+            f"[{lo:g}, {hi:g}] (in units of the whisker's length)"
+        )
     return value
 
 
@@ -163,7 +179,7 @@ class Parabola(ConvexProfile):
 
     def __post_init__(self):
         object.__setattr__(self, "p0", _p0(self.name, self.p0, self.scan_checks))
-        object.__setattr__(self, "k", _positive(self.name, "k", self.k))
+        object.__setattr__(self, "k", _positive(self.name, "k", self.k, inverse=True))
 
     @property
     def params(self):
@@ -179,6 +195,9 @@ class Parabola(ConvexProfile):
 
     def alpha_at_x(self, x):
         return math.atan(self.k * x)
+
+    def height_at_x(self, x):
+        return self.p0 + 0.5 * self.k * x * x
 
 
 @dataclass(frozen=True)
@@ -206,7 +225,15 @@ class Catenary(ConvexProfile):
         return self.c / (c * c)
 
     def alpha_at_x(self, x):
-        return math.atan(math.sinh(x / self.c))
+        # atan(sinh(u)) is the Gudermannian gd(u) = 2 atan(tanh(u/2)): the same value without
+        # sinh's overflow for |u| > 710 (far from a narrow catenary)
+        return 2.0 * math.atan(math.tanh(0.5 * x / self.c))
+
+    def height_at_x(self, x):
+        u = abs(x) / self.c
+        if u > 700.0:  # cosh overflows: the profile is higher than any whisker there
+            return math.inf
+        return self.p0 + self.c * (math.cosh(u) - 1.0)
 
 
 @dataclass(frozen=True)

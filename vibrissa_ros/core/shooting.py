@@ -29,6 +29,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq, root
 
+from .errors import ConvergenceError
 from .profiles import ConvexProfile
 
 HALF_PI = 0.5 * math.pi
@@ -74,6 +75,8 @@ def integrate(x0: float, kappa0: float, f: float, alpha: float, s_end: float) ->
         _rhs, (0.0, s_end), (x0, 0.0, HALF_PI, kappa0), method="DOP853", rtol=_RTOL, atol=_ATOL,
         args=(f, alpha),
     )
+    if not sol.success:
+        raise ConvergenceError(f"shooting: the initial value problem failed ({sol.message})")
     return sol.y[:, -1]
 
 

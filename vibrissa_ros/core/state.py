@@ -9,9 +9,9 @@ or c/L (rigid model), moment EI/L (or c).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from enum import IntEnum
-from typing import Optional, Tuple
+from typing import Any, Optional, Tuple
 
 import numpy as np
 
@@ -47,6 +47,19 @@ class FootPose:
             if not math.isfinite(value):
                 raise InvalidPoseError(f"foot pose {key} = {value!r} must be finite")
             object.__setattr__(self, key, value)
+
+    def contact_to_world(self, x, y, side: int = 1):
+        """Map points of this pose's *contact frame* to the world frame.
+
+        The contact frame has the foot at the origin and the undeformed whisker along +y, mirrored
+        (x -> -x) when the whisker bends counter-clockwise (``side`` = -1), so that the models only
+        ever solve the clockwise case. This is the one place where the core rotates by the heading
+        (beta = heading - pi/2) and mirrors by the side. ``x``, ``y``: floats or arrays of one shape.
+        """
+        beta = self.heading - HALF_PI
+        c, s = math.cos(beta), math.sin(beta)
+        x = x * (-1.0 if side < 0 else 1.0)
+        return self.x + c * x - s * y, self.y + s * x + c * y
 
 
 @dataclass(frozen=True)
@@ -113,23 +126,36 @@ class WhiskerState:
     tip: Tuple[float, float]
     # internal description of the shape for centerline sampling (contact-frame variables)
     shape: Tuple[float, ...] = ()
-    model: str = "elastica"
+    #: the model that computed this state (it samples the centerline); None for a free whisker
+    model: Any = field(default=None, compare=False, repr=False)
 
     @property
     def x0(self) -> float:
         return self.pose.x
 
     def centerline(self, n: int = 101) -> np.ndarray:
-        """``n`` points of the whisker's centerline from foot to tip, shape (n, 2), world frame."""
-        from .models import centerline_of
-
-        return centerline_of(self, n)
+        """``n`` >= 2 points of the whisker's centerline from foot to tip, shape (n, 2), world frame."""
+        n = int(n)
+        if n < 2:
+            raise ValueError(f"n = {n} points: need at least 2")
+        if self.phase == Phase.FREE:
+            x, y = np.zeros(n), np.linspace(0.0, 1.0, n)
+        else:
+            phase, z = Phase(int(self.shape[0])), (self.shape[1], self.shape[2])
+            pts = self.model.centerline_contact_frame(phase, z, n)
+            x, y = pts[:, 0], pts[:, 1]
+        return np.column_stack(self.pose.contact_to_world(x, y, self.side))
 
 
 @dataclass(frozen=True)
 class StepResult:
-    """What a tracker step returns: the new state and the events crossed, in order."""
+    """What a tracker step returns: the new state and the events crossed, in order.
+
+    ``substeps`` counts continuation steps, ``evaluations`` the model and profile evaluations the
+    step used (bounded by ``TrackerOptions.max_evaluations``).
+    """
 
     state: WhiskerState
     events: Tuple[Event, ...]
     substeps: int = 0
+    evaluations: int = 0

@@ -15,6 +15,10 @@ current pose to a new one and follows the equilibrium branch continuously:
   contact on the other flank when a straight whisker would cut into the obstacle.
 
 Errors leave the tracker's state unchanged: a step is computed on locals and committed at the end.
+
+Every step is bounded by design: each loop has a fixed iteration limit, and all of them draw on one
+budget of model and profile evaluations per step (:attr:`TrackerOptions.max_evaluations`). A step
+returns a state or raises a :class:`~.errors.VibrissaError`; no other exception type leaves it.
 """
 
 from __future__ import annotations
@@ -26,7 +30,13 @@ from typing import List, Optional, Tuple
 import numpy as np
 from scipy.optimize import brentq, minimize_scalar
 
-from .errors import ConvergenceError, InvalidPoseError, ModelAssumptionError, ParameterError
+from .errors import (
+    ConvergenceError,
+    InvalidPoseError,
+    ModelAssumptionError,
+    ParameterError,
+    VibrissaError,
+)
 from .models import make_model
 from .profiles import ConvexProfile, PlacedProfile
 from .state import Event, FootPose, Phase, StepResult, WhiskerState
@@ -41,6 +51,15 @@ _H_MAX = 0.02
 _H_MIN = 1e-13
 _NEWTON_TOL = 1e-12
 _EVENT_XTOL = 1e-15
+#: largest |x|, |y| of a foot pose [L] and |heading| [rad]: beyond this the model's numbers are
+#: meaningless (a whisker 1e6 of its lengths away from the world's origin)
+MAX_POSE_MAGNITUDE = 1e6
+#: events one step may cross before it is declared not to progress
+_MAX_EVENTS = 64
+#: continuation steps one branch segment may take
+_MAX_CONTINUATION_STEPS = 20000
+#: numerical exceptions that become ConvergenceError at the step boundary
+_NUMERICAL_ERRORS = (ArithmeticError, ValueError, np.linalg.LinAlgError)
 
 
 @dataclass(frozen=True)
@@ -50,6 +69,8 @@ class TrackerOptions:
     fast_step: float = _FAST_STEP
     max_arclength_step: float = _H_MAX
     newton_tol: float = _NEWTON_TOL
+    #: model and profile evaluations one step may use before it raises ConvergenceError
+    max_evaluations: int = 400_000
 
 
 class _Path:
@@ -112,7 +133,14 @@ class QuasistaticTracker:
         self.model = make_model(model) if isinstance(model, str) else model
         self.options = options or TrackerOptions()
         pose = _as_pose(pose)
-        self._check_straight_free(pose, what="the initial pose")
+        self._work = 0
+        self._budget = self.options.max_evaluations
+        try:
+            self._check_straight_free(pose, what="the initial pose")
+        except _NUMERICAL_ERRORS as exc:
+            if isinstance(exc, VibrissaError):
+                raise
+            raise InvalidPoseError(f"the initial pose {pose} cannot be placed: {exc}") from exc
         self._pose = pose
         self._contact: Optional[_Contact] = None
         self._alpha_hint = 0.0
@@ -131,9 +159,21 @@ class QuasistaticTracker:
     def step(self, pose) -> StepResult:
         """Move the foot along the straight path to ``pose`` and follow the equilibrium.
 
-        Returns the new state and the events crossed. On any error the tracker keeps its state.
+        Returns the new state and the events crossed. On any error (always a
+        :class:`~.errors.VibrissaError`) the tracker keeps its state.
         """
         target = _as_pose(pose)
+        self._work = 0
+        try:
+            return self._step(target)
+        except VibrissaError:
+            raise
+        except _NUMERICAL_ERRORS as exc:
+            raise ConvergenceError(
+                f"the step from {self._pose} to {target} failed numerically ({type(exc).__name__}: {exc})"
+            ) from exc
+
+    def _step(self, target: FootPose) -> StepResult:
         path = _Path(self._pose, target)
         contact = None
         if self._contact is not None:
@@ -142,20 +182,27 @@ class QuasistaticTracker:
         events: List[Event] = []
         substeps = 0
         t = 0.0
+        exiting = False  # the tip has just left the profile at t (release, graze)
         if path.length == 0.0:
-            return StepResult(self._state, (), 0)
-        while True:
+            return StepResult(self._state, (), 0, 0)
+        for _ in range(4 * _MAX_EVENTS):
+            if len(events) > _MAX_EVENTS:
+                raise ConvergenceError(
+                    f"the step to {target} crossed more than {_MAX_EVENTS} events without reaching it"
+                )
             if contact is None:
-                t_touch = self._find_touch(path, t)
+                t_touch = self._find_touch(path, t, exiting)
                 if t_touch is None:
                     break
                 started = self._start_contact(path, t_touch)
-                if started is None:
-                    break
+                if started is None:  # the tip only grazes the profile here: search on beyond it
+                    t, exiting = t_touch, True
+                    continue
                 contact, ev = started
                 events.append(ev)
+                exiting = False
                 continue
-            outcome = self._follow(path, contact)
+            outcome = self._follow_rest(path, contact)
             substeps += outcome[2]
             kind = outcome[0]
             if kind == "target":
@@ -166,7 +213,7 @@ class QuasistaticTracker:
                 new_phase, new_z = self.model.transition(old, name, contact.z)
                 if new_phase == Phase.FREE:  # the contact force reached zero on the branch
                     events.append(self._event("release", old, new_phase, path, contact))
-                    t = contact.t
+                    t, exiting = contact.t, True
                     contact = None
                     continue
                 events.append(self._event("phase", old, new_phase, path, contact))
@@ -174,11 +221,14 @@ class QuasistaticTracker:
             elif kind == "release":
                 ev = Event("release", contact.phase, Phase.FREE, path.pose(outcome[1]), None)
                 events.append(ev)
-                t = outcome[1]
+                t, exiting = outcome[1], True
                 contact = None
             elif kind == "fold":
                 contact, t, ev = self._snap(path, contact)
                 events.append(ev)
+                exiting = contact is None
+        else:
+            raise ConvergenceError(f"the step to {target} did not progress along its path")
         final_pose = path.p1
         if contact is None:
             state = self._free_state(final_pose)
@@ -190,7 +240,16 @@ class QuasistaticTracker:
             None if contact is None else _Contact(contact.phase, contact.side, contact.z, 0.0, contact.jac)
         )
         self._state = state
-        return StepResult(state, tuple(events), substeps)
+        return StepResult(state, tuple(events), substeps, self._work)
+
+    def _spend(self) -> None:
+        """Count one model or profile evaluation against the step's budget."""
+        self._work += 1
+        if self._work > self._budget:
+            raise ConvergenceError(
+                f"the step used more than {self._budget} evaluations of the model without settling "
+                "(TrackerOptions.max_evaluations)"
+            )
 
     # -- free whisker ------------------------------------------------------------------------
     def _base_frame_point(self, x: float, y: float):
@@ -206,12 +265,12 @@ class QuasistaticTracker:
 
         The obstacle is the region above its lower boundary curve (for closed shapes: the strip
         above the lower arc)."""
+        self._spend()
         base, u, v = self._base_frame_point(x, y)
         try:
-            a = base.alpha_at_x(u)
+            return base.height_at_x(u) - v
         except ParameterError:
             return math.inf
-        return base.point(a)[1] - v
 
     @staticmethod
     def _tip(pose: FootPose) -> Tuple[float, float]:
@@ -260,7 +319,8 @@ class QuasistaticTracker:
     def _rod_clearance(self, pose: FootPose) -> float:
         """Smallest gap along the straight whisker (convex in s: bounded scalar minimization)."""
         c, s = math.cos(pose.heading), math.sin(pose.heading)
-        fun = lambda u: self._gap(pose.x + u * c, pose.y + u * s)  # noqa: E731
+        # (beyond the ends of a closed shape's lower arc the gap is inf: clipped for the minimizer)
+        fun = lambda u: min(self._gap(pose.x + u * c, pose.y + u * s), 1e6)  # noqa: E731
         g0, g1 = fun(0.0), fun(1.0)
         res = minimize_scalar(fun, bounds=(0.0, 1.0), method="bounded", options={"xatol": 1e-10})
         return min(g0, g1, float(res.fun))
@@ -274,13 +334,42 @@ class QuasistaticTracker:
                 "place it where the straight whisker is free"
             )
 
-    def _find_touch(self, path: _Path, t: float) -> Optional[float]:
+    def _find_touch(self, path: _Path, t: float, exiting: bool = False) -> Optional[float]:
         """First t in [t, 1] where the straight whisker's tip reaches the profile (None: no touch).
 
         Conservative advancement: the tip moves at most ``path.length`` per unit t, so it cannot
         reach the obstacle before t + distance / length; near contact the sign change of the
-        signed gap is bracketed and refined with brentq.
+        signed gap is bracketed and refined with brentq. ``exiting``: the tip lies on the profile
+        at t and leaves it (a release or a graze); the search starts where it is out again.
         """
+        if exiting:
+            t = self._leave_profile(path, t)
+            if t is None:
+                return None
+        t_touch = self._advance_to_touch(path, t)
+        if t_touch is not None:
+            self._check_tip_touch(path.pose(t_touch))
+        return t_touch
+
+    def _check_tip_touch(self, pose: FootPose) -> None:
+        """The model's first contact is the tip on the lower boundary curve: refuse anything else."""
+        gap = self._gap(*self._tip(pose))
+        if gap < -1e-9:
+            raise ModelAssumptionError(
+                f"at {pose} the whisker's tip enters the obstacle ({self.profile.describe()}) across "
+                "its side, not across its lower boundary curve: not covered by the model"
+            )
+        c, s = math.cos(pose.heading), math.sin(pose.heading)
+        fun = lambda u: min(self._gap(pose.x + u * c, pose.y + u * s), 1e6)  # noqa: E731
+        res = minimize_scalar(fun, bounds=(0.0, 0.999), method="bounded", options={"xatol": 1e-10})
+        if min(fun(0.0), float(res.fun)) < -1e-9:
+            raise ModelAssumptionError(
+                f"at {pose} the side of the straight whisker meets the obstacle before its tip: not "
+                "covered by the model (the foot moves into the obstacle)"
+            )
+
+    def _advance_to_touch(self, path: _Path, t: float) -> Optional[float]:
+        """Conservative advancement from t to the first touch of the straight whisker's tip."""
         speed = path.length
         eps = 1e-10
         for _ in range(10000):
@@ -301,7 +390,10 @@ class QuasistaticTracker:
                 break
             t = t_next
         else:
-            raise ConvergenceError("touch search did not terminate")
+            raise ConvergenceError(
+                "the touch search did not terminate: the tip runs along the profile within 1e-10 "
+                "without touching it"
+            )
         end_gap = self._tip_gap(path, 1.0)
         if end_gap < 0.0:  # grazing tolerance: the crossing lies in the last sliver
             return brentq(lambda u: self._tip_gap(path, u), t, 1.0, xtol=1e-16, rtol=1e-15)
@@ -309,6 +401,25 @@ class QuasistaticTracker:
             raise ModelAssumptionError(
                 "the side of the straight whisker would meet the obstacle before its tip: "
                 "not covered by the model (the profile is not a graph over the whisker's normal)"
+            )
+        return None
+
+    def _leave_profile(self, path: _Path, t: float) -> Optional[float]:
+        """The first t' > t (by doubling offsets from 1e-12 of the path) where the tip is outside the
+        obstacle again; None if the path ends with the tip on the profile."""
+        delta = 1e-12
+        for _ in range(45):  # 1e-12 * 2**44 > 1
+            t_out = min(1.0, t + delta)
+            gap = self._tip_gap(path, t_out)
+            if gap > 0.0:
+                return t_out
+            if t_out >= 1.0:
+                break
+            delta *= 2.0
+        if gap < 0.0:
+            raise ConvergenceError(
+                f"after leaving the profile at t = {t!r} the straight whisker's tip stays inside the "
+                "obstacle: no equilibrium could be followed"
             )
         return None
 
@@ -375,6 +486,7 @@ class QuasistaticTracker:
 
     def _residual(self, path, phase, side, z, t):
         """R = P(z) - Q(alpha, t) and its Jacobian rows w.r.t. (z0, z1, tau)."""
+        self._spend()
         px, py, p00, p01, p10, p11 = self.model.load_point(phase, z)
         qx, qy, qax, qay, qtx, qty = self._profile_cf(path, side, z[0], t)
         inv_len = 1.0 / path.length
@@ -415,17 +527,21 @@ class QuasistaticTracker:
 
     @staticmethod
     def _tangent(J: np.ndarray, previous=None) -> np.ndarray:
-        T = np.cross(J[0], J[1])
-        T /= np.linalg.norm(T)
+        """Unit tangent of the branch: the kernel of the 2x3 Jacobian (cross product of its rows),
+        oriented along increasing tau or along ``previous``. Scalar arithmetic: numpy's cross and
+        norm cost more than the model evaluation on 3-vectors."""
+        (a0, a1, a2), (b0, b1, b2) = J[0], J[1]
+        t0, t1, t2 = a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
+        norm = math.sqrt(t0 * t0 + t1 * t1 + t2 * t2)
+        if not norm > 0.0 or not math.isfinite(norm):
+            raise ConvergenceError("the branch has no unique tangent here (singular Jacobian)")
+        T = np.array((t0 / norm, t1 / norm, t2 / norm))
         if previous is None:
             if T[2] < 0.0:
                 T = -T
         elif T @ previous < 0.0:
             T = -T
         return T
-
-    def _events_of(self, phase, z):
-        return self.model.events(phase, z)
 
     def _follow(self, path: _Path, contact: _Contact):
         """Follow the contact branch from contact.t towards t = 1.
@@ -443,14 +559,17 @@ class QuasistaticTracker:
         Y = np.array([contact.z[0], contact.z[1], contact.t * path.length])
         R, J = self._jacobian(path, phase, side, Y)
         T = self._tangent(J)
-        ev_a = self._events_of(phase, contact.z)
+        ev_a = self.model.events(phase, contact.z)
         # -- careful path: pseudo-arclength continuation --------------------------------------
         h = min(self.options.max_arclength_step, max(tau_end - Y[2], 1e-6))
         steps = 0
         while True:
             steps += 1
-            if steps > 200000:
-                raise ConvergenceError("continuation did not reach the target pose")
+            if steps > _MAX_CONTINUATION_STEPS:
+                raise ConvergenceError(
+                    f"the continuation took more than {_MAX_CONTINUATION_STEPS} steps on one branch "
+                    "without reaching the target pose"
+                )
             Yp = Y + h * T
             Yn = self._corrector(path, phase, side, Yp, T, h)
             if Yn is None:
@@ -461,14 +580,15 @@ class QuasistaticTracker:
                     return "release", released, steps
                 h *= 0.5
                 if h < _H_MIN:
-                    raise ConvergenceError(
-                        f"lost the equilibrium branch (phase {int(phase)}) near t = {Y[2] / path.length!r}"
-                    )
+                    if self.model.released(phase, (Y[0], Y[1])):
+                        contact.z, contact.t = (float(Y[0]), float(Y[1])), float(Y[2]) / path.length
+                        return "release", contact.t, steps
+                    self._raise_branch_end(path, phase, Y)
                 continue
             Rn, Jn = self._jacobian(path, phase, side, Yn)
             Tn = self._tangent(Jn, T)
             zn = (Yn[0], Yn[1])
-            ev_b = self._events_of(phase, zn)
+            ev_b = self.model.events(phase, zn)
             found = []  # (kind, name)
             fold = T[2] > 0.0 >= Tn[2]
             if fold:
@@ -483,13 +603,66 @@ class QuasistaticTracker:
                 contact.z = (float(Ystar[0]), float(Ystar[1]))
                 contact.t = min(float(Ystar[2]) / path.length, 1.0)
                 if kind == "target":
+                    # the located point lies on the branch at tau = tau_end (root finding on the
+                    # branch parameter); Newton at fixed t only polishes it, and is not trusted
+                    # next to a fold, where dR/dz is nearly singular
                     z = self._newton_fixed_t(path, phase, side, contact.z, 1.0)
-                    if z is None:
-                        raise ConvergenceError("could not settle on the target pose")
-                    contact.z, contact.t = z, 1.0
+                    if z is not None and abs(z[0] - contact.z[0]) + abs(z[1] - contact.z[1]) <= 1e-9:
+                        contact.z = z
+                    contact.t = 1.0
                 return kind, name, steps
+            if self.model.released(phase, zn):  # a tangential contact unloaded to rounding
+                contact.z, contact.t = (float(zn[0]), float(zn[1])), min(float(Yn[2]) / path.length, 1.0)
+                return "release", contact.t, steps
             Y, T, ev_a = Yn, Tn, ev_b
-            h = min(self.options.max_arclength_step, h * 1.5)
+            h = min(self.options.max_arclength_step * self.model.step_scale(phase, zn), h * 1.5)
+
+    def _raise_branch_end(self, path, phase, Y):
+        """The continuation cannot go on from Y: say why (a model limit or a numerical failure)."""
+        t = float(Y[2]) / path.length
+        z = (float(Y[0]), float(Y[1]))
+        try:
+            f, _, s1, _, _ = self.model.contact_quantities(phase, z)
+        except _NUMERICAL_ERRORS:
+            f, s1 = math.inf, 0.0
+        if phase == Phase.TANGENTIAL and not s1 > 1e-6:
+            raise ModelAssumptionError(
+                f"the contact point slid down to the whisker's foot (s1 = {s1:.3g}, f = {f:.3g}) at "
+                f"{path.pose(t)}: the foot is being driven into the obstacle, which the model does "
+                "not cover"
+            )
+        try:
+            near = [name for name, value in self.model.events(phase, z).items() if value < 1e-8]
+        except _NUMERICAL_ERRORS:
+            near = []
+        for name in near:  # the branch ends on a phase boundary: a model limit (WH1) says so
+            self.model.transition(phase, name, z)
+        if abs(z[0]) > HALF_PI - 1e-6:
+            raise ModelAssumptionError(
+                f"the contact reached the end of the profile's lower arc at {path.pose(t)}: its "
+                "tangent turns parallel to the whisker (the profile is no longer a graph over the "
+                "whisker's normal)"
+            )
+        raise ConvergenceError(
+            f"lost the equilibrium branch (phase {int(phase)}, z = {z}) at {path.pose(t)}"
+        )
+
+    def _follow_rest(self, path: _Path, contact: _Contact):
+        """:meth:`_follow` on the rest of the path from contact.t, so that the continuation's tau
+        starts at 0 wherever the branch begins (a branch met after a long jump is followed with
+        small numbers); results are mapped back to the whole path's t."""
+        t0 = contact.t
+        if t0 <= 0.0:
+            return self._follow(path, contact)
+        rest = _Path(path.pose(t0), path.p1)
+        if rest.length == 0.0:
+            return "target", None, 0
+        contact.t = 0.0
+        kind, detail, steps = self._follow(rest, contact)
+        contact.t = 1.0 if contact.t >= 1.0 else t0 + contact.t * (1.0 - t0)
+        if kind == "release":
+            detail = t0 + detail * (1.0 - t0)
+        return kind, detail, steps
 
     def _fast_step(self, path: _Path, contact: _Contact) -> bool:
         """One tangent predictor to t = 1 and Newton there, accepted only when nothing can have
@@ -520,8 +693,8 @@ class QuasistaticTracker:
         det_b = a[0] * b[1] - a[1] * b[0]
         if det_a * det_b <= 0.0:
             return False
-        ev_a = self._events_of(phase, (z0, z1))
-        ev_b = self._events_of(phase, z)
+        ev_a = self.model.events(phase, (z0, z1))
+        ev_b = self.model.events(phase, z)
         for key, value in ev_b.items():
             if value <= 0.0 < ev_a[key]:
                 return False
@@ -538,13 +711,11 @@ class QuasistaticTracker:
                 R, J = self._jacobian(path, phase, side, Y)
             except (ValueError, ZeroDivisionError):
                 return None
-            M = np.vstack((J, T))
-            rhs = np.array([R[0], R[1], T @ (Y - Yp)])
-            try:
-                d = np.linalg.solve(M, -rhs)
-            except np.linalg.LinAlgError:
-                return None
-            if not np.all(np.isfinite(d)):
+            d = _solve3(
+                [list(J[0]), list(J[1]), list(T)],
+                [-R[0], -R[1], -float(T @ (Y - Yp))],
+            )
+            if d is None:
                 return None
             Y = Y + d
             if np.max(np.abs(d)) <= self.options.newton_tol * max(1.0, np.max(np.abs(Y))):
@@ -562,11 +733,18 @@ class QuasistaticTracker:
             if not self.model.valid(phase, (Y[0], Y[1])):
                 raise ConvergenceError("event location left the branch's domain")
             R, J = self._jacobian(path, phase, side, Y)
-            d = np.linalg.solve(J[:, others], -R)
+            try:
+                d = np.linalg.solve(J[:, others], -R)
+            except np.linalg.LinAlgError:
+                raise ConvergenceError("event location met a singular branch Jacobian") from None
+            if not np.all(np.isfinite(d)):
+                raise ConvergenceError("event location diverged")
             Y[others] += d
             if np.max(np.abs(d)) <= 1e-15 * max(1.0, np.max(np.abs(Y))):
-                break
-        return Y
+                return Y
+        if np.max(np.abs(d)) <= 1e-10 * max(1.0, np.max(np.abs(Y))):
+            return Y  # converged to rounding level (Newton stalls at a few ulps)
+        raise ConvergenceError("event location did not converge on the branch")
 
     def _locate(self, path, phase, side, Ya, Yb, Ta, Tb, found, tau_end):
         """Locate the earliest of the events found between branch points Ya and Yb.
@@ -604,7 +782,7 @@ class QuasistaticTracker:
             if kind == "target":
                 g = lambda Y: Y[2] - tau_end  # noqa: E731
             else:
-                g = lambda Y, name=name: self._events_of(phase, (Y[0], Y[1]))[name]  # noqa: E731
+                g = lambda Y, name=name: self.model.events(phase, (Y[0], Y[1]))[name]  # noqa: E731
             ga, gb = g(Ya), g(Yb)
             if ga == 0.0:
                 p_star = pa
@@ -702,7 +880,6 @@ class QuasistaticTracker:
             contact=None,
             tip=tip,
             shape=(),
-            model=self.model.name,
         )
 
     def _contact_state(self, pose: FootPose, phase: Phase, side: int, z) -> WhiskerState:
@@ -710,9 +887,9 @@ class QuasistaticTracker:
         beta = pose.heading - HALF_PI
         alpha_w = side * z[0] + beta
         cx, cy = self.profile.point(alpha_w)
-        c, s = math.cos(beta), math.sin(beta)
-        ox = side * ox
-        tip = (cx + c * ox - s * oy, cy + s * ox + c * oy)
+        # the tip: the contact point plus the contact-frame offset, turned into the world frame
+        tx, ty = pose.contact_to_world(ox, oy, side)
+        tip = (cx + tx - pose.x, cy + ty - pose.y)
         tip_slope = beta + (phi1_c if side > 0 else math.pi - phi1_c)
         return WhiskerState(
             phase=phase,
@@ -728,13 +905,46 @@ class QuasistaticTracker:
             contact=(cx, cy),
             tip=tip,
             shape=(float(int(phase)), float(z[0]), float(z[1])),
-            model=self.model.name,
+            model=self.model,
         )
 
 
+def _solve3(m, b) -> Optional[np.ndarray]:
+    """Solve the 3x3 system m x = b by Gaussian elimination with partial pivoting (scalar
+    arithmetic: for 3x3 systems in the continuation's inner loop this is several times faster
+    than LAPACK through numpy). None when singular or not finite."""
+    m = [row[:] + [bi] for row, bi in zip(m, b)]
+    for col in range(3):
+        piv = max(range(col, 3), key=lambda r: abs(m[r][col]))
+        if not m[piv][col] != 0.0:
+            return None
+        m[col], m[piv] = m[piv], m[col]
+        pc = m[col]
+        for r in range(col + 1, 3):
+            factor = m[r][col] / pc[col]
+            if factor != 0.0:
+                row = m[r]
+                for k in range(col, 4):
+                    row[k] -= factor * pc[k]
+    x2 = m[2][3] / m[2][2]
+    x1 = (m[1][3] - m[1][2] * x2) / m[1][1]
+    x0 = (m[0][3] - m[0][1] * x1 - m[0][2] * x2) / m[0][0]
+    if not (math.isfinite(x0) and math.isfinite(x1) and math.isfinite(x2)):
+        return None
+    return np.array((x0, x1, x2))
+
+
 def _as_pose(pose) -> FootPose:
-    if isinstance(pose, FootPose):
-        return pose
-    if isinstance(pose, (int, float, np.floating)):
-        return FootPose(float(pose), 0.0, HALF_PI)
-    raise InvalidPoseError(f"a foot pose must be a FootPose or the paper's x0, got {pose!r}")
+    if isinstance(pose, (int, float, np.floating, np.integer)) and not isinstance(pose, bool):
+        pose = FootPose(float(pose), 0.0, HALF_PI)
+    if not isinstance(pose, FootPose):
+        raise InvalidPoseError(f"a foot pose must be a FootPose or the paper's x0, got {pose!r}")
+    for key in ("x", "y", "heading"):
+        value = getattr(pose, key)
+        if abs(value) > MAX_POSE_MAGNITUDE:
+            unit = "rad" if key == "heading" else "whisker lengths"
+            raise InvalidPoseError(
+                f"foot pose {key} = {value!r} is out of range: |{key}| must be at most "
+                f"{MAX_POSE_MAGNITUDE:g} {unit}"
+            )
+    return pose
