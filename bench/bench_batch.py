@@ -76,6 +76,11 @@ def _compute(stream):
     return sum(ss["stop"] - ss["start"] for rec in stream.data for ss in rec["startstops"] if ss["action"] == "compute")
 
 
+def _worker_cpu(client):
+    """CPU seconds used so far by the cluster's worker processes."""
+    return sum(client.run(time.process_time).values())
+
+
 def _subset(study, tasks):
     return dataclasses.replace(study, tasks=tuple(tasks))
 
@@ -117,20 +122,28 @@ def main(argv=None):
         clusters = {n: _cluster(n) for n in (1, 2)}
         walls = {1: [], 2: []}
         busy = {1: [], 2: []}
+        cores = {1: [], 2: []}
         load = os.getloadavg()[0]
         for _ in range(args.repeats):
             for n in (1, 2):
+                cpu0 = _worker_cpu(clusters[n][1])
                 with get_task_stream(clusters[n][1]) as stream:
                     wall = _timed_run(scaling, clusters[n][1], root)[0]
+                cores[n].append((_worker_cpu(clusters[n][1]) - cpu0) / wall)
                 walls[n].append(wall)
                 busy[n].append(_compute(stream) / (n * wall))
         m1, m2 = statistics.median(walls[1]), statistics.median(walls[2])
         print(f"scaling: {args.scaling_tasks} tasks, 1 worker {m1:.2f} s, 2 workers {m2:.2f} s (medians of "
               f"{args.repeats}); 2 workers = {m1 / m2:.2f}x the throughput of 1")
         print(f"scaling: workers busy computing {100 * statistics.median(busy[1]):.0f}% (1) and "
-              f"{100 * statistics.median(busy[2]):.0f}% (2) of the wall time; load average "
+              f"{100 * statistics.median(busy[2]):.0f}% (2) of the wall time, and got "
+              f"{statistics.median(cores[1]):.2f} and {statistics.median(cores[2]):.2f} cores of CPU time; load average "
               f"{load:.1f} -> {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores (above the workers' count: "
               "the machine is shared and the ratio understates the engine)")
+        c1, c2 = statistics.median(cores[1]), statistics.median(cores[2])
+        per_core = (m1 / m2) / (c2 / c1)
+        print(f"scaling: per core of CPU time obtained, 2 workers do {per_core:.2f}x the work of 1 (1.00: perfect); "
+              f"with two whole cores that is {2 * per_core:.2f}x (an estimate: re-measure on a quiet machine)")
 
         # 2. overhead per task for ~1 s tasks, on 1 worker, from Dask's task stream
         slow = parse_study(SLOW_TASKS)
