@@ -71,6 +71,23 @@ def _param(text: str):
     return key.strip(), _finite(value)
 
 
+def _placement(text: str):
+    parts = text.split(",")
+    if len(parts) != 3:
+        raise argparse.ArgumentTypeError(f"{text!r} is not X,Y,DEG (e.g. 0,0.1,15)")
+    return tuple(_finite(p) for p in parts)
+
+
+def _workers(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"{text!r} must be >= 1")
+    return value
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="vibrissa", description="Virtual whisker: exact quasistatic elastica scans.")
     sub = parser.add_subparsers(dest="verb", required=True, parser_class=_Parser)
@@ -99,6 +116,9 @@ def build_parser() -> argparse.ArgumentParser:
     scan.add_argument("--solver", default="auto", choices=("auto", "exact", "numeric"),
                       help="exact: the closed forms (uniform straight whisker, convex profiles); numeric: "
                       "Chebyshev collocation, any whisker and obstacle; auto (default): exact where it applies")
+    scan.add_argument("--place", type=_placement, default=(0.0, 0.0, 0.0), metavar="X,Y,DEG",
+                      help="move the obstacle: turn it by DEG degrees counter-clockwise about its apex, then "
+                      "shift it by (X, Y) (whisker lengths); as a study's placement")
     scan.add_argument("--from", dest="x_from", type=_finite, help="first foot position x0")
     scan.add_argument("--to", dest="x_to", type=_finite, help="last foot position x0 (inclusive)")
     scan.add_argument("--step", type=_positive, help="grid spacing of x0 (> 0)")
@@ -182,7 +202,75 @@ def build_parser() -> argparse.ArgumentParser:
     rec.add_argument("--min-force", type=_nonnegative, default=0.0,
                      help="readings with a smaller force are taken as no contact (input units; noisy data)")
     rec.set_defaults(func=_cmd_reconstruct)
+    batch = sub.add_parser(
+        "batch",
+        help="run a study (a grid and/or random sample of scans) on Dask and write a Parquet dataset",
+        description="Run every task of a study (one task = one scan, as 'vibrissa scan' computes it) on an "
+        "embedded Dask cluster or an existing one, and write the results as a Parquet dataset in DIR. "
+        "Running the same command again computes only the tasks that are missing.",
+    )
+    batch.add_argument("study", help="the study file (YAML; see config/study_small.yaml)")
+    batch.add_argument("--out", required=True, metavar="DIR", help="the dataset directory (created or resumed)")
+    batch.add_argument("--workers", type=_workers, default=None, metavar="N",
+                       help="worker processes of the embedded cluster (default: the number of cores)")
+    batch.add_argument("--scheduler", metavar="ADDRESS",
+                       help="run on an existing Dask cluster, e.g. tcp://host:8786 (its workers need "
+                       "vibrissa_ros[batch] of this version)")
+    batch.add_argument("--dry-run", action="store_true", help="check the study, print its size and stop")
+    batch.add_argument("--quiet", action="store_true", help="no progress bar")
+    batch.set_defaults(func=_cmd_batch)
     return parser
+
+
+def _cmd_batch(args) -> int:
+    try:
+        from .batch import run_study
+        from .dataset import DatasetError
+        from .study import load_study
+    except ImportError as exc:
+        print(f"vibrissa batch: error: needs Dask, pyarrow, tqdm and PyYAML ({exc}); pip install "
+              "'vibrissa_ros[batch]'", file=sys.stderr)
+        return 2
+    if args.workers is not None and args.scheduler:
+        print("vibrissa batch: error: --workers sizes the embedded cluster; with --scheduler the cluster's "
+              "own workers run the study", file=sys.stderr)
+        return 2
+    try:
+        study = load_study(args.study)
+    except VibrissaError as exc:
+        print(f"vibrissa batch: error: {args.study}: {exc}", file=sys.stderr)
+        return 2
+    if args.dry_run:
+        print(f"{args.study}: {len(study.tasks)} tasks, {study.poses} poses")
+        return 0
+    try:
+        report = run_study(study, args.out, workers=args.workers, scheduler=args.scheduler,
+                           progress=None if args.quiet else sys.stderr)
+    except DatasetError as exc:
+        print(f"vibrissa batch: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("vibrissa batch: interrupted; the tasks written are kept: run the same command again to "
+              "compute the rest", file=sys.stderr)
+        return 130
+    except OSError as exc:  # e.g. the scheduler cannot be reached
+        print(f"vibrissa batch: error: {exc}", file=sys.stderr)
+        return 1
+    if report.computed == 0 and not report.errors:
+        print(f"vibrissa batch: all {report.tasks} tasks of {args.study} are already in {args.out}; nothing to do",
+              file=sys.stderr)
+        return 0
+    rate = report.computed / report.seconds if report.seconds > 0 else 0.0
+    print(f"vibrissa batch: {report.computed} tasks computed ({report.failed} failed, reasons in "
+          f"{args.out}/failures), {report.already_done} were already done; {report.workers} workers, "
+          f"{report.seconds:.1f} s ({rate:.2f} tasks/s) -> {args.out}", file=sys.stderr)
+    if report.errors:
+        for index, message in report.errors[:5]:
+            print(f"vibrissa batch: error: task {index} not computed: {message}", file=sys.stderr)
+        print(f"vibrissa batch: {len(report.errors)} tasks not computed; run the same command again to retry "
+              "them", file=sys.stderr)
+        return 1
+    return 0
 
 
 def _params(pairs: List) -> Dict[str, float]:
@@ -230,7 +318,9 @@ def _elastica_model(args, profile):
 
 def _cmd_scan(args) -> int:
     try:
-        profile = make_profile(args.profile, _params(args.param))
+        from .study import place_obstacle
+
+        profile = place_obstacle(make_profile(args.profile, _params(args.param)), *args.place)
         grid, poses = _scan_path(args)
         if args.model != "elastica" and (args.taper is not None or args.curvature is not None or args.solver == "numeric"):
             raise VibrissaError("--taper, --curvature and --solver numeric apply to --model elastica")
