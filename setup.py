@@ -28,6 +28,13 @@ PLOTS = ["matplotlib>=3.7", "pillow>=9.1"]
 # style checks as ament_flake8 / ament_pep257 configure them (test/test_style.py); pyyaml 5.1:
 # yaml.safe_load of the launch test's parameter files
 LINT = ["flake8>=6.0", "pydocstyle>=6.1", "pyyaml>=5.1"]
+# studies at scale (vibrissa batch): Dask distributed, Parquet through pyarrow (pandas for
+# DataFrames), a progress bar, YAML study files; lower bounds: the first releases that build
+# against numpy 2
+BATCH = ["dask[distributed]>=2024.8.0", "pyarrow>=16.0", "pandas>=2.2.2", "tqdm>=4.60",
+         "pyyaml>=5.4"]
+# the dataset's other readers, for the read-back tests
+DATASET_READERS = ["dask[dataframe]>=2024.8.0", "polars>=1.0"]
 # the core's own tests: they also run on numpy 1.x (.ci/run), without ROS
 CORE_TEST = ["pytest>=7", "mpmath>=1.3", "hypothesis>=6.100"]
 
@@ -47,8 +54,10 @@ setup(
         # ROS 2 Jazzy from PyPI wheels (no sourcing needed), for the node and its tools
         "ros": ROS + PLOTS,
         "plots": PLOTS,
+        "batch": BATCH,
         "core-test": CORE_TEST,
-        "test": ROS + TOOLS + READERS + PLOTS + CORE_TEST + LINT + ["catkin_pkg>=1.0"],
+        "test": ROS + TOOLS + READERS + PLOTS + BATCH + DATASET_READERS + CORE_TEST + LINT
+        + ["catkin_pkg>=1.0"],
     },
     zip_safe=True,
     maintainer="vibrissa_ros maintainers",

@@ -303,3 +303,19 @@ def test_the_height_of_a_narrow_catenary_far_out_is_infinite_not_an_overflow():
     prof = Catenary(0.3, 1e-6)
     assert prof.height_at_x(1.0) == math.inf
     assert prof.height_at_x(1e-6) == pytest.approx(0.3 + 1e-6 * (math.cosh(1.0) - 1.0), rel=1e-15)
+
+
+def test_a_whisker_released_exactly_at_a_pose_does_not_touch_again_when_it_moves_away():
+    """A tapered whisker (rho 0.25) snaps onto the far flank of Parabola(0.35, 1.3) and releases at
+    x0 = -1 exactly, a grid point; the next step used to see the tip on the profile as a new touch
+    and crawl for minutes. A free tip on the profile that moves out of it is not a touch."""
+    from vibrissa_ros.core.general import GeneralWhiskerModel, WhiskerShape
+
+    tracker = QuasistaticTracker(Parabola(0.35, 1.3), 2.0, model=GeneralWhiskerModel(WhiskerShape(0.25, 0.0, 0.0)))
+    kinds = []
+    for i in range(1, 161):
+        result = tracker.step(2.0 - 0.02 * i)
+        kinds += [e.kind for e in result.events]
+        assert result.evaluations < 5_000
+    assert kinds == ["touch", "phase", "snap", "release"]
+    assert tracker.state.phase == Phase.FREE

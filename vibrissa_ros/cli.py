@@ -12,9 +12,11 @@ from typing import Dict, List, Optional
 from .core.errors import VibrissaError
 from .core.models import MODELS, make_model
 from .core.profiles import PROFILE_PARAMETERS, make_profile
-from .core.scan import run_scan, scan_grid
+from .core.general import GeneralWhiskerModel, WhiskerShape
+from .core.profiles import Peg
+from .core.scan import run_poses, run_scan, scan_grid
 from .parameters import ParameterSpec
-from .scan_io import write_events_json, write_scan_csv
+from .scan_io import read_poses_csv, write_events_json, write_scan_csv
 
 
 class _Parser(argparse.ArgumentParser):
@@ -44,11 +46,43 @@ _positive = _number(ParameterSpec("value", 1.0, "", minimum=0.0, exclusive_minim
 _nonnegative = _number(ParameterSpec("value", 0.0, "", minimum=0.0))
 
 
+def _taper(text: str) -> float:
+    value = _finite(text)
+    if not 0.0 < value <= 1.0:
+        raise argparse.ArgumentTypeError(f"{text!r}: the taper (tip radius / base radius) must be in (0, 1]")
+    return value
+
+
+def _curvature(text: str):
+    parts = text.split(",")
+    if len(parts) > 2 or not all(p.strip() for p in parts):
+        raise argparse.ArgumentTypeError(f"{text!r} is not K0 or K0,K1 (e.g. --curvature=-1,0.5)")
+    values = [_finite(p) for p in parts]
+    return (values[0], values[1] if len(values) == 2 else 0.0)
+
+
 def _param(text: str):
     key, sep, value = text.partition("=")
     if not sep or not key:
         raise argparse.ArgumentTypeError(f"{text!r} is not NAME=VALUE (e.g. p0=0.3)")
     return key.strip(), _finite(value)
+
+
+def _placement(text: str):
+    parts = text.split(",")
+    if len(parts) != 3:
+        raise argparse.ArgumentTypeError(f"{text!r} is not X,Y,DEG (e.g. 0,0.1,15)")
+    return tuple(_finite(p) for p in parts)
+
+
+def _workers(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"{text!r} must be >= 1")
+    return value
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -69,29 +103,30 @@ def build_parser() -> argparse.ArgumentParser:
     )
     scan.add_argument("--param", action="append", type=_param, default=[], metavar="NAME=VALUE",
                       help="profile parameter, repeatable (e.g. --param p0=0.3 --param k=1)")
-    scan.add_argument(
-        "--model",
-        default="elastica",
-        choices=sorted(MODELS) + ["both"],
-        help="whisker model: elastica (paper §2), rigid (paper §3) or both side by side",
-    )
-    scan.add_argument(
-        "--spring-stiffness",
-        type=_positive,
-        default=None,
-        metavar="K",
-        help="rigid model: pivot stiffness c = K*EI/L; its forces and moments are then "
-        "written in the elastica's units (EI/L^2, EI/L). Without it the rigid model is "
-        "written in the paper's §3 units (c/L, c). Default with --model both: 3, the "
-        "stiffness that matches the elastica's small-deflection tip stiffness",
-    )
-    scan.add_argument(
-        "--from", dest="x_from", type=_finite, required=True, help="first foot position x0"
-    )
-    scan.add_argument(
-        "--to", dest="x_to", type=_finite, required=True, help="last foot position x0 (inclusive)"
-    )
-    scan.add_argument("--step", type=_positive, required=True, help="grid spacing of x0 (> 0)")
+    scan.add_argument("--model", default="elastica", choices=sorted(MODELS) + ["both"],
+                      help="whisker model: elastica (paper §2), rigid (paper §3) or both side by side")
+    scan.add_argument("--spring-stiffness", type=_positive, default=None, metavar="K",
+                      help="rigid model: pivot stiffness c = K*EI/L; its forces and moments are then "
+                      "written in the elastica's units (EI/L^2, EI/L). Without it the rigid model is "
+                      "written in the paper's §3 units (c/L, c). Default with --model both: 3, the "
+                      "stiffness that matches the elastica's small-deflection tip stiffness")
+    scan.add_argument("--taper", type=_taper, default=None, metavar="RHO",
+                      help="tip radius / base radius in (0, 1] (default 1): bending stiffness (1-(1-RHO)s)^4 EI_b")
+    scan.add_argument("--curvature", type=_curvature, default=None, metavar="K0[,K1]",
+                      help="intrinsic curvature k0 + k1 s [1/L], counter-clockwise positive (default 0,0); "
+                      "write --curvature=-1,0 for a negative k0")
+    scan.add_argument("--solver", default="auto", choices=("auto", "exact", "numeric"),
+                      help="exact: the closed forms (uniform straight whisker, convex profiles); numeric: "
+                      "Chebyshev collocation, any whisker and obstacle; auto (default): exact where it applies")
+    scan.add_argument("--place", type=_placement, default=(0.0, 0.0, 0.0), metavar="X,Y,DEG",
+                      help="move the obstacle: turn it by DEG degrees counter-clockwise about its apex, then "
+                      "shift it by (X, Y) (whisker lengths); as a study's placement")
+    scan.add_argument("--from", dest="x_from", type=_finite, help="first foot position x0")
+    scan.add_argument("--to", dest="x_to", type=_finite, help="last foot position x0 (inclusive)")
+    scan.add_argument("--step", type=_positive, help="grid spacing of x0 (> 0)")
+    scan.add_argument("--poses", metavar="POSES.csv",
+                      help="foot poses instead of --from/--to/--step: a CSV with columns x,y,heading "
+                      "(heading in rad, pi/2 = the paper's set-up), visited in order")
     scan.add_argument("--back", action="store_true", help="append the sweep back to --from")
     scan.add_argument("--csv", required=True, help="output CSV ('-' for standard output)")
     scan.add_argument("--events", help="output events JSON")
@@ -229,7 +264,75 @@ def build_parser() -> argparse.ArgumentParser:
         help="readings with a smaller force are taken as no contact (input units; noisy data)",
     )
     rec.set_defaults(func=_cmd_reconstruct)
+    batch = sub.add_parser(
+        "batch",
+        help="run a study (a grid and/or random sample of scans) on Dask and write a Parquet dataset",
+        description="Run every task of a study (one task = one scan, as 'vibrissa scan' computes it) on an "
+        "embedded Dask cluster or an existing one, and write the results as a Parquet dataset in DIR. "
+        "Running the same command again computes only the tasks that are missing.",
+    )
+    batch.add_argument("study", help="the study file (YAML; see config/study_small.yaml)")
+    batch.add_argument("--out", required=True, metavar="DIR", help="the dataset directory (created or resumed)")
+    batch.add_argument("--workers", type=_workers, default=None, metavar="N",
+                       help="worker processes of the embedded cluster (default: the number of cores)")
+    batch.add_argument("--scheduler", metavar="ADDRESS",
+                       help="run on an existing Dask cluster, e.g. tcp://host:8786 (its workers need "
+                       "vibrissa_ros[batch] of this version)")
+    batch.add_argument("--dry-run", action="store_true", help="check the study, print its size and stop")
+    batch.add_argument("--quiet", action="store_true", help="no progress bar")
+    batch.set_defaults(func=_cmd_batch)
     return parser
+
+
+def _cmd_batch(args) -> int:
+    try:
+        from .batch import run_study
+        from .dataset import DatasetError
+        from .study import load_study
+    except ImportError as exc:
+        print(f"vibrissa batch: error: needs Dask, pyarrow, tqdm and PyYAML ({exc}); pip install "
+              "'vibrissa_ros[batch]'", file=sys.stderr)
+        return 2
+    if args.workers is not None and args.scheduler:
+        print("vibrissa batch: error: --workers sizes the embedded cluster; with --scheduler the cluster's "
+              "own workers run the study", file=sys.stderr)
+        return 2
+    try:
+        study = load_study(args.study)
+    except VibrissaError as exc:
+        print(f"vibrissa batch: error: {args.study}: {exc}", file=sys.stderr)
+        return 2
+    if args.dry_run:
+        print(f"{args.study}: {len(study.tasks)} tasks, {study.poses} poses")
+        return 0
+    try:
+        report = run_study(study, args.out, workers=args.workers, scheduler=args.scheduler,
+                           progress=None if args.quiet else sys.stderr)
+    except DatasetError as exc:
+        print(f"vibrissa batch: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("vibrissa batch: interrupted; the tasks written are kept: run the same command again to "
+              "compute the rest", file=sys.stderr)
+        return 130
+    except OSError as exc:  # e.g. the scheduler cannot be reached
+        print(f"vibrissa batch: error: {exc}", file=sys.stderr)
+        return 1
+    if report.computed == 0 and not report.errors:
+        print(f"vibrissa batch: all {report.tasks} tasks of {args.study} are already in {args.out}; nothing to do",
+              file=sys.stderr)
+        return 0
+    rate = report.computed / report.seconds if report.seconds > 0 else 0.0
+    print(f"vibrissa batch: {report.computed} tasks computed ({report.failed} failed, reasons in "
+          f"{args.out}/failures), {report.already_done} were already done; {report.workers} workers, "
+          f"{report.seconds:.1f} s ({rate:.2f} tasks/s) -> {args.out}", file=sys.stderr)
+    if report.errors:
+        for index, message in report.errors[:5]:
+            print(f"vibrissa batch: error: task {index} not computed: {message}", file=sys.stderr)
+        print(f"vibrissa batch: {len(report.errors)} tasks not computed; run the same command again to retry "
+              "them", file=sys.stderr)
+        return 1
+    return 0
 
 
 def _params(pairs: List) -> Dict[str, float]:
@@ -247,10 +350,42 @@ def rigid_output_path(path: str) -> str:
     return f"{stem}.rigid.{ext}" if dot and "/" not in ext else f"{path}.rigid"
 
 
+def _scan_path(args):
+    """The foot positions (x0 grid) or poses (--poses) of a scan."""
+    sweep = (args.x_from, args.x_to, args.step)
+    if args.poses is not None:
+        if any(v is not None for v in sweep) or args.back:
+            raise VibrissaError("give either --poses or --from/--to/--step [--back], not both")
+        return None, read_poses_csv(args.poses)
+    if any(v is None for v in sweep):
+        raise VibrissaError("give --from, --to and --step (or --poses POSES.csv)")
+    return scan_grid(args.x_from, args.x_to, args.step, args.back), None
+
+
+def _elastica_model(args, profile):
+    """The exact elastica or the general solver, by --solver, --taper and --curvature."""
+    k0, k1 = args.curvature or (0.0, 0.0)
+    shape = WhiskerShape(1.0 if args.taper is None else args.taper, k0, k1)
+    exact_ok = shape.is_paper and not isinstance(profile, Peg)
+    if args.solver == "exact" and not exact_ok:
+        why = "a peg" if isinstance(profile, Peg) else "a tapered or curved whisker"
+        raise VibrissaError(
+            f"--solver exact: the closed forms cover a uniform straight whisker (taper 1, curvature 0) "
+            f"against a convex profile, not {why}; use --solver numeric or auto"
+        )
+    if args.solver == "exact" or (args.solver == "auto" and exact_ok):
+        return make_model("elastica")
+    return GeneralWhiskerModel(shape)
+
+
 def _cmd_scan(args) -> int:
     try:
-        profile = make_profile(args.profile, _params(args.param))
-        grid = scan_grid(args.x_from, args.x_to, args.step, args.back)
+        from .study import place_obstacle
+
+        profile = place_obstacle(make_profile(args.profile, _params(args.param)), *args.place)
+        grid, poses = _scan_path(args)
+        if args.model != "elastica" and (args.taper is not None or args.curvature is not None or args.solver == "numeric"):
+            raise VibrissaError("--taper, --curvature and --solver numeric apply to --model elastica")
         if args.model == "both" and args.csv == "-":
             raise VibrissaError(
                 "--model both writes two CSV files: give --csv a file name, not '-'"
@@ -262,7 +397,7 @@ def _cmd_scan(args) -> int:
         stiffness = args.spring_stiffness or (3.0 if args.model == "both" else 1.0)
         runs = []
         for name in (["elastica", "rigid"] if args.model == "both" else [args.model]):
-            model = make_model(name, stiffness=stiffness) if name == "rigid" else make_model(name)
+            model = make_model(name, stiffness=stiffness) if name == "rigid" else _elastica_model(args, profile)
             suffix = args.model == "both" and name == "rigid"
             csv_path = rigid_output_path(args.csv) if suffix else args.csv
             events_path = (
@@ -275,19 +410,20 @@ def _cmd_scan(args) -> int:
     results = []
     for model, csv_path, events_path in runs:
         try:
-            result = run_scan(profile, grid, model=model)
+            result = run_scan(profile, grid, model=model) if poses is None else run_poses(profile, poses, model=model)
         except VibrissaError as exc:
             print(f"vibrissa scan: error: {model.name} model: {exc}", file=sys.stderr)
             return 2 if isinstance(exc, ValueError) else 1
         results.append((model.name, result))
+        by_pose = poses is not None
         if csv_path == "-":
-            write_scan_csv(result.states, sys.stdout)
+            write_scan_csv(result.states, sys.stdout, by_pose)
         else:
             with open(csv_path, "w", newline="") as stream:
-                write_scan_csv(result.states, stream)
+                write_scan_csv(result.states, stream, by_pose)
         if events_path:
             with open(events_path, "w") as stream:
-                write_events_json(result.events, stream)
+                write_events_json(result.events, stream, by_pose)
     if args.plot:
         try:
             from .plots import PlotRun, plot_runs
@@ -299,11 +435,10 @@ def _cmd_scan(args) -> int:
             return 2
 
         title = f"{profile.describe()}: " + " vs ".join(name for name, _ in results)
-        figure = plot_runs(
-            [PlotRun(name, r.states, r.events, r.event_steps) for name, r in results],
-            profile,
-            title=title,
-        )
+        # foot poses that only turn the whisker (whisking) are drawn against the heading
+        abscissa = "heading" if poses is not None and len({p.x for p in poses}) == 1 else "x0"
+        figure = plot_runs([PlotRun(name, r.states, r.events, r.event_steps) for name, r in results], profile,
+                           title=title, abscissa=abscissa)
         figure.save(args.plot, small=args.small_png)
     return 0
 

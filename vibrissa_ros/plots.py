@@ -22,7 +22,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from .core.profiles import ConvexProfile  # noqa: E402
+from .core.profiles import ConvexProfile, Peg  # noqa: E402
 from .core.state import Event, WhiskerState  # noqa: E402
 
 PHASE_COLORS = {0: "#7f7f7f", 1: "#1f77b4", 2: "#d62728"}
@@ -83,9 +83,21 @@ class Figure:
         plt.close(self.figure)
 
 
-def direction_segments(states: Sequence[WhiskerState]) -> List[Tuple[int, int]]:
+def _foot_x(item) -> float:
+    return item.pose.x
+
+
+def _foot_heading(item) -> float:
+    return item.pose.heading
+
+
+#: what the observables are drawn against: the foot's x (a scan) or its heading (whisking)
+ABSCISSAE = {"x0": _foot_x, "heading": _foot_heading}
+
+
+def direction_segments(states: Sequence[WhiskerState], key=_foot_x) -> List[Tuple[int, int]]:
     """[start, end) index ranges of monotone foot travel (a back-and-forth sweep gives two)."""
-    x = np.array([s.x0 for s in states])
+    x = np.array([key(s) for s in states])
     if len(x) < 3:
         return [(0, len(x))]
     d = np.sign(np.diff(x))
@@ -99,7 +111,7 @@ def direction_segments(states: Sequence[WhiskerState]) -> List[Tuple[int, int]]:
 
 
 def sketch_selection(
-    states: Sequence[WhiskerState], events: Sequence[Event], count: int = 15
+    states: Sequence[WhiskerState], events: Sequence[Event], count: int = 15, key=_foot_x
 ) -> List[int]:
     """
     Return the indices of ~``count`` states for the configuration sketch.
@@ -111,14 +123,14 @@ def sketch_selection(
     if not contact:
         return [0]
     chosen = {contact[0], contact[-1]}
-    xs = np.array([s.x0 for s in states])
+    xs = np.array([key(s) for s in states])
     for e in events:
         if e.kind == "snap":
-            before = [i for i in contact if (xs[i] - e.x0) * (xs[contact[0]] - e.x0) >= 0]
+            before = [i for i in contact if (xs[i] - key(e)) * (xs[contact[0]] - key(e)) >= 0]
             if before:
-                chosen.add(max(before, key=lambda i: -abs(xs[i] - e.x0)))
+                chosen.add(max(before, key=lambda i: -abs(xs[i] - key(e))))
         else:
-            near = min(contact, key=lambda i: abs(xs[i] - e.x0))
+            near = min(contact, key=lambda i: abs(xs[i] - key(e)))
             chosen.add(near)
     for i in np.linspace(contact[0], contact[-1], max(count - len(chosen), 2)).round().astype(int):
         if states[int(i)].phase and len(chosen) < count:
@@ -140,8 +152,13 @@ def plot_runs(
     units: AxisUnits = AxisUnits(),
     title: str = "",
     sketch_count: int = 15,
+    abscissa: str = "x0",
 ) -> Figure:
-    """Draw the figure for one or two models' runs (the first drives the sketch)."""
+    """Draw the figure for one or two models' runs (the first drives the sketch). ``abscissa``:
+    draw the observables against the foot's ``x0`` (a scan) or its ``heading`` (whisking)."""
+    coord = ABSCISSAE[abscissa]
+    scale_key = units.scale_length if abscissa == "x0" else 1.0
+    xlabel = f"foot position x0 [{units.length}]" if abscissa == "x0" else "foot heading [rad]"
     fig = plt.figure(figsize=(11, 9.5), layout="constrained")
     grid = fig.add_gridspec(3, 2, height_ratios=[1.25, 1, 1])
     ax_sketch = fig.add_subplot(grid[0, :])
@@ -156,7 +173,7 @@ def plot_runs(
     L, F, M = units.scale_length, units.scale_force, units.scale_moment
 
     # -- configuration sketch ----------------------------------------------------------------
-    first = direction_segments(main.states)[0]
+    first = direction_segments(main.states, coord)[0]
     states = main.states[first[0]:first[1]]
     if main.event_steps:
         first_events = [
@@ -164,9 +181,15 @@ def plot_runs(
         ]
     else:
         first_events = list(main.events)
-    picks = sketch_selection(states, first_events, sketch_count)
+    picks = sketch_selection(states, first_events, sketch_count, coord)
     xs = np.array([s.x0 for s in main.states]) * L
-    if profile is not None:
+    if isinstance(profile, Peg):
+        ring = np.linspace(0.0, 2.0 * np.pi, 241)
+        px, py = (profile.x + profile.r * np.cos(ring)) * L, (profile.y + profile.r * np.sin(ring)) * L
+        ax_sketch.fill(px, py, color="#c8a27a", alpha=0.6, lw=0)
+        ax_sketch.plot(px, py, color="#8c5a2b", lw=1.5, label="peg", gid="obstacle")
+        ax_sketch.plot(profile.x * L, profile.y * L, "+", color="#8c5a2b", ms=5)
+    elif profile is not None:
         curve = _profile_curve(profile, xs / L, 1.6) * L
         ax_sketch.fill_between(
             curve[:, 0], curve[:, 1], 1.6 * L, color="#c8a27a", alpha=0.45, lw=0
@@ -205,17 +228,22 @@ def plot_runs(
     ax_sketch.set_aspect("equal", adjustable="box")
     ax_sketch.set_xlabel(f"x [{units.length}] ({units.frame})")
     ax_sketch.set_ylabel(f"y [{units.length}]")
-    ax_sketch.set_title(
-        "configurations during the scan"
-        + (" (first sweep direction)" if len(direction_segments(main.states)) > 1 else "")
-    )
+def sketch_selection(
+    states: Sequence[WhiskerState], events: Sequence[Event], count: int = 15, key=_foot_x
+) -> List[int]:
+    """
+    Return the indices of ~``count`` states for the configuration sketch.
+
+    The first contact state, the states next to every event (the last one before a snap
+    included), then evenly spread contact states.
+    """
     ax_sketch.legend(loc="upper right", fontsize=8)
 
     # -- observables ---------------------------------------------------------------------------
     styles = ["-", "--"]
     for k, run in enumerate(runs):
         st = run.states
-        x = np.array([s.x0 for s in st]) * L
+        x = np.array([coord(s) for s in st]) * scale_key
         series = {
             "m0": np.array([s.m0 for s in st]) * M,
             "f": np.array([s.f for s in st]) * F,
@@ -223,31 +251,19 @@ def plot_runs(
             "fy": np.array([s.fy for s in st]) * F,
             "s1": np.array([np.nan if s.s1 is None else s.s1 for s in st]) * L,
         }
-        for d, (a, b) in enumerate(direction_segments(st)):
-            tag = f"{run.label}" + (f", sweep {d + 1}" if len(direction_segments(st)) > 1 else "")
-            for ax, key, color in (
-                (ax_m, "m0", "#2ca02c"),
-                (ax_f, "f", "#9467bd"),
-                (ax_fxy, "fx", "#ff7f0e"),
-                (ax_fxy, "fy", "#17becf"),
-                (ax_s1, "s1", "#8c564b"),
-            ):
-                alpha = 1.0 if d == 0 else 0.55
-                (line,) = ax.plot(
-                    x[a:b],
-                    series[key][a:b],
-                    styles[k % 2],
-                    color=color,
-                    lw=1.4,
-                    alpha=alpha,
-                    label=f"{key} ({tag})",
-                    gid=f"{run.label}:{key}:{d}",
-                )
-                if len(direction_segments(st)) > 1:
+def sketch_selection(
+    states: Sequence[WhiskerState], events: Sequence[Event], count: int = 15, key=_foot_x
+) -> List[int]:
+    """
+    Return the indices of ~``count`` states for the configuration sketch.
+
+    The first contact state, the states next to every event (the last one before a snap
+    included), then evenly spread contact states.
+    """
                     _arrows(ax, x[a:b], series[key][a:b], color, alpha)
     # phases shaded (first run, first direction) and events marked (all of the first run)
     a, b = first
-    x = np.array([s.x0 for s in main.states[a:b]]) * L
+    x = np.array([coord(s) for s in main.states[a:b]]) * scale_key
     ph = np.array([int(s.phase) for s in main.states[a:b]])
     for ax in (ax_m, ax_f, ax_fxy, ax_s1):
         start = 0
@@ -264,23 +280,23 @@ def plot_runs(
                     )
                 start = i
         for e in main.events:
-            ax.axvline(e.x0 * L, color="black", lw=0.6, ls=":", gid=f"event:{e.kind}")
+            ax.axvline(coord(e) * scale_key, color="black", lw=0.6, ls=":", gid=f"event:{e.kind}")
     for e in main.events:
-        ax_m.annotate(
-            e.kind,
-            (e.x0 * L, 1.0),
-            xycoords=("data", "axes fraction"),
-            fontsize=7,
-            rotation=90,
-            va="top",
-            ha="right",
-        )
+def sketch_selection(
+    states: Sequence[WhiskerState], events: Sequence[Event], count: int = 15, key=_foot_x
+) -> List[int]:
+    """
+    Return the indices of ~``count`` states for the configuration sketch.
+
+    The first contact state, the states next to every event (the last one before a snap
+    included), then evenly spread contact states.
+    """
     ax_m.set_ylabel(f"m0 [{units.moment}]")
     ax_f.set_ylabel(f"f [{units.force}]")
     ax_fxy.set_ylabel(f"fx, fy [{units.force}] ({units.frame})")
     ax_s1.set_ylabel(f"s1 [{units.length}]")
     for ax in (ax_m, ax_f, ax_fxy, ax_s1):
-        ax.set_xlabel(f"foot position x0 [{units.length}]")
+        ax.set_xlabel(xlabel)
         ax.grid(True, lw=0.3, alpha=0.5)
         ax.legend(fontsize=7, loc="best")
     ax_m.set_title("base moment m0 (κ(0), ccw positive)")

@@ -2,17 +2,18 @@
 The scan CSV and events JSON contract (adapter: files; the core never writes files).
 
 CSV columns, exactly: x0,phase,alpha,s1,tip_slope,f,fx,fy,m0,contact_x,contact_y (dimensionless,
-the paper's frame). A free row has phase 0, f = fx = fy = m0 = 0 and empty alpha, s1, contact_x,
-contact_y. Numbers are written with 17 significant digits (round-trip exact).
+the paper's frame); a scan driven by foot poses starts with x,y,heading instead of x0. A free
+row has phase 0, f = fx = fy = m0 = 0 and empty alpha, s1, contact_x, contact_y. Numbers are written with 17 significant digits (round-trip exact).
 """
 
 from __future__ import annotations
 
 import csv
 import json
-from typing import IO, Iterable
+from typing import IO, Iterable, List
 
-from .core.state import Event, WhiskerState
+from .core.errors import ParameterError
+from .core.state import Event, FootPose, WhiskerState
 
 CSV_COLUMNS = (
     "x0",
@@ -27,6 +28,8 @@ CSV_COLUMNS = (
     "contact_x",
     "contact_y",
 )
+#: columns of a scan driven by foot poses (``vibrissa scan --poses``)
+POSE_CSV_COLUMNS = ("x", "y", "heading") + CSV_COLUMNS[1:]
 
 
 def _num(value) -> str:
@@ -35,10 +38,11 @@ def _num(value) -> str:
     return repr(float(value))
 
 
-def state_row(state: WhiskerState) -> list:
+def state_row(state: WhiskerState, by_pose: bool = False) -> list:
     contact = state.contact or (None, None)
-    return [
-        _num(state.x0),
+    pose = state.pose
+    lead = [_num(pose.x), _num(pose.y), _num(pose.heading)] if by_pose else [_num(state.x0)]
+    return lead + [
         str(int(state.phase)),
         _num(state.alpha),
         _num(state.s1),
@@ -52,22 +56,49 @@ def state_row(state: WhiskerState) -> list:
     ]
 
 
-def write_scan_csv(states: Iterable[WhiskerState], stream: IO[str]) -> None:
+def write_scan_csv(states: Iterable[WhiskerState], stream: IO[str], by_pose: bool = False) -> None:
+    """The scan CSV; ``by_pose``: the row starts with the foot pose x,y,heading instead of x0."""
     writer = csv.writer(stream, lineterminator="\n")
-    writer.writerow(CSV_COLUMNS)
+    writer.writerow(POSE_CSV_COLUMNS if by_pose else CSV_COLUMNS)
     for state in states:
-        writer.writerow(state_row(state))
+        writer.writerow(state_row(state, by_pose))
 
 
-def event_record(event: Event) -> dict:
+def event_record(event: Event, by_pose: bool = False) -> dict:
+    where = (
+        {"x": float(event.pose.x), "y": float(event.pose.y), "heading": float(event.pose.heading)}
+        if by_pose
+        else {"x0": float(event.x0)}
+    )
     return {
-        "x0": float(event.x0),
+        **where,
         "kind": event.kind,
         "from_phase": int(event.from_phase),
         "to_phase": int(event.to_phase),
     }
 
 
-def write_events_json(events: Iterable[Event], stream: IO[str]) -> None:
-    json.dump([event_record(e) for e in events], stream, indent=1)
+def write_events_json(events: Iterable[Event], stream: IO[str], by_pose: bool = False) -> None:
+    json.dump([event_record(e, by_pose) for e in events], stream, indent=1)
     stream.write("\n")
+
+
+def read_poses_csv(path: str) -> List[FootPose]:
+    """Foot poses from a CSV with (at least) the columns x, y, heading [L, L, rad], in file order."""
+    try:
+        with open(path, newline="") as stream:
+            reader = csv.DictReader(stream)
+            missing = [c for c in ("x", "y", "heading") if c not in (reader.fieldnames or [])]
+            if missing:
+                raise ParameterError(f"--poses {path}: missing column(s) {', '.join(missing)}; need x,y,heading")
+            poses = []
+            for line, row in enumerate(reader, start=2):
+                try:
+                    poses.append(FootPose(float(row["x"]), float(row["y"]), float(row["heading"])))
+                except (TypeError, ValueError) as exc:
+                    raise ParameterError(f"--poses {path}, line {line}: {exc}") from None
+    except OSError as exc:
+        raise ParameterError(f"--poses {path}: {exc.strerror}") from None
+    if len(poses) < 1:
+        raise ParameterError(f"--poses {path}: no poses")
+    return poses

@@ -11,6 +11,7 @@ from .errors import (
     ParameterError,
     VibrissaError,
 )
+from .general import GeneralWhiskerModel, WhiskerShape
 from .models import ElasticaModel, make_model
 from .profiles import (
     PROFILE_PARAMETERS,
@@ -20,6 +21,7 @@ from .profiles import (
     ConvexProfile,
     Ellipse,
     Parabola,
+    Peg,
     PlacedProfile,
     TwoCircles,
     make_profile,
@@ -42,6 +44,9 @@ __all__ = [
     "PROFILES",
     "PROFILE_PARAMETERS",
     "Parabola",
+    "Peg",
+    "GeneralWhiskerModel",
+    "WhiskerShape",
     "ParameterError",
     "Phase",
     "PlacedProfile",

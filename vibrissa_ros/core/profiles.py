@@ -401,9 +401,65 @@ class PlacedProfile(ConvexProfile):
         return f"{self.base.describe()} placed at ({self.x!r}, {self.y!r}) rotated {self.rotation!r} rad"
 
 
+@dataclass(frozen=True)
+class Peg(ConvexProfile):
+    """A peg (pole): the disk of radius r >= 0 centred at (x, y); r = 0 is a point.
+
+    Every slope occurs on a disk: the point of outward normal (sin a, -cos a) is
+    (x + r sin a, y - r cos a), rho = r; a whisker may touch it anywhere, side first or tip first.
+    A point (r = 0) takes side contact only: a tip that reaches it slips off (a snap).
+    """
+
+    x: float
+    y: float
+    r: float = 0.0
+    scan_checks: bool = field(default=True, repr=False, compare=False)
+    name: ClassVar[str] = "peg"
+    alpha_min: ClassVar[float] = -math.inf
+    alpha_max: ClassVar[float] = math.inf
+
+    def __post_init__(self):
+        for key in ("x", "y", "r"):
+            value = float(getattr(self, key))
+            if not math.isfinite(value):
+                raise ParameterError(f"{self.name}: {key} = {value!r} must be finite")
+            object.__setattr__(self, key, value)
+        if self.r < 0.0:
+            raise ParameterError(f"{self.name}: r = {self.r!r} is not allowed; the radius r must be >= 0")
+
+    @property
+    def params(self):
+        return {"x": self.x, "y": self.y, "r": self.r}
+
+    @property
+    def is_point(self) -> bool:
+        return self.r == 0.0
+
+    def point(self, alpha):
+        return self.x + self.r * math.sin(alpha), self.y - self.r * math.cos(alpha)
+
+    def radius_of_curvature(self, alpha):
+        return self.r
+
+    def signed_distance(self, px, py):
+        """Distance from points to the peg's boundary (negative inside); arrays allowed."""
+        return np.hypot(np.asarray(px) - self.x, np.asarray(py) - self.y) - self.r
+
+    def normal_slope(self, px: float, py: float) -> float:
+        """The slope alpha of the boundary point nearest to (px, py) (outward normal towards it)."""
+        return math.atan2(px - self.x, -(py - self.y))
+
+    def alpha_at_x(self, x):
+        raise ParameterError(f"{self.name}: a peg is not a graph over x")
+
+    def placed(self, x=0.0, y=0.0, rotation=0.0):
+        c, s = math.cos(rotation), math.sin(rotation)
+        return Peg(x + c * self.x - s * self.y, y + s * self.x + c * self.y, self.r, self.scan_checks)
+
+
 #: profile classes by their contract names
 PROFILES: Dict[str, type] = {
-    cls.name: cls for cls in (Parabola, Catenary, Circle, TwoCircles, Ellipse)
+    cls.name: cls for cls in (Parabola, Catenary, Circle, TwoCircles, Ellipse, Peg)
 }
 
 #: parameter names of each profile, in contract order, with defaults where the paper gives one
@@ -413,6 +469,7 @@ PROFILE_PARAMETERS: Dict[str, Dict[str, float | None]] = {
     "circle": {"p0": None, "R": None},
     "two_circles": {"p0": None, "R_left": None, "R_right": None},
     "ellipse": {"p0": None, "a": None, "b": None},
+    "peg": {"x": None, "y": None, "r": 0.0},
 }
 
 

@@ -62,3 +62,20 @@ def run_scan(profile: ConvexProfile, grid, model="elastica") -> ScanResult:
         events.extend(result.events)
         steps.extend([len(states) - 1] * len(result.events))
     return ScanResult(tuple(states), tuple(events), tuple(steps))
+
+
+def run_poses(profile: ConvexProfile, poses, model="elastica") -> ScanResult:
+    """Place the whisker at the first foot pose (unloaded, free) and step through the poses in order
+    (each a quasistatic step along the straight path in (x, y, heading) from the previous one)."""
+    poses = list(poses)
+    if not poses:
+        raise ParameterError("no foot poses")
+    tracker = QuasistaticTracker(profile, poses[0], model=model)
+    states = [tracker.state]
+    events, steps = [], []
+    for pose in poses[1:]:
+        result = tracker.step(pose)
+        states.append(result.state)
+        events.extend(result.events)
+        steps.extend([len(states) - 1] * len(result.events))
+    return ScanResult(tuple(states), tuple(events), tuple(steps))

@@ -139,7 +139,13 @@ class WhiskerState:
         if n < 2:
             raise ValueError(f"n = {n} points: need at least 2")
         if self.phase == Phase.FREE:
-            x, y = np.zeros(n), np.linspace(0.0, 1.0, n)
+            free = getattr(self.model, "free_centerline", None)  # an intrinsically curved whisker
+            if free is None:
+                x, y = np.zeros(n), np.linspace(0.0, 1.0, n)
+            else:
+                pts = free(n)
+                x, y = pts[:, 0], pts[:, 1]
+            return np.column_stack(self.pose.contact_to_world(x, y, 1))
         else:
             phase, z = Phase(int(self.shape[0])), (self.shape[1], self.shape[2])
             pts = self.model.centerline_contact_frame(phase, z, n)

@@ -70,7 +70,7 @@ class TrackerOptions:
     max_arclength_step: float = _H_MAX
     newton_tol: float = _NEWTON_TOL
     #: model and profile evaluations one step may use before it raises ConvergenceError
-    max_evaluations: int = 400_000
+    max_evaluations: int = 100_000
 
 
 class _Path:
@@ -132,6 +132,10 @@ class QuasistaticTracker:
         self.profile = profile
         self.model = make_model(model) if isinstance(model, str) else model
         self.options = options or TrackerOptions()
+        # pegs and curved whiskers: contact may start on the whisker's side (see _find_touch_shape)
+        self._shape_mode = hasattr(profile, "signed_distance") or not getattr(self.model, "is_straight", True)
+        self._free_nodes = None
+        self._peg_side_ref = None
         pose = _as_pose(pose)
         self._work = 0
         self._budget = self.options.max_evaluations
@@ -185,6 +189,8 @@ class QuasistaticTracker:
         exiting = False  # the tip has just left the profile at t (release, graze)
         if path.length == 0.0:
             return StepResult(self._state, (), 0, 0)
+        if contact is None:
+            exiting = self._starts_leaving(path)
         for _ in range(4 * _MAX_EVENTS):
             if len(events) > _MAX_EVENTS:
                 raise ConvergenceError(
@@ -207,6 +213,10 @@ class QuasistaticTracker:
             kind = outcome[0]
             if kind == "target":
                 break
+            if kind == "phase" and outcome[1] == "tip" and getattr(self.profile, "is_point", False):
+                contact, t, ev = self._snap(path, contact)  # a point cannot hold the tip: it slips off
+                events.append(ev)
+                continue
             if kind == "phase":
                 name = outcome[1]
                 old = contact.phase
@@ -266,15 +276,24 @@ class QuasistaticTracker:
         The obstacle is the region above its lower boundary curve (for closed shapes: the strip
         above the lower arc)."""
         self._spend()
+        signed_distance = getattr(self.profile, "signed_distance", None)
+        if signed_distance is not None:
+            return float(signed_distance(x, y))
         base, u, v = self._base_frame_point(x, y)
         try:
             return base.height_at_x(u) - v
         except ParameterError:
             return math.inf
 
-    @staticmethod
-    def _tip(pose: FootPose) -> Tuple[float, float]:
-        return pose.x + math.cos(pose.heading), pose.y + math.sin(pose.heading)
+    def _tip(self, pose: FootPose) -> Tuple[float, float]:
+        """Tip of the unloaded whisker (straight unless the model's whisker is curved)."""
+        free_tip = getattr(self.model, "free_tip", None)
+        if free_tip is None:
+            return pose.x + math.cos(pose.heading), pose.y + math.sin(pose.heading)
+        ux, uy, _ = free_tip()
+        beta = pose.heading - HALF_PI
+        c, s = math.cos(beta), math.sin(beta)
+        return pose.x + c * ux - s * uy, pose.y + s * ux + c * uy
 
     def _tip_gap(self, path: _Path, t: float) -> float:
         return self._gap(*self._tip(path.pose(t)))
@@ -318,6 +337,8 @@ class QuasistaticTracker:
 
     def _rod_clearance(self, pose: FootPose) -> float:
         """Smallest gap along the straight whisker (convex in s: bounded scalar minimization)."""
+        if self._shape_mode:
+            return self._free_clearance(pose)[0]
         c, s = math.cos(pose.heading), math.sin(pose.heading)
         # (beyond the ends of a closed shape's lower arc the gap is inf: clipped for the minimizer)
         fun = lambda u: min(self._gap(pose.x + u * c, pose.y + u * s), 1e6)  # noqa: E731
@@ -342,6 +363,8 @@ class QuasistaticTracker:
         signed gap is bracketed and refined with brentq. ``exiting``: the tip lies on the profile
         at t and leaves it (a release or a graze); the search starts where it is out again.
         """
+        if self._shape_mode:
+            return self._find_touch_shape(path, t)
         if exiting:
             t = self._leave_profile(path, t)
             if t is None:
@@ -404,6 +427,14 @@ class QuasistaticTracker:
             )
         return None
 
+    def _starts_leaving(self, path: _Path) -> bool:
+        """A free whisker whose tip lies on the profile (released at the previous pose) and moves
+        out of the obstacle: its touch search must start beyond the profile, not touch at t = 0."""
+        g0 = self._tip_gap(path, 0.0)
+        if not -1e-12 <= g0 <= 1e-12:
+            return False
+        return self._tip_gap(path, min(1.0, 1e-8 / path.length)) > g0
+
     def _leave_profile(self, path: _Path, t: float) -> Optional[float]:
         """The first t' > t (by doubling offsets from 1e-12 of the path) where the tip is outside the
         obstacle again; None if the path ends with the tip on the profile."""
@@ -416,7 +447,7 @@ class QuasistaticTracker:
             if t_out >= 1.0:
                 break
             delta *= 2.0
-        if gap < 0.0:
+        if gap < -1e-12:  # (a release located on the force, f = 0, leaves the tip on the profile to ~1e-15)
             raise ConvergenceError(
                 f"after leaving the profile at t = {t!r} the straight whisker's tip stays inside the "
                 "obstacle: no equilibrium could be followed"
@@ -424,6 +455,8 @@ class QuasistaticTracker:
         return None
 
     def _start_contact(self, path: _Path, t_touch: float) -> Optional[Tuple[_Contact, Event]]:
+        if self._shape_mode:
+            return self._start_contact_shape(path, t_touch)
         pose = path.pose(t_touch)
         tx, ty = self._tip(pose)
         base, u, _ = self._base_frame_point(tx, ty)
@@ -451,12 +484,235 @@ class QuasistaticTracker:
             t_s = 1.0 if h == tau_left else t_touch + h / path.length
             pen = -self._tip_gap(path, t_s) * math.cos(alpha_c)
             if pen > 0.0:
-                phase, z = self.model.touch_start(alpha_c, pen)
+                phase, z = self._side_model(side).touch_start(alpha_c, pen)
                 z = self._newton_fixed_t(path, phase, side, z, t_s)
                 if z is not None:
                     return _Contact(phase, side, z, t_s), event
             h *= 0.25
         return None  # the tip only grazes the profile
+
+    # -- free whisker of any shape, any obstacle (pegs, curved whiskers) ------------------------
+    def _free_point(self, s: float) -> Tuple[float, float]:
+        """Point at arc length s of the unloaded whisker, foot frame (heading along +y)."""
+        if getattr(self.model, "is_straight", True):
+            return 0.0, s
+        return self.model.free_point(s)
+
+    def _free_sample(self):
+        if self._free_nodes is None:
+            s = 0.5 - 0.5 * np.cos(np.linspace(0.0, math.pi, 41))
+            if getattr(self.model, "is_straight", True):
+                pts = np.column_stack((np.zeros_like(s), s))
+            else:
+                from .general import free_centerline
+
+                pts = free_centerline(self.model.shape, s)
+            self._free_nodes = (s, pts)
+        return self._free_nodes
+
+    def _world_gap(self, pose: FootPose, fx: float, fy: float) -> float:
+        beta = pose.heading - HALF_PI
+        c, s = math.cos(beta), math.sin(beta)
+        return self._gap(pose.x + c * fx - s * fy, pose.y + s * fx + c * fy)
+
+    def _free_clearance(self, pose: FootPose, coarse: bool = False) -> Tuple[float, float]:
+        """(smallest gap along the unloaded whisker, its arc length). For a peg the gap is the
+        Euclidean distance to the peg; for a curved whisker against a convex profile the vertical gap.
+        ``coarse`` (pegs): far from the peg, a lower bound from the samples is enough."""
+        s, pts = self._free_sample()
+        beta = pose.heading - HALF_PI
+        c, sn = math.cos(beta), math.sin(beta)
+        wx = pose.x + c * pts[:, 0] - sn * pts[:, 1]
+        wy = pose.y + sn * pts[:, 0] + c * pts[:, 1]
+        signed_distance = getattr(self.profile, "signed_distance", None)
+        if signed_distance is not None:
+            d = signed_distance(wx, wy)
+        else:
+            d = np.array([self._gap(x, y) for x, y in zip(wx, wy)])
+        i = int(np.argmin(d))
+        best, s_best = float(d[i]), float(s[i])
+        if coarse and signed_distance is not None:
+            # the distance is 1-Lipschitz in s: nodes 0.04 apart bound it from below to within 0.02
+            bound = best - 0.02
+            if bound > 1e-3:
+                return bound, s_best
+        lo, hi = s[max(i - 1, 0)], s[min(i + 1, len(s) - 1)]
+        fun = lambda u: self._world_gap(pose, *self._free_point(u))  # noqa: E731
+        refined = self._peg_nearest(pose, s_best, lo, hi) if signed_distance is not None else None
+        if refined is None:
+            res = minimize_scalar(fun, bounds=(lo, hi), method="bounded", options={"xatol": 1e-12})
+            refined = float(res.x)
+        value = fun(refined)
+        if value < best:
+            best, s_best = value, refined
+        if signed_distance is not None and self._peg_side_ref is not None:
+            # a point (or a peg's centre) crossing the whisker: the side it lies on decides the sign
+            side = self._peg_side(pose, s_best)
+            if side != 0 and side != self._peg_side_ref:
+                best = -best - 2.0 * self.profile.r
+        return best, s_best
+
+    def _peg_nearest(self, pose: FootPose, s: float, lo: float, hi: float) -> Optional[float]:
+        """Arc length in (lo, hi) of the unloaded whisker's point nearest to the peg's centre, by
+        Newton on (p(s) - c) . t(s) = 0 (derivative 1 + kappa0 (p - c) . n); None if it fails."""
+        beta = pose.heading - HALF_PI
+        cb, sb = math.cos(beta), math.sin(beta)
+        # the peg's centre in the foot frame
+        dx, dy = self.profile.x - pose.x, self.profile.y - pose.y
+        cx, cy = cb * dx + sb * dy, -sb * dx + cb * dy
+        straight = getattr(self.model, "is_straight", True)
+        shape = None if straight else self.model.shape
+        for _ in range(8):
+            px, py = self._free_point(s)
+            th = HALF_PI + (0.0 if straight else float(shape.intrinsic_slope(s)))
+            k = 0.0 if straight else shape.k0 + shape.k1 * s
+            tx, ty = math.cos(th), math.sin(th)
+            rx, ry = px - cx, py - cy
+            g = rx * tx + ry * ty
+            dg = 1.0 + k * (rx * -ty + ry * tx)
+            if dg <= 0.0:
+                return None
+            step = g / dg
+            s -= step
+            if not lo - 1e-12 <= s <= hi + 1e-12:
+                return None
+            if abs(step) < 1e-14:
+                return min(max(s, lo), hi)
+        return None
+
+    def _peg_side(self, pose: FootPose, s: float) -> int:
+        """+1 when the peg's centre is to the left of the unloaded whisker at s, -1 right, 0 beyond its ends."""
+        if not 0.0 < s < 1.0:
+            return 0
+        fx, fy = self._free_point(s)
+        slope = 0.0 if getattr(self.model, "is_straight", True) else float(self.model.shape.intrinsic_slope(s))
+        beta = pose.heading - HALF_PI
+        cb, sb = math.cos(beta), math.sin(beta)
+        px, py = pose.x + cb * fx - sb * fy, pose.y + sb * fx + cb * fy
+        th = pose.heading + slope
+        cross = math.cos(th) * (self.profile.y - py) - math.sin(th) * (self.profile.x - px)
+        return 1 if cross > 0.0 else -1
+
+    def _find_touch_shape(self, path: _Path, t: float) -> Optional[float]:
+        """First t in [t, 1] where the unloaded whisker meets the obstacle anywhere along it.
+
+        Against a peg the clearance is a distance and every whisker point moves at most
+        ``path.length`` per unit t: conservative advancement, then brentq. Against a convex profile
+        (curved whisker) the clearance is sampled every 1e-3 L of motion and the sign change refined.
+        """
+        self._peg_side_ref = None
+        if hasattr(self.profile, "signed_distance"):
+            pose0 = path.pose(t)
+            self._peg_side_ref = self._peg_side(pose0, self._free_clearance(pose0)[1]) or None
+        try:
+            return self._find_touch_shape_signed(path, t)
+        finally:
+            self._peg_side_ref = None
+
+    def _find_touch_shape_signed(self, path: _Path, t: float) -> Optional[float]:
+        clearance = lambda u: self._free_clearance(path.pose(u), coarse=True)[0]  # noqa: E731
+        speed = path.length
+        c0 = clearance(t)
+        if c0 <= 0.0:  # touching (e.g. just released): a touch only if the whisker moves in
+            t_b = min(1.0, t + 1e-9 / speed)
+            c_b = clearance(t_b)
+            if c_b <= 0.0 or t_b >= 1.0:
+                return t if c_b <= 0.0 else None
+            t, c0 = t_b, c_b
+        peg = hasattr(self.profile, "signed_distance")
+        eps = 1e-10
+        for _ in range(100000):
+            if peg:
+                t_next = t + (max(c0, 0.5 * eps) / speed)
+            else:
+                t_next = t + 1e-3 / speed
+            t_next = min(t_next, 1.0)
+            c1 = clearance(t_next)
+            if c1 <= 0.0:
+                if c1 == 0.0:
+                    return t_next
+                return brentq(clearance, t, t_next, xtol=1e-16, rtol=1e-15)
+            if t_next >= 1.0:
+                return None
+            if peg and c1 <= eps:
+                t_b = min(1.0, t_next + 8.0 * eps / speed)
+                cb = clearance(t_b)
+                if cb < 0.0:
+                    return brentq(clearance, t_next, t_b, xtol=1e-16, rtol=1e-15)
+                t_next, c1 = t_b, cb
+                if t_b >= 1.0:
+                    return None
+            t, c0 = t_next, c1
+        raise ConvergenceError("touch search did not terminate")
+
+    def _start_contact_shape(self, path: _Path, t_touch: float) -> Optional[Tuple[_Contact, Event]]:
+        pose = path.pose(t_touch)
+        _, s_star = self._free_clearance(pose)
+        fx, fy = self._free_point(s_star)
+        beta = pose.heading - HALF_PI
+        cb, sb = math.cos(beta), math.sin(beta)
+        wx, wy = pose.x + cb * fx - sb * fy, pose.y + sb * fx + cb * fy
+        normal_slope = getattr(self.profile, "normal_slope", None)
+        if normal_slope is not None:
+            alpha_w = normal_slope(wx, wy)
+        else:
+            base, u, _ = self._base_frame_point(wx, wy)
+            alpha_w = base.alpha_at_x(u) + (self.profile.rotation if isinstance(self.profile, PlacedProfile) else 0.0)
+        slope = 0.0 if getattr(self.model, "is_straight", True) else float(self.model.shape.intrinsic_slope(s_star))
+        theta_f = HALF_PI + slope
+        if normal_slope is not None and s_star < 1.0 - 1e-9:
+            # side touch of a peg: the normal is the whisker's (exact also for a point, r = 0)
+            peg_side = self._peg_side(path.pose(max(t_touch - 1e-6 / path.length, 0.0)), s_star)
+            alpha_w = beta + theta_f - (0.0 if peg_side >= 0 else math.pi)
+        alpha_f = math.remainder(alpha_w - beta, _TWO_PI)
+        side = 1 if math.cos(theta_f - alpha_f) > 0.0 else -1  # obstacle on the whisker's left: +1
+        alpha_c = math.remainder(side * alpha_f, _TWO_PI)
+        model = self._side_model(side)
+        tip_first = s_star >= 1.0 - 1e-9
+        if tip_first and getattr(self.profile, "is_point", False):
+            raise ModelAssumptionError(
+                "the tip meets a point obstacle head first: a point (peg radius 0) takes side contact only"
+            )
+        if tip_first:
+            # the tip may touch where the obstacle's normal points along the tip's tangent or behind it
+            phi_c = theta_f if side > 0 else math.pi - theta_f
+            closed_forms = not hasattr(model, "side_touch_start")  # their domain: |alpha| < pi/2
+            if not 0.0 < phi_c - alpha_c < math.pi or (closed_forms and not abs(alpha_c) < HALF_PI):
+                raise ModelAssumptionError(
+                    f"first touch where the obstacle's slope relative to the whisker is {alpha_f!r} rad: "
+                    "the contact force would pull the tip away from the foot"
+                )
+            if abs(alpha_c) < 1e-9:
+                raise ModelAssumptionError(
+                    "the tip touches the obstacle head-on (contact force along the whisker's axis): "
+                    "the buckling that follows is not modelled"
+                )
+            event = Event("touch", Phase.FREE, Phase.TIP, pose, alpha_w)
+            tau_left = (1.0 - t_touch) * path.length
+            if tau_left <= 1e-13:
+                return None
+            h = min(tau_left, 1e-3)
+            for _ in range(40):
+                t_s = 1.0 if h == tau_left else t_touch + h / path.length
+                tx, ty = self._tip(path.pose(t_s))
+                gap = self._gap(tx, ty)
+                pen = -gap if normal_slope is not None else -gap * math.cos(alpha_c)
+                if pen > 0.0:
+                    phase, z = model.touch_start(alpha_c, pen)
+                    z = self._newton_fixed_t(path, phase, side, z, t_s)
+                    if z is not None:
+                        return _Contact(phase, side, z, t_s), event
+                h *= 0.25
+            return None
+        side_touch_start = getattr(model, "side_touch_start", None)
+        if side_touch_start is None:
+            raise ModelAssumptionError(
+                "the side of the whisker meets the obstacle first: the closed forms cover tip-first "
+                "touches only; use the general (numeric) solver"
+            )
+        phase, z = side_touch_start(s_star, alpha_c)
+        event = Event("touch", Phase.FREE, phase, pose, alpha_w)
+        return _Contact(phase, side, z, t_touch), event
 
     # -- contact branch ----------------------------------------------------------------------
     def _profile_cf(self, path: _Path, side: int, alpha: float, t: float):
@@ -487,7 +743,7 @@ class QuasistaticTracker:
     def _residual(self, path, phase, side, z, t):
         """R = P(z) - Q(alpha, t) and its Jacobian rows w.r.t. (z0, z1, tau)."""
         self._spend()
-        px, py, p00, p01, p10, p11 = self.model.load_point(phase, z)
+        px, py, p00, p01, p10, p11 = self._side_model(side).load_point(phase, z)
         qx, qy, qax, qay, qtx, qty = self._profile_cf(path, side, z[0], t)
         inv_len = 1.0 / path.length
         return (
@@ -543,6 +799,15 @@ class QuasistaticTracker:
             T = -T
         return T
 
+    def _events_of(self, phase, z, side=1):
+        return self._side_model(side).events(phase, z)
+
+    def _side_model(self, side: int):
+        """The model in the contact frame of ``side`` (models whose whisker is not mirror-symmetric,
+        e.g. an intrinsically curved one, give a mirrored copy for side -1)."""
+        for_side = getattr(self.model, "for_side", None)
+        return self.model if for_side is None else for_side(side)
+
     def _follow(self, path: _Path, contact: _Contact):
         """Follow the contact branch from contact.t towards t = 1.
 
@@ -559,7 +824,7 @@ class QuasistaticTracker:
         Y = np.array([contact.z[0], contact.z[1], contact.t * path.length])
         R, J = self._jacobian(path, phase, side, Y)
         T = self._tangent(J)
-        ev_a = self.model.events(phase, contact.z)
+        ev_a = self._events_of(phase, contact.z, side)
         # -- careful path: pseudo-arclength continuation --------------------------------------
         h = min(self.options.max_arclength_step, max(tau_end - Y[2], 1e-6))
         steps = 0
@@ -588,7 +853,7 @@ class QuasistaticTracker:
             Rn, Jn = self._jacobian(path, phase, side, Yn)
             Tn = self._tangent(Jn, T)
             zn = (Yn[0], Yn[1])
-            ev_b = self.model.events(phase, zn)
+            ev_b = self._events_of(phase, zn, side)
             found = []  # (kind, name)
             fold = T[2] > 0.0 >= Tn[2]
             if fold:
@@ -693,8 +958,8 @@ class QuasistaticTracker:
         det_b = a[0] * b[1] - a[1] * b[0]
         if det_a * det_b <= 0.0:
             return False
-        ev_a = self.model.events(phase, (z0, z1))
-        ev_b = self.model.events(phase, z)
+        ev_a = self._events_of(phase, (z0, z1), side)
+        ev_b = self._events_of(phase, z, side)
         for key, value in ev_b.items():
             if value <= 0.0 < ev_a[key]:
                 return False
@@ -782,7 +1047,7 @@ class QuasistaticTracker:
             if kind == "target":
                 g = lambda Y: Y[2] - tau_end  # noqa: E731
             else:
-                g = lambda Y, name=name: self.model.events(phase, (Y[0], Y[1]))[name]  # noqa: E731
+                g = lambda Y, name=name: self._events_of(phase, (Y[0], Y[1]), side)[name]  # noqa: E731
             ga, gb = g(Ya), g(Yb)
             if ga == 0.0:
                 p_star = pa
@@ -866,13 +1131,14 @@ class QuasistaticTracker:
 
     def _free_state(self, pose: FootPose) -> WhiskerState:
         tip = self._tip(pose)
+        free_tip = getattr(self.model, "free_tip", None)
         return WhiskerState(
             phase=Phase.FREE,
             pose=pose,
             side=0,
             alpha=None,
             s1=None,
-            tip_slope=pose.heading,
+            tip_slope=pose.heading + (free_tip()[2] if free_tip is not None else 0.0),
             f=0.0,
             fx=0.0,
             fy=0.0,
@@ -880,10 +1146,11 @@ class QuasistaticTracker:
             contact=None,
             tip=tip,
             shape=(),
+            model=self.model,
         )
 
     def _contact_state(self, pose: FootPose, phase: Phase, side: int, z) -> WhiskerState:
-        f, m0_c, s1, phi1_c, (ox, oy) = self.model.contact_quantities(phase, z)
+        f, m0_c, s1, phi1_c, (ox, oy) = self._side_model(side).contact_quantities(phase, z)
         beta = pose.heading - HALF_PI
         alpha_w = side * z[0] + beta
         cx, cy = self.profile.point(alpha_w)
@@ -905,7 +1172,7 @@ class QuasistaticTracker:
             contact=(cx, cy),
             tip=tip,
             shape=(float(int(phase)), float(z[0]), float(z[1])),
-            model=self.model,
+            model=self._side_model(side),
         )
 
 

@@ -1,0 +1,428 @@
+"""A study: a grid and/or a seeded random sample of scans, read from a YAML file (one task = one scan).
+
+A study file names, block by block, the axes of the study. Every number may be a scalar, a list (a
+grid axis: the study takes every value) or a random draw ``{uniform: [lo, hi]}`` /
+``{loguniform: [lo, hi]}`` where a block allows it. The tasks are the product of the blocks::
+
+    seed: 7                          # random draws and sensor noise (default 0)
+    whisker:   {model: [elastica, rigid], spring_stiffness: 3}
+    obstacles:                       # a list of obstacle families
+      - profile: parabola
+        params: {p0: [0.2, 0.35], k: [0.5, 1, 2]}
+      - profile: ellipse
+        samples: 10                  # 10 random ellipses
+        params: {p0: {uniform: [0.15, 0.5]}, a: {uniform: [0.3, 1.0]}, b: {uniform: [1.0, 2.0]}}
+    placement: {x: 0, y: 0, rotation_deg: [-10, 0, 10], samples: 1}
+    motion:    {from: -2, to: 2, step: 0.05, back: [false, true]}   # or a list of such blocks
+    noise:     {force_stddev: 1e-3, torque_stddev: 1e-3}            # optional
+
+Random draws are seeded: an obstacle's random parameters are drawn once per obstacle (so the same
+object is swept under every whisker, placement and motion), a placement's once per obstacle and
+placement sample. Each task's noise has its own seed, derived from the study's seed and the task's
+index, and stored with the task.
+
+Everything is validated before anything runs: a bad study raises :class:`StudyError` with one line
+saying where and what is allowed. Errors the mechanics raise while a task runs (a model assumption
+left, an unreachable pose) are not study errors: they are recorded as that task's failure.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import itertools
+import math
+from dataclasses import dataclass
+from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple
+
+import numpy as np
+
+from .core.errors import ParameterError, VibrissaError
+from .core.models import MODELS, make_model
+from .core.profiles import PROFILE_PARAMETERS as _ALL_PROFILE_PARAMETERS
+from .core.profiles import ConvexProfile, make_profile
+
+#: obstacles a study can scan: the convex profiles (a peg needs the general whisker model, which
+#: studies do not offer yet)
+PROFILE_PARAMETERS = {k: v for k, v in _ALL_PROFILE_PARAMETERS.items() if k != "peg"}
+from .core.scan import scan_grid
+
+#: the keys each block allows (a new axis of the study is a new key here, with the code that computes it)
+TOP_KEYS = ("description", "seed", "whisker", "obstacles", "placement", "motion", "noise")
+WHISKER_KEYS = ("model", "spring_stiffness")
+OBSTACLE_KEYS = ("profile", "params", "samples")
+PLACEMENT_KEYS = ("x", "y", "rotation_deg", "samples")
+MOTION_KEYS = ("from", "to", "step", "back")
+NOISE_KEYS = ("force_stddev", "torque_stddev", "force_bias_x", "force_bias_y", "torque_bias", "force_step",
+              "torque_step")
+RANDOM_KINDS = ("uniform", "loguniform")
+#: at most this many tasks in one study (a study file that would expand further is refused)
+MAX_TASKS = 10_000_000
+
+
+class StudyError(VibrissaError, ValueError):
+    """The study file is not a valid study (unknown key, empty range, wrong type, ...)."""
+
+
+@dataclass(frozen=True)
+class Noise:
+    """Sensor-noise levels of a task, in the scan's dimensionless units (force EI/L^2, moment EI/L)."""
+
+    force_stddev: float = 0.0
+    torque_stddev: float = 0.0
+    force_bias_x: float = 0.0
+    force_bias_y: float = 0.0
+    torque_bias: float = 0.0
+    force_step: float = 0.0
+    torque_step: float = 0.0
+
+
+@dataclass(frozen=True)
+class Task:
+    """One scan of a study: everything needed to compute it, and nothing else.
+
+    ``params`` are the profile's parameters as (name, value) pairs in contract order; ``rotation_deg``
+    turns the obstacle about its apex (counter-clockwise), then (``x``, ``y``) moves it. Lengths in
+    whisker lengths L.
+    """
+
+    index: int
+    model: str
+    spring_stiffness: Optional[float]
+    profile: str
+    params: Tuple[Tuple[str, float], ...]
+    x: float
+    y: float
+    rotation_deg: float
+    sweep_from: float
+    sweep_to: float
+    sweep_step: float
+    back: bool
+    noise: Optional[Noise] = None
+    noise_seed: Optional[int] = None
+
+    def obstacle(self) -> ConvexProfile:
+        return place_obstacle(make_profile(self.profile, dict(self.params)), self.x, self.y, self.rotation_deg)
+
+    def grid(self) -> np.ndarray:
+        return scan_grid(self.sweep_from, self.sweep_to, self.sweep_step, self.back)
+
+    def whisker_model(self):
+        if self.model == "rigid":
+            return make_model("rigid", stiffness=1.0 if self.spring_stiffness is None else self.spring_stiffness)
+        return make_model(self.model)
+
+    def scan_command(self) -> str:
+        """The ``vibrissa scan`` command that computes this task's poses and events (without noise)."""
+        words = ["vibrissa", "scan", "--profile", self.profile]
+        for key, value in self.params:
+            words += ["--param", f"{key}={value!r}"]
+        words += ["--model", self.model]
+        if self.spring_stiffness is not None:
+            words += ["--spring-stiffness", repr(self.spring_stiffness)]
+        if (self.x, self.y, self.rotation_deg) != (0.0, 0.0, 0.0):
+            words += [f"--place={self.x!r},{self.y!r},{self.rotation_deg!r}"]
+        words += [f"--from={self.sweep_from!r}", f"--to={self.sweep_to!r}", f"--step={self.sweep_step!r}"]
+        if self.back:
+            words.append("--back")
+        return " ".join(words + ["--csv", f"task-{self.index}.csv"])
+
+
+def place_obstacle(profile: ConvexProfile, x: float = 0.0, y: float = 0.0, rotation_deg: float = 0.0) -> ConvexProfile:
+    """The obstacle turned by ``rotation_deg`` [deg] counter-clockwise about its apex (0, p0), then
+    moved by (``x``, ``y``) [L]: its apex ends at (x, p0 + y)."""
+    if (x, y, rotation_deg) == (0.0, 0.0, 0.0):
+        return profile
+    if "p0" not in profile.params:
+        raise ParameterError(
+            f"a placement applies to the convex profiles; a {profile.name} is placed by its own "
+            f"parameters ({', '.join(profile.params)})"
+        )
+    theta = math.radians(rotation_deg)
+    p0 = profile.params["p0"]
+    # PlacedProfile rotates about the origin: shift so that the apex (0, p0) lands on (x, p0 + y)
+    return profile.placed(x + p0 * math.sin(theta), y + p0 - p0 * math.cos(theta), theta)
+
+
+@dataclass(frozen=True)
+class Study:
+    """A validated study: its source text, its digest and its tasks in order."""
+
+    text: str
+    digest: str
+    seed: int
+    tasks: Tuple[Task, ...]
+    #: the profile parameter names the study uses, in a stable order (the dataset's parameter columns)
+    param_names: Tuple[str, ...]
+    has_noise: bool
+
+    @property
+    def poses(self) -> int:
+        """How many poses the study computes (every task's grid length, summed)."""
+        return sum(len(t.grid()) for t in self.tasks)
+
+
+# -- reading ---------------------------------------------------------------------------------------
+
+def load_study(path: str) -> Study:
+    """Read and validate a study file; raises :class:`StudyError` (one line) when it is not valid."""
+    try:
+        with open(path, encoding="utf-8") as stream:
+            text = stream.read()
+    except FileNotFoundError:
+        raise StudyError(f"{path}: no such file") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise StudyError(f"{path}: cannot be read ({exc})") from None
+    return parse_study(text)
+
+
+def parse_study(text: str) -> Study:
+    """Validate a study given as YAML text and expand it into its tasks."""
+    import yaml
+
+    try:
+        doc = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f" (line {mark.line + 1})" if mark is not None else ""
+        problem = getattr(exc, "problem", None) or "not valid YAML"
+        raise StudyError(f"not a YAML study file{where}: {problem}") from None
+    if not isinstance(doc, dict):
+        raise StudyError("a study is a YAML mapping with the keys " + ", ".join(TOP_KEYS))
+    _keys("study", doc, TOP_KEYS, required=("obstacles", "motion"))
+    seed = _integer("seed", doc.get("seed", 0), minimum=0)
+    if "description" in doc and not isinstance(doc["description"], str):
+        raise StudyError("description must be a string")
+    whiskers = _whiskers(doc.get("whisker", {}))
+    obstacles = _obstacles(doc["obstacles"], seed)
+    placement = _block("placement", doc.get("placement", {}), PLACEMENT_KEYS)
+    motions = _motions(doc["motion"])
+    noises = _noises(doc.get("noise"))
+
+    tasks: List[Task] = []
+    place_axes = {k: _axis(f"placement.{k}", placement.get(k, 0.0)) for k in ("x", "y", "rotation_deg")}
+    place_samples = _integer("placement.samples", placement.get("samples", 1), minimum=1)
+    place_random = any(isinstance(v, _Random) for axis in place_axes.values() for v in axis)
+    if place_samples > 1 and not place_random:
+        raise StudyError("placement.samples > 1 needs a random placement ({uniform: [lo, hi]})")
+    placements = []  # per obstacle: [(x, y, rotation_deg)]
+    for ob_index, (name, params) in enumerate(obstacles):
+        rows = []
+        for combo_index, combo in enumerate(_grid("placement", place_axes)):
+            for sample in range(place_samples):
+                rng = np.random.default_rng([seed, 2, ob_index, combo_index, sample])
+                rows.append(tuple(_draw(combo[k], rng) for k in ("x", "y", "rotation_deg")))
+        placements.append(rows)
+    count = len(whiskers) * sum(len(p) for p in placements) * len(motions) * len(noises)
+    if count > MAX_TASKS:
+        raise StudyError(f"the study expands to {count:,} tasks; at most {MAX_TASKS:,} are allowed")
+    for model, stiffness in whiskers:
+        for ob_index, (name, params) in enumerate(obstacles):
+            for x, y, rot in placements[ob_index]:
+                for sweep_from, sweep_to, step, back in motions:
+                    for noise in noises:
+                        index = len(tasks)
+                        tasks.append(Task(index, model, stiffness, name, params, x, y, rot, sweep_from, sweep_to,
+                                          step, back, noise, None if noise is None else _noise_seed(seed, index)))
+    if not tasks:
+        raise StudyError("the study has no task")
+    names: List[str] = []
+    for profile in PROFILE_PARAMETERS:
+        if any(name == profile for name, _ in obstacles):
+            names += [k for k in PROFILE_PARAMETERS[profile] if k not in names]
+    digest = hashlib.sha256(text.encode("utf-8")).hexdigest()
+    return Study(text, digest, seed, tuple(tasks), tuple(names), noises != [None])
+
+
+def _noise_seed(seed: int, index: int) -> int:
+    """The task's own noise seed: independent streams per task, reproducible from (seed, index)."""
+    return int(np.random.SeedSequence([seed, 3, index]).generate_state(1, np.uint64)[0] >> np.uint64(1))
+
+
+# -- blocks ----------------------------------------------------------------------------------------
+
+def _whiskers(block) -> List[Tuple[str, Optional[float]]]:
+    block = _block("whisker", block, WHISKER_KEYS)
+    models = _values("whisker.model", block.get("model", "elastica"), kind=str)
+    for name in models:
+        if name not in MODELS:
+            raise StudyError(f"whisker.model = {name!r} is not allowed; allowed: {', '.join(MODELS)}")
+    if len(set(models)) != len(models):
+        raise StudyError("whisker.model lists a model twice")
+    stiffnesses: List[Optional[float]] = [None]
+    if "spring_stiffness" in block:
+        if "rigid" not in models:
+            raise StudyError("whisker.spring_stiffness applies to the rigid model; whisker.model has no 'rigid'")
+        stiffnesses = _values("whisker.spring_stiffness", block["spring_stiffness"], positive=True)
+    out: List[Tuple[str, Optional[float]]] = []
+    for name in models:
+        out += [(name, k) for k in stiffnesses] if name == "rigid" else [(name, None)]
+    return out
+
+
+def _obstacles(block, seed: int) -> List[Tuple[str, Tuple[Tuple[str, float], ...]]]:
+    if isinstance(block, dict):
+        block = [block]
+    if not isinstance(block, list) or not block:
+        raise StudyError("obstacles must be a non-empty list of {profile, params, samples} blocks")
+    out = []
+    for i, entry in enumerate(block):
+        where = f"obstacles[{i}]"
+        entry = _block(where, entry, OBSTACLE_KEYS, required=("profile",))
+        name = entry["profile"]
+        if name not in PROFILE_PARAMETERS:
+            raise StudyError(f"{where}.profile = {name!r} is not allowed; allowed: {', '.join(PROFILE_PARAMETERS)}")
+        allowed = PROFILE_PARAMETERS[name]
+        params = _block(f"{where}.params", entry.get("params", {}), tuple(allowed),
+                        required=tuple(k for k, d in allowed.items() if d is None))
+        axes = {k: _axis(f"{where}.params.{k}", params[k], positive=(k != "p0")) for k in allowed if k in params}
+        samples = _integer(f"{where}.samples", entry.get("samples", 1), minimum=1)
+        random = any(isinstance(v, _Random) for axis in axes.values() for v in axis)
+        if samples > 1 and not random:
+            raise StudyError(f"{where}.samples > 1 needs a random parameter ({{uniform: [lo, hi]}})")
+        for combo_index, combo in enumerate(_grid(f"{where}.params", axes)):
+            for sample in range(samples):
+                rng = np.random.default_rng([seed, 1, i, combo_index, sample])
+                values = {k: _draw(combo[k], rng) for k in allowed if k in combo}
+                try:
+                    profile = make_profile(name, values)
+                except VibrissaError as exc:
+                    what = f"sample {sample}" if random else "values"
+                    raise StudyError(f"{where} {what} {values}: {exc}") from None
+                out.append((name, tuple(profile.params.items())))
+    return out
+
+
+def _motions(block) -> List[Tuple[float, float, float, bool]]:
+    blocks = block if isinstance(block, list) else [block]
+    if not blocks:
+        raise StudyError("motion must be a {from, to, step, back} block or a non-empty list of them")
+    out = []
+    for i, entry in enumerate(blocks):
+        where = "motion" if not isinstance(block, list) else f"motion[{i}]"
+        entry = _block(where, entry, MOTION_KEYS, required=("from", "to", "step"))
+        axes = {k: _values(f"{where}.{k}", entry[k], positive=(k == "step")) for k in ("from", "to", "step")}
+        axes["back"] = _values(f"{where}.back", entry.get("back", False), kind=bool)
+        for combo in _grid(where, axes):
+            motion = (combo["from"], combo["to"], combo["step"], combo["back"])
+            try:
+                scan_grid(*motion)
+            except VibrissaError as exc:
+                raise StudyError(f"{where}: {exc}") from None
+            out.append(motion)
+    return out
+
+
+def _noises(block) -> List[Optional[Noise]]:
+    if block is None:
+        return [None]
+    block = _block("noise", block, NOISE_KEYS)
+    axes = {}
+    for key in NOISE_KEYS:
+        if key in block:
+            nonneg = key.endswith(("stddev", "step"))
+            axes[key] = _values(f"noise.{key}", block[key], nonnegative=nonneg)
+    return [Noise(**combo) for combo in _grid("noise", axes)]
+
+
+# -- values ----------------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class _Random:
+    kind: str
+    lo: float
+    hi: float
+
+
+def _draw(value, rng: np.random.Generator) -> float:
+    if not isinstance(value, _Random):
+        return value
+    if value.kind == "uniform":
+        return float(rng.uniform(value.lo, value.hi))
+    return float(math.exp(rng.uniform(math.log(value.lo), math.log(value.hi))))
+
+
+def _keys(where: str, block: Mapping, allowed: Sequence[str], required: Sequence[str] = ()) -> None:
+    for key in block:
+        if key not in allowed:
+            raise StudyError(f"{where}: unknown key {key!r}; allowed: {', '.join(allowed)}")
+    for key in required:
+        if key not in block:
+            raise StudyError(f"{where}: key {key!r} is required")
+
+
+def _block(where: str, block, allowed: Sequence[str], required: Sequence[str] = ()) -> Dict[str, Any]:
+    if not isinstance(block, dict):
+        raise StudyError(f"{where} must be a mapping with the keys {', '.join(allowed)}, not {_show(block)}")
+    _keys(where, block, allowed, required)
+    return block
+
+
+def _show(value) -> str:
+    text = repr(value)
+    return text if len(text) < 40 else text[:37] + "..."
+
+
+def _integer(where: str, value, minimum: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, int):
+        raise StudyError(f"{where} = {_show(value)} must be an integer >= {minimum}")
+    if value < minimum:
+        raise StudyError(f"{where} = {value} must be >= {minimum}")
+    return value
+
+
+def _number(where: str, value, positive=False, nonnegative=False) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise StudyError(f"{where} = {_show(value)} must be a number")
+    value = float(value)
+    if not math.isfinite(value):
+        raise StudyError(f"{where} = {value!r} must be finite")
+    if positive and not value > 0.0:
+        raise StudyError(f"{where} = {value!r} must be > 0")
+    if nonnegative and value < 0.0:
+        raise StudyError(f"{where} = {value!r} must be >= 0")
+    return value
+
+
+def _values(where: str, value, kind=float, positive=False, nonnegative=False) -> list:
+    """A scalar or a non-empty list of them (a grid axis), checked."""
+    items = value if isinstance(value, list) else [value]
+    if not items:
+        raise StudyError(f"{where} is an empty list (an empty range); give at least one value")
+    out = []
+    for item in items:
+        if kind is float:
+            out.append(_number(where, item, positive, nonnegative))
+        elif kind is bool:
+            if not isinstance(item, bool):
+                raise StudyError(f"{where} = {_show(item)} must be true or false")
+            out.append(item)
+        else:
+            if not isinstance(item, str):
+                raise StudyError(f"{where} = {_show(item)} must be a name")
+            out.append(item)
+    if len(set(out)) != len(out):
+        raise StudyError(f"{where} lists a value twice")
+    return out
+
+
+def _axis(where: str, value, positive=False) -> list:
+    """A number, a list of numbers or a random draw ``{uniform: [lo, hi]}`` / ``{loguniform: [lo, hi]}``."""
+    if isinstance(value, dict):
+        if len(value) != 1 or next(iter(value)) not in RANDOM_KINDS:
+            raise StudyError(f"{where} = {_show(value)}: a random value is one of "
+                             + ", ".join(f"{{{k}: [lo, hi]}}" for k in RANDOM_KINDS))
+        kind, bounds = next(iter(value.items()))
+        if not isinstance(bounds, list) or len(bounds) != 2:
+            raise StudyError(f"{where}.{kind} must be [lo, hi], not {_show(bounds)}")
+        lo = _number(f"{where}.{kind}", bounds[0], positive=positive or kind == "loguniform")
+        hi = _number(f"{where}.{kind}", bounds[1], positive=positive)
+        if not lo < hi:
+            raise StudyError(f"{where}.{kind} = [{lo!r}, {hi!r}] is an empty range; lo < hi is required")
+        return [_Random(kind, lo, hi)]
+    return _values(where, value, positive=positive)
+
+
+def _grid(where: str, axes: Mapping[str, list]) -> List[Dict[str, Any]]:
+    """Every combination of the axes' values (each axis a checked, non-empty list), in order."""
+    keys = list(axes)
+    return [dict(zip(keys, combo)) for combo in itertools.product(*(axes[k] for k in keys))]
