@@ -228,15 +228,10 @@ def plot_runs(
     ax_sketch.set_aspect("equal", adjustable="box")
     ax_sketch.set_xlabel(f"x [{units.length}] ({units.frame})")
     ax_sketch.set_ylabel(f"y [{units.length}]")
-def sketch_selection(
-    states: Sequence[WhiskerState], events: Sequence[Event], count: int = 15, key=_foot_x
-) -> List[int]:
-    """
-    Return the indices of ~``count`` states for the configuration sketch.
-
-    The first contact state, the states next to every event (the last one before a snap
-    included), then evenly spread contact states.
-    """
+    ax_sketch.set_title(
+        "configurations during the scan"
+        + (" (first sweep direction)" if len(direction_segments(main.states, coord)) > 1 else "")
+    )
     ax_sketch.legend(loc="upper right", fontsize=8)
 
     # -- observables ---------------------------------------------------------------------------
@@ -251,15 +246,28 @@ def sketch_selection(
             "fy": np.array([s.fy for s in st]) * F,
             "s1": np.array([np.nan if s.s1 is None else s.s1 for s in st]) * L,
         }
-def sketch_selection(
-    states: Sequence[WhiskerState], events: Sequence[Event], count: int = 15, key=_foot_x
-) -> List[int]:
-    """
-    Return the indices of ~``count`` states for the configuration sketch.
-
-    The first contact state, the states next to every event (the last one before a snap
-    included), then evenly spread contact states.
-    """
+        segments = direction_segments(st, coord)
+        for d, (a, b) in enumerate(segments):
+            tag = f"{run.label}" + (f", sweep {d + 1}" if len(segments) > 1 else "")
+            for ax, key, color in (
+                (ax_m, "m0", "#2ca02c"),
+                (ax_f, "f", "#9467bd"),
+                (ax_fxy, "fx", "#ff7f0e"),
+                (ax_fxy, "fy", "#17becf"),
+                (ax_s1, "s1", "#8c564b"),
+            ):
+                alpha = 1.0 if d == 0 else 0.55
+                (line,) = ax.plot(
+                    x[a:b],
+                    series[key][a:b],
+                    styles[k % 2],
+                    color=color,
+                    lw=1.4,
+                    alpha=alpha,
+                    label=f"{key} ({tag})",
+                    gid=f"{run.label}:{key}:{d}",
+                )
+                if len(segments) > 1:
                     _arrows(ax, x[a:b], series[key][a:b], color, alpha)
     # phases shaded (first run, first direction) and events marked (all of the first run)
     a, b = first
@@ -282,15 +290,15 @@ def sketch_selection(
         for e in main.events:
             ax.axvline(coord(e) * scale_key, color="black", lw=0.6, ls=":", gid=f"event:{e.kind}")
     for e in main.events:
-def sketch_selection(
-    states: Sequence[WhiskerState], events: Sequence[Event], count: int = 15, key=_foot_x
-) -> List[int]:
-    """
-    Return the indices of ~``count`` states for the configuration sketch.
-
-    The first contact state, the states next to every event (the last one before a snap
-    included), then evenly spread contact states.
-    """
+        ax_m.annotate(
+            e.kind,
+            (coord(e) * scale_key, 1.0),
+            xycoords=("data", "axes fraction"),
+            fontsize=7,
+            rotation=90,
+            va="top",
+            ha="right",
+        )
     ax_m.set_ylabel(f"m0 [{units.moment}]")
     ax_f.set_ylabel(f"f [{units.force}]")
     ax_fxy.set_ylabel(f"fx, fy [{units.force}] ({units.frame})")
