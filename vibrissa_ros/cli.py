@@ -28,6 +28,7 @@ class _Parser(argparse.ArgumentParser):
 
 def _number(spec: ParameterSpec):
     """Return an argparse type: a number that ``spec`` allows (the nodes' parameter checks)."""
+
     def parse(text: str) -> float:
         try:
             value = float(text)
@@ -49,7 +50,9 @@ _nonnegative = _number(ParameterSpec("value", 0.0, "", minimum=0.0))
 def _taper(text: str) -> float:
     value = _finite(text)
     if not 0.0 < value <= 1.0:
-        raise argparse.ArgumentTypeError(f"{text!r}: the taper (tip radius / base radius) must be in (0, 1]")
+        raise argparse.ArgumentTypeError(
+            f"{text!r}: the taper (tip radius / base radius) must be in (0, 1]"
+        )
     return value
 
 
@@ -101,32 +104,69 @@ def build_parser() -> argparse.ArgumentParser:
     scan.add_argument(
         "--profile", required=True, choices=sorted(PROFILE_PARAMETERS), help=f"obstacle: {names}"
     )
-    scan.add_argument("--param", action="append", type=_param, default=[], metavar="NAME=VALUE",
-                      help="profile parameter, repeatable (e.g. --param p0=0.3 --param k=1)")
-    scan.add_argument("--model", default="elastica", choices=sorted(MODELS) + ["both"],
-                      help="whisker model: elastica (paper §2), rigid (paper §3) or both side by side")
-    scan.add_argument("--spring-stiffness", type=_positive, default=None, metavar="K",
-                      help="rigid model: pivot stiffness c = K*EI/L; its forces and moments are then "
-                      "written in the elastica's units (EI/L^2, EI/L). Without it the rigid model is "
-                      "written in the paper's §3 units (c/L, c). Default with --model both: 3, the "
-                      "stiffness that matches the elastica's small-deflection tip stiffness")
-    scan.add_argument("--taper", type=_taper, default=None, metavar="RHO",
-                      help="tip radius / base radius in (0, 1] (default 1): bending stiffness (1-(1-RHO)s)^4 EI_b")
-    scan.add_argument("--curvature", type=_curvature, default=None, metavar="K0[,K1]",
-                      help="intrinsic curvature k0 + k1 s [1/L], counter-clockwise positive (default 0,0); "
-                      "write --curvature=-1,0 for a negative k0")
-    scan.add_argument("--solver", default="auto", choices=("auto", "exact", "numeric"),
-                      help="exact: the closed forms (uniform straight whisker, convex profiles); numeric: "
-                      "Chebyshev collocation, any whisker and obstacle; auto (default): exact where it applies")
-    scan.add_argument("--place", type=_placement, default=(0.0, 0.0, 0.0), metavar="X,Y,DEG",
-                      help="move the obstacle: turn it by DEG degrees counter-clockwise about its apex, then "
-                      "shift it by (X, Y) (whisker lengths); as a study's placement")
+    scan.add_argument(
+        "--param",
+        action="append",
+        type=_param,
+        default=[],
+        metavar="NAME=VALUE",
+        help="profile parameter, repeatable (e.g. --param p0=0.3 --param k=1)",
+    )
+    scan.add_argument(
+        "--model",
+        default="elastica",
+        choices=sorted(MODELS) + ["both"],
+        help="whisker model: elastica (paper §2), rigid (paper §3) or both side by side",
+    )
+    scan.add_argument(
+        "--spring-stiffness",
+        type=_positive,
+        default=None,
+        metavar="K",
+        help="rigid model: pivot stiffness c = K*EI/L; its forces and moments are then "
+        "written in the elastica's units (EI/L^2, EI/L). Without it the rigid model is "
+        "written in the paper's §3 units (c/L, c). Default with --model both: 3, the "
+        "stiffness that matches the elastica's small-deflection tip stiffness",
+    )
+    scan.add_argument(
+        "--taper",
+        type=_taper,
+        default=None,
+        metavar="RHO",
+        help="tip radius / base radius in (0, 1] (default 1): bending stiffness (1-(1-RHO)s)^4 EI_b",
+    )
+    scan.add_argument(
+        "--curvature",
+        type=_curvature,
+        default=None,
+        metavar="K0[,K1]",
+        help="intrinsic curvature k0 + k1 s [1/L], counter-clockwise positive (default 0,0); "
+        "write --curvature=-1,0 for a negative k0",
+    )
+    scan.add_argument(
+        "--solver",
+        default="auto",
+        choices=("auto", "exact", "numeric"),
+        help="exact: the closed forms (uniform straight whisker, convex profiles); numeric: "
+        "Chebyshev collocation, any whisker and obstacle; auto (default): exact where it applies",
+    )
+    scan.add_argument(
+        "--place",
+        type=_placement,
+        default=(0.0, 0.0, 0.0),
+        metavar="X,Y,DEG",
+        help="move the obstacle: turn it by DEG degrees counter-clockwise about its apex, then "
+        "shift it by (X, Y) (whisker lengths); as a study's placement",
+    )
     scan.add_argument("--from", dest="x_from", type=_finite, help="first foot position x0")
     scan.add_argument("--to", dest="x_to", type=_finite, help="last foot position x0 (inclusive)")
     scan.add_argument("--step", type=_positive, help="grid spacing of x0 (> 0)")
-    scan.add_argument("--poses", metavar="POSES.csv",
-                      help="foot poses instead of --from/--to/--step: a CSV with columns x,y,heading "
-                      "(heading in rad, pi/2 = the paper's set-up), visited in order")
+    scan.add_argument(
+        "--poses",
+        metavar="POSES.csv",
+        help="foot poses instead of --from/--to/--step: a CSV with columns x,y,heading "
+        "(heading in rad, pi/2 = the paper's set-up), visited in order",
+    )
     scan.add_argument("--back", action="store_true", help="append the sweep back to --from")
     scan.add_argument("--csv", required=True, help="output CSV ('-' for standard output)")
     scan.add_argument("--events", help="output events JSON")
@@ -204,8 +244,12 @@ def build_parser() -> argparse.ArgumentParser:
         "compare with its outputs field by field",
     )
     resim.add_argument("log")
-    resim.add_argument("--tolerance", type=_positive, default=1e-12,
-                       help="largest relative deviation allowed (default 1e-12)")
+    resim.add_argument(
+        "--tolerance",
+        type=_positive,
+        default=1e-12,
+        help="largest relative deviation allowed (default 1e-12)",
+    )
     resim.set_defaults(func=_cmd_resim)
 
     export = sub.add_parser(
@@ -233,8 +277,13 @@ def build_parser() -> argparse.ArgumentParser:
     plot.add_argument(
         "--model", default="elastica", choices=sorted(MODELS), help="the model of the CSV"
     )
-    plot.add_argument("--spring-stiffness", type=_positive, default=None, metavar="K",
-                      help="rigid model of the CSV: c = K EI/L (as given to scan)")
+    plot.add_argument(
+        "--spring-stiffness",
+        type=_positive,
+        default=None,
+        metavar="K",
+        help="rigid model of the CSV: c = K EI/L (as given to scan)",
+    )
     plot.add_argument(
         "--small-png", action="store_true", help="write the figure with 256 colours (3x smaller)"
     )
@@ -272,13 +321,25 @@ def build_parser() -> argparse.ArgumentParser:
         "Running the same command again computes only the tasks that are missing.",
     )
     batch.add_argument("study", help="the study file (YAML; see config/study_small.yaml)")
-    batch.add_argument("--out", required=True, metavar="DIR", help="the dataset directory (created or resumed)")
-    batch.add_argument("--workers", type=_workers, default=None, metavar="N",
-                       help="worker processes of the embedded cluster (default: the number of cores)")
-    batch.add_argument("--scheduler", metavar="ADDRESS",
-                       help="run on an existing Dask cluster, e.g. tcp://host:8786 (its workers need "
-                       "vibrissa_ros[batch] of this version)")
-    batch.add_argument("--dry-run", action="store_true", help="check the study, print its size and stop")
+    batch.add_argument(
+        "--out", required=True, metavar="DIR", help="the dataset directory (created or resumed)"
+    )
+    batch.add_argument(
+        "--workers",
+        type=_workers,
+        default=None,
+        metavar="N",
+        help="worker processes of the embedded cluster (default: the number of cores)",
+    )
+    batch.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="run on an existing Dask cluster, e.g. tcp://host:8786 (its workers need "
+        "vibrissa_ros[batch] of this version)",
+    )
+    batch.add_argument(
+        "--dry-run", action="store_true", help="check the study, print its size and stop"
+    )
     batch.add_argument("--quiet", action="store_true", help="no progress bar")
     batch.set_defaults(func=_cmd_batch)
     return parser
@@ -290,12 +351,18 @@ def _cmd_batch(args) -> int:
         from .dataset import DatasetError
         from .study import load_study
     except ImportError as exc:
-        print(f"vibrissa batch: error: needs Dask, pyarrow, tqdm and PyYAML ({exc}); pip install "
-              "'vibrissa_ros[batch]'", file=sys.stderr)
+        print(
+            f"vibrissa batch: error: needs Dask, pyarrow, tqdm and PyYAML ({exc}); pip install "
+            "'vibrissa_ros[batch]'",
+            file=sys.stderr,
+        )
         return 2
     if args.workers is not None and args.scheduler:
-        print("vibrissa batch: error: --workers sizes the embedded cluster; with --scheduler the cluster's "
-              "own workers run the study", file=sys.stderr)
+        print(
+            "vibrissa batch: error: --workers sizes the embedded cluster; with --scheduler the cluster's "
+            "own workers run the study",
+            file=sys.stderr,
+        )
         return 2
     try:
         study = load_study(args.study)
@@ -306,31 +373,47 @@ def _cmd_batch(args) -> int:
         print(f"{args.study}: {len(study.tasks)} tasks, {study.poses} poses")
         return 0
     try:
-        report = run_study(study, args.out, workers=args.workers, scheduler=args.scheduler,
-                           progress=None if args.quiet else sys.stderr)
+        report = run_study(
+            study,
+            args.out,
+            workers=args.workers,
+            scheduler=args.scheduler,
+            progress=None if args.quiet else sys.stderr,
+        )
     except DatasetError as exc:
         print(f"vibrissa batch: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        print("vibrissa batch: interrupted; the tasks written are kept: run the same command again to "
-              "compute the rest", file=sys.stderr)
+        print(
+            "vibrissa batch: interrupted; the tasks written are kept: run the same command again to "
+            "compute the rest",
+            file=sys.stderr,
+        )
         return 130
     except OSError as exc:  # e.g. the scheduler cannot be reached
         print(f"vibrissa batch: error: {exc}", file=sys.stderr)
         return 1
     if report.computed == 0 and not report.errors:
-        print(f"vibrissa batch: all {report.tasks} tasks of {args.study} are already in {args.out}; nothing to do",
-              file=sys.stderr)
+        print(
+            f"vibrissa batch: all {report.tasks} tasks of {args.study} are already in {args.out}; nothing to do",
+            file=sys.stderr,
+        )
         return 0
     rate = report.computed / report.seconds if report.seconds > 0 else 0.0
-    print(f"vibrissa batch: {report.computed} tasks computed ({report.failed} failed, reasons in "
-          f"{args.out}/failures), {report.already_done} were already done; {report.workers} workers, "
-          f"{report.seconds:.1f} s ({rate:.2f} tasks/s) -> {args.out}", file=sys.stderr)
+    print(
+        f"vibrissa batch: {report.computed} tasks computed ({report.failed} failed, reasons in "
+        f"{args.out}/failures), {report.already_done} were already done; {report.workers} workers, "
+        f"{report.seconds:.1f} s ({rate:.2f} tasks/s) -> {args.out}",
+        file=sys.stderr,
+    )
     if report.errors:
         for index, message in report.errors[:5]:
             print(f"vibrissa batch: error: task {index} not computed: {message}", file=sys.stderr)
-        print(f"vibrissa batch: {len(report.errors)} tasks not computed; run the same command again to retry "
-              "them", file=sys.stderr)
+        print(
+            f"vibrissa batch: {len(report.errors)} tasks not computed; run the same command again to retry "
+            "them",
+            file=sys.stderr,
+        )
         return 1
     return 0
 
@@ -384,8 +467,12 @@ def _cmd_scan(args) -> int:
 
         profile = place_obstacle(make_profile(args.profile, _params(args.param)), *args.place)
         grid, poses = _scan_path(args)
-        if args.model != "elastica" and (args.taper is not None or args.curvature is not None or args.solver == "numeric"):
-            raise VibrissaError("--taper, --curvature and --solver numeric apply to --model elastica")
+        if args.model != "elastica" and (
+            args.taper is not None or args.curvature is not None or args.solver == "numeric"
+        ):
+            raise VibrissaError(
+                "--taper, --curvature and --solver numeric apply to --model elastica"
+            )
         if args.model == "both" and args.csv == "-":
             raise VibrissaError(
                 "--model both writes two CSV files: give --csv a file name, not '-'"
@@ -397,7 +484,11 @@ def _cmd_scan(args) -> int:
         stiffness = args.spring_stiffness or (3.0 if args.model == "both" else 1.0)
         runs = []
         for name in (["elastica", "rigid"] if args.model == "both" else [args.model]):
-            model = make_model(name, stiffness=stiffness) if name == "rigid" else _elastica_model(args, profile)
+            model = (
+                make_model(name, stiffness=stiffness)
+                if name == "rigid"
+                else _elastica_model(args, profile)
+            )
             suffix = args.model == "both" and name == "rigid"
             csv_path = rigid_output_path(args.csv) if suffix else args.csv
             events_path = (
@@ -410,7 +501,11 @@ def _cmd_scan(args) -> int:
     results = []
     for model, csv_path, events_path in runs:
         try:
-            result = run_scan(profile, grid, model=model) if poses is None else run_poses(profile, poses, model=model)
+            result = (
+                run_scan(profile, grid, model=model)
+                if poses is None
+                else run_poses(profile, poses, model=model)
+            )
         except VibrissaError as exc:
             print(f"vibrissa scan: error: {model.name} model: {exc}", file=sys.stderr)
             return 2 if isinstance(exc, ValueError) else 1
@@ -437,8 +532,12 @@ def _cmd_scan(args) -> int:
         title = f"{profile.describe()}: " + " vs ".join(name for name, _ in results)
         # foot poses that only turn the whisker (whisking) are drawn against the heading
         abscissa = "heading" if poses is not None and len({p.x for p in poses}) == 1 else "x0"
-        figure = plot_runs([PlotRun(name, r.states, r.events, r.event_steps) for name, r in results], profile,
-                           title=title, abscissa=abscissa)
+        figure = plot_runs(
+            [PlotRun(name, r.states, r.events, r.event_steps) for name, r in results],
+            profile,
+            title=title,
+            abscissa=abscissa,
+        )
         figure.save(args.plot, small=args.small_png)
     return 0
 
@@ -570,8 +669,7 @@ def _cmd_resim(args) -> int:
         sim = resimulate(args.log)
         print(
             f"{len(sim.states)} poses re-simulated, {sum(sim.dropped.values())} dropped as "
-            "recorded"
-            + (f" ({dict(sim.dropped)})" if sim.dropped else "")
+            "recorded" + (f" ({dict(sim.dropped)})" if sim.dropped else "")
         )
         print(f"{'field':<34} {'compared':>9} {'largest relative deviation':>28}")
         for key in sorted(sim.deviations):
@@ -636,6 +734,7 @@ def _cmd_plot(args) -> int:
         return 2
 
     if args.input.endswith(".mcap"):
+
         def run():
             from .log_tools import configurations, export_rows
             from .mcap_log import read_log
@@ -688,8 +787,11 @@ def _cmd_plot(args) -> int:
             file=sys.stderr,
         )
         return 2
-    plot_runs([PlotRun(model.name, result.states, result.events, result.event_steps)], profile,
-              title=f"{profile.describe()} ({model.name})").save(args.output, small=args.small_png)
+    plot_runs(
+        [PlotRun(model.name, result.states, result.events, result.event_steps)],
+        profile,
+        title=f"{profile.describe()} ({model.name})",
+    ).save(args.output, small=args.small_png)
     return 0
 
 

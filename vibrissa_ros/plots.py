@@ -174,7 +174,7 @@ def plot_runs(
 
     # -- configuration sketch ----------------------------------------------------------------
     first = direction_segments(main.states, coord)[0]
-    states = main.states[first[0]:first[1]]
+    states = main.states[first[0] : first[1]]
     if main.event_steps:
         first_events = [
             e for e, i in zip(main.events, main.event_steps) if first[0] < i < first[1]
@@ -185,7 +185,9 @@ def plot_runs(
     xs = np.array([s.x0 for s in main.states]) * L
     if isinstance(profile, Peg):
         ring = np.linspace(0.0, 2.0 * np.pi, 241)
-        px, py = (profile.x + profile.r * np.cos(ring)) * L, (profile.y + profile.r * np.sin(ring)) * L
+        px, py = (profile.x + profile.r * np.cos(ring)) * L, (
+            profile.y + profile.r * np.sin(ring)
+        ) * L
         ax_sketch.fill(px, py, color="#c8a27a", alpha=0.6, lw=0)
         ax_sketch.plot(px, py, color="#8c5a2b", lw=1.5, label="peg", gid="obstacle")
         ax_sketch.plot(profile.x * L, profile.y * L, "+", color="#8c5a2b", ms=5)

@@ -90,7 +90,9 @@ def read_poses_csv(path: str) -> List[FootPose]:
             reader = csv.DictReader(stream)
             missing = [c for c in ("x", "y", "heading") if c not in (reader.fieldnames or [])]
             if missing:
-                raise ParameterError(f"--poses {path}: missing column(s) {', '.join(missing)}; need x,y,heading")
+                raise ParameterError(
+                    f"--poses {path}: missing column(s) {', '.join(missing)}; need x,y,heading"
+                )
             poses = []
             for line, row in enumerate(reader, start=2):
                 try:
