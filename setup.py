@@ -4,22 +4,35 @@ from setuptools import find_packages, setup
 
 package_name = "vibrissa_ros"
 
+# Lower bounds are the first release with every API we call (checked against that release):
+# mcap 1.5: Writer.flush (1.4 has none: a recorder thread would die of it); it brings zstandard.
+# tqdm 4.60: tqdm(total, unit, file, disable, dynamic_ncols, desc), update, the context manager,
+# tqdm.write(file=). The ros-jazzy-* wheels are one ROS distribution, versioned together.
 ROS = [
     "ros-jazzy-rclpy",
     "ros-jazzy-rmw-fastrtps-cpp",
     "ros-jazzy-common-interfaces",
     "ros-jazzy-ament-index-python",
-    "mcap>=1.2",  # recording (rosbag2 layout), with zstd chunks
-    "zstandard",
+    "mcap>=1.5",  # recording (rosbag2 layout), with zstd chunks
+    "tqdm>=4.60",  # progress bars of vibrissa sweep and replay
 ]
 # building and isolating: colcon (the CI build check) and unique ROS_DOMAIN_IDs for tests
-TOOLS = ["colcon-common-extensions", "colcon-ros", "ros-jazzy-ament-package", "ros-jazzy-domain-coordinator"]
+TOOLS = ["colcon-common-extensions", "colcon-ros", "ros-jazzy-ament-package",
+         "ros-jazzy-domain-coordinator"]
 # two independent readers of our logs, for the round-trip tests
-READERS = ["mcap-ros2-support", "rosbags"]
-PLOTS = ["matplotlib>=3.7"]
-# studies at scale (vibrissa batch): Dask distributed, Parquet through pyarrow (pandas for DataFrames),
-# a progress bar, YAML study files; lower bounds: the first releases that build against numpy 2
-BATCH = ["dask[distributed]>=2024.8.0", "pyarrow>=16.0", "pandas>=2.2.2", "tqdm>=4.60", "pyyaml>=5.4"]
+# (mcap-ros2-support 0.5: mcap_ros2.decoder.DecoderFactory; rosbags 0.9.20: typesys.Stores.EMPTY
+# and get_typestore)
+READERS = ["mcap-ros2-support>=0.5", "rosbags>=0.9.20"]
+# matplotlib 3.7: subplots(layout=, height_ratios=); pillow 9.1: Image.Quantize, Image.Dither
+PLOTS = ["matplotlib>=3.7", "pillow>=9.1"]
+# style checks as ament_flake8 / ament_pep257 configure them (test/test_style.py); pyyaml 5.1:
+# yaml.safe_load of the launch test's parameter files
+LINT = ["flake8>=6.0", "pydocstyle>=6.1", "pyyaml>=5.1"]
+# studies at scale (vibrissa batch): Dask distributed, Parquet through pyarrow (pandas for
+# DataFrames), a progress bar, YAML study files; lower bounds: the first releases that build
+# against numpy 2
+BATCH = ["dask[distributed]>=2024.8.0", "pyarrow>=16.0", "pandas>=2.2.2", "tqdm>=4.60",
+         "pyyaml>=5.4"]
 # the dataset's other readers, for the read-back tests
 DATASET_READERS = ["dask[dataframe]>=2024.8.0", "polars>=1.0"]
 # the core's own tests: they also run on numpy 1.x (.ci/run), without ROS
@@ -33,6 +46,7 @@ setup(
         ("share/ament_index/resource_index/packages", ["resource/" + package_name]),
         ("share/" + package_name, ["package.xml"]),
         ("share/" + package_name + "/config", glob("config/*.yaml")),
+        ("share/" + package_name + "/launch", glob("launch/*.launch.xml")),
     ],
     python_requires=">=3.10",
     install_requires=["setuptools", "numpy>=1.24", "scipy>=1.10"],
@@ -42,18 +56,20 @@ setup(
         "plots": PLOTS,
         "batch": BATCH,
         "core-test": CORE_TEST,
-        "test": ROS + TOOLS + READERS + PLOTS + BATCH + DATASET_READERS + CORE_TEST + ["catkin_pkg>=1.0"],
+        "test": ROS + TOOLS + READERS + PLOTS + BATCH + DATASET_READERS + CORE_TEST + LINT
+        + ["catkin_pkg>=1.0"],
     },
     zip_safe=True,
     maintainer="vibrissa_ros maintainers",
     maintainer_email="maintainers@vibrissa-ros.dev",
-    description="Virtual artificial whisker for ROS 2: exact quasistatic elastica against convex obstacles.",
+    description="Virtual artificial whisker for ROS 2: exact quasistatic elastica against convex "
+                "obstacles.",
     license="Apache-2.0",
     entry_points={
         "console_scripts": [
             "vibrissa = vibrissa_ros.cli:main",
-            "whisker_node = vibrissa_ros.whisker_node:main",
-            "contour_node = vibrissa_ros.contour_node:main",
+            "whisker_node = vibrissa_ros.ros.whisker_node:main",
+            "contour_node = vibrissa_ros.ros.contour_node:main",
         ],
     },
 )

@@ -1,12 +1,13 @@
 """Pose -> wrench latency and loss of whisker_node at a fixed rate, next to a trivial echo node.
 
-For each node (whisker_node on config/catenary.yaml, then bench/echo_node.py): stream foot poses
-for --seconds at --rate (the paper's catenary sweep, back and forth: x runs 0.15 -> -0.15 -> 0.15 m
-every 10 s), each stamped with its send time; the answer's arrival time minus that stamp is the
-latency. Then ramp the rate (--ramp) for --ramp-seconds each and report the highest rate that
-loses nothing. Prints medians and ratios against the echo baseline measured in the same run.
-
-A third run measures whisker_node recording to MCAP (record.path) at --rate, and the log's size.
+Three processes per measured node, so that neither end's Python sits on the measured path: the
+node under test, a sender (publishes foot poses, each stamped with its send time) and a receiver
+(records when each answer arrives; the latency is arrival minus stamp, one machine, one clock).
+For each node (whisker_node on config/catenary.yaml, whisker_node recording to MCAP, then
+bench/echo_node.py): stream poses for --seconds at --rate (the paper's catenary sweep, back and
+forth: x runs 0.15 -> -0.15 -> 0.15 m every 10 s), then ramp the rate (--ramp) for --ramp-seconds
+each; report the highest rate that loses nothing. Prints medians and the ratios whisker/echo
+measured in the same run, and the recording's log size.
 
 Run: python bench/bench_node.py [--seconds 60] [--rate 1000] [--ramp 1000,2000,3000,4000]
 """
@@ -14,24 +15,19 @@ Run: python bench/bench_node.py [--seconds 60] [--rate 1000] [--ramp 1000,2000,3
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import os
 import subprocess
 import sys
-import threading
+import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
-import rclpy
-from geometry_msgs.msg import PoseStamped, WrenchStamped
-from rclpy.executors import SingleThreadedExecutor
-from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
-
-from vibrissa_ros.sweep import stop_node, whisker_node_executable
 
 ROOT = Path(__file__).resolve().parents[1]
-QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000, reliability=ReliabilityPolicy.RELIABLE)
+TOPIC = "/whisker_node"
 
 
 def sweep_x(t: float, period: float = 10.0, amplitude: float = 0.15) -> float:
@@ -40,76 +36,79 @@ def sweep_x(t: float, period: float = 10.0, amplitude: float = 0.15) -> float:
     return amplitude * (1.0 - 4.0 * phase) if phase < 0.5 else amplitude * (4.0 * phase - 3.0)
 
 
-class Driver:
-    def __init__(self, context):
-        self.node = rclpy.create_node("bench_driver", context=context)
-        self.pub = self.node.create_publisher(PoseStamped, "/whisker_node/foot_pose", QOS)
-        self.received = {}
-        self.node.create_subscription(WrenchStamped, "/whisker_node/wrench", self._on_wrench, QOS)
-        self.executor = SingleThreadedExecutor(context=context)
-        self.executor.add_node(self.node)
-        self._spinning = True
-        self._thread = threading.Thread(target=self._spin, daemon=True)
-        self._thread.start()
+def _qos():
+    from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-    def _spin(self):
-        while self._spinning:
-            self.executor.spin_once(timeout_sec=0.01)
+    return QoSProfile(history=HistoryPolicy.KEEP_ALL, depth=1000,
+                      reliability=ReliabilityPolicy.RELIABLE)
 
-    def _on_wrench(self, msg):
-        now = time.time_ns()
-        self.received[msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec] = now
 
-    def pose(self, x: float, stamp_ns: int) -> PoseStamped:
-        msg = PoseStamped()
-        msg.header.frame_id = "world"
-        msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(stamp_ns, 1_000_000_000)
-        msg.pose.position.x = x
-        msg.pose.orientation.z = math.sin(math.pi / 4)
-        msg.pose.orientation.w = math.cos(math.pi / 4)
-        return msg
+def receiver(work: Path) -> None:
+    """Record (stamp, arrival) of every wrench until work/stop exists; then write them."""
+    import rclpy
+    from geometry_msgs.msg import WrenchStamped
 
-    def handshake(self, timeout=30.0):
-        end = time.monotonic() + timeout
-        while not self.received and time.monotonic() < end:
-            self.pub.publish(self.pose(0.2, time.time_ns()))
-            time.sleep(0.1)
-        if not self.received:
-            raise TimeoutError("the node under test does not answer")
-        time.sleep(0.5)
-        self.received.clear()
+    from vibrissa_ros.edge import header_ns
 
-    def stream(self, rate: float, seconds: float, t_offset: float = 0.0):
-        """Publish at ``rate`` Hz for ``seconds``; return (sent stamps, latencies [us], lost)."""
-        period = 1.0 / rate
-        n = int(round(rate * seconds))
+    rclpy.init()
+    node = rclpy.create_node("bench_receiver")
+    got = []
+    node.create_subscription(WrenchStamped, f"{TOPIC}/wrench",
+                             lambda m: got.append((header_ns(m), time.time_ns())), _qos())
+    while not (work / "stop").exists():
+        rclpy.spin_once(node, timeout_sec=0.05)
+        if got and not (work / "ready").exists():
+            (work / "ready").touch()
+    end = time.monotonic() + 2.0  # drain
+    while time.monotonic() < end:
+        rclpy.spin_once(node, timeout_sec=0.05)
+    np.save(work / "received.npy", np.array(got, dtype=np.int64).reshape(-1, 2))
+    node.destroy_node()
+    rclpy.try_shutdown()
+
+
+def sender(work: Path, segments) -> None:
+    """Handshake through the receiver, then publish each (rate, seconds) segment on time."""
+    import rclpy
+    from geometry_msgs.msg import PoseStamped
+
+    from vibrissa_ros.ros.messages import pose_stamped
+
+    rclpy.init()
+    node = rclpy.create_node("bench_sender")
+    pub = node.create_publisher(PoseStamped, f"{TOPIC}/foot_pose", _qos())
+    end = time.monotonic() + 30.0
+    while not (work / "ready").exists() and time.monotonic() < end:
+        pub.publish(pose_stamped(0.2, 0.0, math.pi / 2, time.time_ns()))
+        time.sleep(0.1)
+    if not (work / "ready").exists():
+        raise TimeoutError("the node under test does not answer")
+    time.sleep(1.0)
+    out, t_offset = [], 0.0
+    for rate, seconds in segments:
+        period, n = 1.0 / rate, int(round(rate * seconds))
         sent = []
         start = time.perf_counter()
         for i in range(n):
-            deadline = start + i * period
-            delay = deadline - time.perf_counter()
+            delay = start + i * period - time.perf_counter()
             if delay > 0:
                 time.sleep(delay)
             stamp = time.time_ns()
-            self.pub.publish(self.pose(sweep_x(t_offset + i * period), stamp))
+            pub.publish(pose_stamped(sweep_x(t_offset + i * period), 0.0, math.pi / 2, stamp))
             sent.append(stamp)
-        achieved = n / (time.perf_counter() - start)
-        time.sleep(2.0)  # drain
-        lat = np.array([self.received[s] - s for s in sent if s in self.received], dtype=float) / 1e3
-        lost = sum(1 for s in sent if s not in self.received)
-        self.received.clear()
-        return achieved, lat, lost
-
-    def close(self):
-        self._spinning = False
-        self._thread.join()
-        self.executor.remove_node(self.node)
-        self.node.destroy_node()
+        out.append({"rate": rate, "achieved": n / (time.perf_counter() - start), "sent": sent})
+        t_offset += seconds
+        time.sleep(2.0)  # let the node drain between segments
+    (work / "sent.json").write_text(json.dumps(out))
+    (work / "stop").touch()
+    node.destroy_node()
+    rclpy.try_shutdown()
 
 
-def start(kind: str, log_path: str) -> subprocess.Popen:
+def start_node(kind: str, log_path: str) -> subprocess.Popen:
     if kind in ("whisker", "recording"):
-        cmd = [whisker_node_executable(), "--ros-args", "--params-file", str(ROOT / "config" / "catenary.yaml"),
+        exe = Path(sys.executable).with_name("whisker_node")
+        cmd = [str(exe), "--ros-args", "--params-file", str(ROOT / "config" / "catenary.yaml"),
                "--log-level", "warn"]
         if kind == "recording":
             cmd += ["-p", f"record.path:={log_path}"]
@@ -118,58 +117,76 @@ def start(kind: str, log_path: str) -> subprocess.Popen:
     return subprocess.Popen(cmd, start_new_session=True)
 
 
-def measure(kind, context, args):
-    proc = start(kind, args.log)
-    driver = Driver(context)
+def measure(kind: str, args, work: Path):
+    work.mkdir()
+    segments = [(args.rate, args.seconds)]
+    if kind != "recording":  # the recording run stays at --rate: its log size
+        segments += [(rate, args.ramp_seconds) for rate in args.ramp]
+    node = start_node(kind, args.log)
+    me = [sys.executable, __file__, "--work", str(work)]
+    rx = subprocess.Popen(me + ["--role", "receiver"])
+    tx = subprocess.Popen(me + ["--role", "sender", "--segments", json.dumps(segments)])
     try:
-        driver.handshake()
-        achieved, lat, lost = driver.stream(args.rate, args.seconds)
-        result = {"achieved": achieved, "lat": lat, "lost": lost, "sent": int(round(args.rate * args.seconds))}
-        sustained = 0
-        for rate in ([] if kind == "recording" else args.ramp):  # the recording run stays at --rate: its log size
-            achieved_r, lat_r, lost_r = driver.stream(rate, args.ramp_seconds)
-            ok = lost_r == 0 and achieved_r >= 0.97 * rate and np.percentile(lat_r, 99) < 50_000
-            print(f"  {kind:7s} ramp {rate:6.0f} Hz: sent at {achieved_r:7.0f} Hz, lost {lost_r}, "
-                  f"p99 {np.percentile(lat_r, 99) / 1e3 if len(lat_r) else float('nan'):.2f} ms"
-                  f"{'' if ok else '  <- not sustained'}")
-            if not ok:
-                break
-            sustained = rate
-        result["sustained"] = sustained
-        return result
+        tx.wait()
+        rx.wait(timeout=120)
     finally:
-        driver.close()
-        stop_node(proc)
-        if kind == "recording" and os.path.exists(args.log):
-            result["log_bytes"] = os.path.getsize(args.log)
+        node.send_signal(2)
+        node.wait(timeout=30)
+    arrival = dict(map(tuple, np.load(work / "received.npy")))
+    results = []
+    for seg in json.loads((work / "sent.json").read_text()):
+        lat = np.array([arrival[s] - s for s in seg["sent"] if s in arrival], dtype=float) / 1e3
+        results.append({"rate": seg["rate"], "achieved": seg["achieved"], "lat": lat,
+                        "lost": sum(1 for s in seg["sent"] if s not in arrival),
+                        "sent": len(seg["sent"])})
+    main_run, sustained = results[0], 0
+    for r in results[1:]:
+        p99 = np.percentile(r["lat"], 99) if len(r["lat"]) else math.inf
+        ok = r["lost"] == 0 and r["achieved"] >= 0.97 * r["rate"] and p99 < 50_000
+        print(f"  {kind:9s} ramp {r['rate']:6.0f} Hz: sent at {r['achieved']:7.0f} Hz, lost "
+              f"{r['lost']}, p99 {p99 / 1e3:.2f} ms{'' if ok else '  <- not sustained'}")
+        if not ok:
+            break
+        sustained = r["rate"]
+    main_run["sustained"] = sustained
+    if kind == "recording" and os.path.exists(args.log):
+        main_run["log_bytes"] = os.path.getsize(args.log)
+    return main_run
 
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seconds", type=float, default=60.0)
     parser.add_argument("--rate", type=float, default=1000.0)
-    parser.add_argument("--ramp", type=lambda s: [float(v) for v in s.split(",")], default=[1000, 2000, 3000, 4000, 5000])
+    parser.add_argument("--ramp", type=lambda s: [float(v) for v in s.split(",")],
+                        default=[1000, 2000, 3000, 4000, 5000])
     parser.add_argument("--ramp-seconds", type=float, default=5.0)
-    parser.add_argument("--log", default="/tmp/vibrissa_bench.mcap", help="where the recording run writes its log")
+    parser.add_argument("--log", default=os.path.join(tempfile.gettempdir(), "vibrissa_bench.mcap"),
+                        help="where the recording run writes its log")
     parser.add_argument("--nodes", default="whisker,recording,echo",
-                        help="which to measure: whisker, recording (whisker_node with record.path), echo")
+                        help="which to measure: whisker, recording (record.path), echo")
+    parser.add_argument("--role", choices=["sender", "receiver"], help=argparse.SUPPRESS)
+    parser.add_argument("--work", help=argparse.SUPPRESS)
+    parser.add_argument("--segments", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
+    if args.role == "receiver":
+        return receiver(Path(args.work))
+    if args.role == "sender":
+        return sender(Path(args.work), json.loads(args.segments))
     os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
-    context = rclpy.Context()
-    rclpy.init(context=context)
     results = {}
-    try:
+    with tempfile.TemporaryDirectory() as tmp:
         for kind in args.nodes.split(","):
             print(f"{kind}: {args.rate:.0f} Hz for {args.seconds:.0f} s ...", flush=True)
-            results[kind] = measure(kind, context, args)
-    finally:
-        rclpy.try_shutdown(context=context)
+            results[kind] = measure(kind, args, Path(tmp) / kind)
     print()
-    print(f"{'node':9s} {'sent':>7s} {'lost':>5s} {'median':>9s} {'p99':>9s} {'max':>9s} {'sustained':>10s}")
+    print(f"{'node':9s} {'sent':>7s} {'lost':>5s} {'median':>9s} {'p99':>9s} {'max':>9s} "
+          f"{'sustained':>10s}")
     for kind, r in results.items():
         lat = r["lat"]
-        print(f"{kind:9s} {r['sent']:7d} {r['lost']:5d} {np.median(lat) / 1e3:7.3f}ms {np.percentile(lat, 99) / 1e3:7.3f}ms "
-              f"{lat.max() / 1e3:7.2f}ms {(str(int(r['sustained'])) + 'Hz') if kind != 'recording' else '-':>10s}")
+        sustained = f"{int(r['sustained'])}Hz" if kind != "recording" else "-"
+        print(f"{kind:9s} {r['sent']:7d} {r['lost']:5d} {np.median(lat) / 1e3:7.3f}ms "
+              f"{np.percentile(lat, 99) / 1e3:7.3f}ms {lat.max() / 1e3:7.2f}ms {sustained:>10s}")
     for kind in ("whisker", "recording"):
         if kind in results and "echo" in results:
             w, e = results[kind]["lat"], results["echo"]["lat"]

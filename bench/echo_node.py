@@ -7,7 +7,7 @@ from geometry_msgs.msg import PoseStamped, WrenchStamped
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-from vibrissa_ros.ros_main import run_node
+from vibrissa_ros.ros.run import run_node
 
 
 class EchoNode(Node):

@@ -8,7 +8,6 @@ field type an error instead of silent garbage.
 from __future__ import annotations
 
 import json
-import math
 import os
 import signal
 import subprocess
@@ -25,6 +24,9 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import Float64, String, UInt8
 from visualization_msgs.msg import Marker
+
+from vibrissa_ros.edge import header_ns
+from vibrissa_ros.ros.messages import pose_stamped
 
 ROOT = Path(__file__).resolve().parents[1]
 RELIABLE = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000, reliability=ReliabilityPolicy.RELIABLE)
@@ -85,31 +87,26 @@ def start_installed_node(install: Path, params_file: Optional[Path], env: Dict[s
 
 
 def stop(proc: subprocess.Popen, sig=signal.SIGINT, timeout: float = 10.0) -> int:
+    """Stop a started node; on a non-zero exit its output is printed (pytest shows it)."""
     if proc.poll() is None:
         proc.send_signal(sig)
     try:
-        return proc.wait(timeout=timeout)
+        code = proc.wait(timeout=timeout)
     except subprocess.TimeoutExpired:
         proc.kill()
         proc.wait()
-        return -9
+        code = -9
+    if code != 0 and proc.stdout is not None and not proc.stdout.closed:
+        print(f"--- exit status {code}, output:\n{proc.stdout.read()}")
+    return code
 
 
-def pose_msg(x: float, y: float, yaw: float, stamp_ns: int, frame: str = "world", z: float = 0.0) -> PoseStamped:
-    msg = PoseStamped()
-    msg.header.frame_id = frame
-    msg.header.stamp.sec = int(stamp_ns // 1_000_000_000)
-    msg.header.stamp.nanosec = int(stamp_ns % 1_000_000_000)
-    msg.pose.position.x = float(x)
-    msg.pose.position.y = float(y)
-    msg.pose.position.z = float(z)
-    msg.pose.orientation.z = math.sin(0.5 * yaw)
-    msg.pose.orientation.w = math.cos(0.5 * yaw)
-    return msg
+def pose_msg(x: float, y: float, yaw: float, stamp_ns: int, frame: str = "world",
+             z: float = 0.0) -> PoseStamped:
+    return pose_stamped(x, y, yaw, stamp_ns, frame, z)
 
 
-def stamp_of(msg) -> int:
-    return msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+stamp_of = header_ns
 
 
 class Probe:
@@ -127,16 +124,19 @@ class Probe:
         "obstacle": (Marker, LATCHED),
     }
 
-    def __init__(self, context, prefix: str = "/whisker_node", name: str = "probe"):
+    def __init__(self, context, prefix: str = "/whisker_node", name: str = "probe",
+                 qos: Optional[QoSProfile] = None, pose_qos: QoSProfile = RELIABLE):
+        """``qos`` replaces the QoS of every per-pose output (e.g. KEEP_ALL for a storm)."""
         self.context = context
         self.node = rclpy.create_node(name, context=context)
         self.prefix = prefix
         self.got: Dict[str, List] = {k: [] for k in self.TOPICS}
         self.got["diagnostics"] = []
-        for topic, (kind, qos) in self.TOPICS.items():
-            self.node.create_subscription(kind, f"{prefix}/{topic}", self._keep(topic), qos)
+        for topic, (kind, default_qos) in self.TOPICS.items():
+            use = default_qos if (qos is None or topic == "obstacle") else qos
+            self.node.create_subscription(kind, f"{prefix}/{topic}", self._keep(topic), use)
         self.node.create_subscription(DiagnosticArray, "/diagnostics", self._keep("diagnostics"), 50)
-        self.pub = self.node.create_publisher(PoseStamped, f"{prefix}/foot_pose", RELIABLE)
+        self.pub = self.node.create_publisher(PoseStamped, f"{prefix}/foot_pose", pose_qos)
         self.executor = SingleThreadedExecutor(context=context)
         self.executor.add_node(self.node)
 

@@ -50,3 +50,111 @@ def test_the_core_imports_nothing_from_ros(path):
         elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
             names.add(node.module.split(".")[0])
     assert not names & {"rclpy", "rosidl_runtime_py", "geometry_msgs", "std_msgs", "mcap", "matplotlib"}
+
+
+PACKAGE = ROOT / "vibrissa_ros"
+ROS_ONLY = {"rclpy"}
+
+
+def _imports(path):
+    tree = ast.parse(path.read_text())
+    names = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            names.update(a.name.split(".")[0] for a in node.names)
+        elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            names.add(node.module.split(".")[0])
+    return names
+
+
+@pytest.mark.parametrize("path", sorted(p for p in PACKAGE.rglob("*.py") if "ros" not in
+                                        p.relative_to(PACKAGE).parts[:-1]),
+                         ids=lambda p: str(p.relative_to(PACKAGE)))
+def test_rclpy_is_imported_only_in_the_ros_subpackage(path):
+    assert not _imports(path) & ROS_ONLY
+
+
+def test_the_ros_free_adapters_import_without_ros():
+    """CLI, scan I/O, MCAP, plots, reconstruction, log tools: importable with rclpy missing."""
+    import subprocess
+    import sys
+
+    code = ("import sys; sys.modules['rclpy'] = None\n"
+            "import vibrissa_ros.cli, vibrissa_ros.scan_io, vibrissa_ros.mcap_log, vibrissa_ros.plots,"
+            " vibrissa_ros.reconstruction, vibrissa_ros.log_tools, vibrissa_ros.edge,"
+            " vibrissa_ros.pipeline, vibrissa_ros.node_config\n"
+            "assert vibrissa_ros.cli.main(['scan', '--profile', 'parabola', '--param', 'p0=0.3',"
+            " '--from', '2', '--to', '1.9', '--step', '0.1', '--csv', '-']) == 0\n")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+
+
+def _launch_files():
+    return sorted((ROOT / "launch").glob("*.launch.xml"))
+
+
+def _console_scripts():
+    tree = ast.parse((ROOT / "setup.py").read_text())
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Constant) and isinstance(node.value, str) and " = " in node.value \
+                and ":" in node.value:
+            yield node.value.split(" = ")[0].strip()
+
+
+def _substitute(text, args):
+    for name, value in args.items():
+        text = text.replace(f"$(var {name})", value)
+    text = text.replace("$(find-pkg-share vibrissa_ros)", str(ROOT))
+    assert "$(" not in text, f"unresolved substitution in {text!r}"
+    return text
+
+
+def _flat(tree, prefix=""):
+    for key, value in tree.items():
+        if isinstance(value, dict):
+            yield from _flat(value, f"{prefix}{key}.")
+        else:
+            yield f"{prefix}{key}"
+
+
+@pytest.mark.parametrize("path", _launch_files(), ids=lambda p: p.name)
+def test_launch_files_name_only_what_exists(path):
+    import xml.etree.ElementTree as ET
+
+    import yaml
+
+    from vibrissa_ros.node_config import CONTOUR_SPECS, SPECS
+
+    specs = {"whisker_node": SPECS, "contour_node": CONTOUR_SPECS}
+    root = ET.parse(path).getroot()
+    assert root.tag == "launch"
+    args = {a.get("name"): a.get("default", "") for a in root.iter("arg")}
+    assert all(a.get("description") for a in root.iter("arg"))
+    nodes = list(root.iter("node"))
+    assert nodes
+    scripts = set(_console_scripts())
+    for node in nodes:
+        assert node.get("pkg") == "vibrissa_ros"
+        exe = node.get("exec")
+        assert exe in scripts, exe
+        for param in node.iter("param"):
+            if param.get("from") is not None:
+                params_file = Path(_substitute(param.get("from"), args))
+                assert params_file.is_file(), params_file
+                tree = yaml.safe_load(params_file.read_text())
+                names = set(_flat(next(iter(tree.values()))["ros__parameters"]))
+                if exe == "whisker_node":  # a whisker's file: every key is one of its parameters
+                    assert names <= set(SPECS), names - set(SPECS)
+            else:
+                assert param.get("name") in specs[exe], param.get("name")
+                _substitute(param.get("value"), args)
+        for remap in node.iter("remap"):
+            _substitute(remap.get("to"), args)
+            assert remap.get("from").startswith("~/")
+
+
+def test_launch_files_are_installed(installed):
+    share = installed / "vibrissa_ros" / "share" / "vibrissa_ros"
+    for path in _launch_files():
+        assert (share / "launch" / path.name).read_text() == path.read_text()
+    assert (share / "config" / "default.yaml").is_file()

@@ -180,7 +180,7 @@ def test_kill_9_loses_at_most_the_last_second_and_repair_restores_a_valid_log(in
     assert done.returncode == 0, done.stderr
     _, _, metadata, messages = read_log(str(fixed))
     assert metadata and metadata[0].name == "vibrissa_ros.configuration"
-    from vibrissa_ros.log_tools import decode
+    from vibrissa_ros.ros.serialization import decode
 
     kept = {stamp_of(decode(m)) for m in messages if m.topic == "/whisker_node/foot_pose"}
     lost = [(killed_at - t) for t, s in sent if s not in kept]
@@ -235,7 +235,7 @@ def test_replay_drives_a_fresh_node_to_the_same_outputs(installed, ros_env, rcl_
     for log in (recorded, second):
         sim = resimulate(str(log))
         assert not sim.mismatches and sim.worst() <= 1e-12, log
-    from vibrissa_ros.log_tools import decode
+    from vibrissa_ros.ros.serialization import decode
 
     def wrenches(log):
         return {stamp_of(w): (w.wrench.force.x, w.wrench.force.y, w.wrench.torque.z)
@@ -262,7 +262,7 @@ def test_contour_node_reconstructs_a_replayed_log(installed, ros_env, rcl_contex
     from vibrissa_ros.reconstruction import from_log
 
     proc = start_installed_node(installed, None, ros_env, executable="contour_node",
-                                extra="-r foot_pose:=/whisker_node/foot_pose -r wrench:=/whisker_node/wrench")
+                                extra="-r '~/foot_pose:=/whisker_node/foot_pose' -r '~/wrench:=/whisker_node/wrench'")
     node = __import__("rclpy").create_node("probe_contour", context=rcl_context)
     points = []
     node.create_subscription(PointStamped, "/contour_node/contact_point", points.append, RELIABLE)
@@ -286,7 +286,7 @@ def test_contour_node_reconstructs_a_replayed_log(installed, ros_env, rcl_contex
         node.destroy_node()
         assert stop(proc) == 0
     assert len(points) == len(offline.estimates) > 100
-    truth = {stamp_of(m): m for m in (__import__("vibrissa_ros.log_tools", fromlist=["decode"]).decode(x)
+    truth = {stamp_of(m): m for m in (__import__("vibrissa_ros.ros.serialization", fromlist=["decode"]).decode(x)
                                       for x in read_log(str(recorded))[3] if x.topic == "/whisker_node/contact_point")}
     for p in points:
         true = truth[stamp_of(p)]
@@ -300,7 +300,7 @@ def test_sensor_noise_is_seeded_recorded_and_resimulated(installed, ros_env, rcl
     logs = [_record(installed, ros_env, rcl_context, tmp_path, f"noisy{i}", msgs, params=noisy) for i in range(2)]
     # (the two runs may answer a different number of handshake poses, so their noise sequences are
     # compared through resim, which replays each log's own poses from the seed)
-    from vibrissa_ros.log_tools import decode
+    from vibrissa_ros.ros.serialization import decode
 
     def wrenches(log):
         return [(w.wrench.force.x, w.wrench.force.y, w.wrench.torque.z) for w in
@@ -310,7 +310,7 @@ def test_sensor_noise_is_seeded_recorded_and_resimulated(installed, ros_env, rcl
     for log, got in zip(logs, (first, second)):
         sim = resimulate(str(log))
         assert not sim.mismatches and sim.worst() <= 1e-12  # resim reproduces the noise bit for bit
-        from vibrissa_ros.frames import sensor_reading
+        from vibrissa_ros.edge import sensor_reading
 
         cfg = build_config(noisy)
         exact = np.array([(r.force_base[0], r.force_base[1], r.torque_z)

@@ -11,7 +11,7 @@ from rcl_interfaces.srv import SetParameters
 from ros_harness import ROOT, Probe, pose_msg, stamp_of, start_installed_node, stop, write_params
 
 from vibrissa_ros.core import QuasistaticTracker
-from vibrissa_ros.frames import planar_pose, sensor_reading
+from vibrissa_ros.edge import planar_pose, sensor_reading
 from vibrissa_ros.node_config import build_config
 
 HALF_PI = math.pi / 2
@@ -260,7 +260,7 @@ def test_invalid_startup_parameters_exit_with_the_reason(installed, ros_env, tmp
 
 
 def test_vibrissa_sweep_drives_the_node_and_records_si_rows(node):
-    from vibrissa_ros.sweep import run_sweep
+    from vibrissa_ros.ros.sweep import run_sweep
 
     proc, probe, values = node
     poses = [(float(x), 0.0, HALF_PI) for x in np.round(np.arange(0.12, -0.12, -0.004), 10)]

@@ -58,7 +58,8 @@ class BatchReport:
 
 def run_task(task: Task, layout: Layout) -> TaskFiles:
     """Compute one task (on a worker): its scan's tables, or its failure when the scan raises a
-    :class:`VibrissaError` (a model assumption left, a pose that cannot be placed, ...), as Parquet files."""
+    :class:`VibrissaError` (a model assumption left, a pose that cannot be placed, ...), as Parquet files.
+    """
     try:
         with warnings.catch_warnings():
             # scipy's bounded minimizer of the rod's clearance meets infinite gaps (no profile point
@@ -76,15 +77,27 @@ def _client(workers: Optional[int], scheduler: Optional[str]):
 
     if scheduler:
         return Client(scheduler, timeout="30s"), None
-    n = workers or (len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()) or 1
-    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0",
-                           silence_logs=40)
+    n = (
+        workers
+        or (len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count())
+        or 1
+    )
+    cluster = LocalCluster(
+        n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0", silence_logs=40
+    )
     return Client(cluster), cluster
 
 
-def run_study(study: Study, out: str, workers: Optional[int] = None, scheduler: Optional[str] = None,
-              client=None, progress: Optional[IO[str]] = sys.stderr, retries: int = RETRIES,
-              window: int = WINDOW) -> BatchReport:
+def run_study(
+    study: Study,
+    out: str,
+    workers: Optional[int] = None,
+    scheduler: Optional[str] = None,
+    client=None,
+    progress: Optional[IO[str]] = sys.stderr,
+    retries: int = RETRIES,
+    window: int = WINDOW,
+) -> BatchReport:
     """Run the study's missing tasks on Dask and write their results into ``out``.
 
     Parameters
@@ -124,15 +137,27 @@ def run_study(study: Study, out: str, workers: Optional[int] = None, scheduler: 
     cluster = None
     if own:
         client, cluster = _client(workers, scheduler)
-    bar = tqdm(total=len(study.tasks), initial=len(done), unit="task", desc="vibrissa batch", file=progress,
-               disable=progress is None, dynamic_ncols=True, smoothing=0.05)
+    bar = tqdm(
+        total=len(study.tasks),
+        initial=len(done),
+        unit="task",
+        desc="vibrissa batch",
+        file=progress,
+        disable=progress is None,
+        dynamic_ncols=True,
+        smoothing=0.05,
+    )
     earlier_failures = writer.failures()
     pending = iter(todo)
 
     def submit(n: int):
         tasks = list(itertools.islice(pending, n))
         keys = [f"vibrissa-task-{study.digest[:12]}-{t.index}" for t in tasks]
-        return client.map(run_task, tasks, layout=layout, key=keys, retries=retries, pure=False) if tasks else []
+        return (
+            client.map(run_task, tasks, layout=layout, key=keys, retries=retries, pure=False)
+            if tasks
+            else []
+        )
 
     try:
         n_workers = len(client.scheduler_info().get("workers", {}))
@@ -149,7 +174,9 @@ def run_study(study: Study, out: str, workers: Optional[int] = None, scheduler: 
             index = int(future.key.rsplit("-", 1)[1])
             try:
                 files = future.result()
-            except Exception as exc:  # noqa: BLE001 - Dask gave up on it (after its retries): report it
+            except (
+                Exception
+            ) as exc:  # noqa: BLE001 - Dask gave up on it (after its retries): report it
                 errors.append((index, f"{type(exc).__name__}: {exc}"))
                 future.release()
                 continue
@@ -166,5 +193,12 @@ def run_study(study: Study, out: str, workers: Optional[int] = None, scheduler: 
             client.close()
             if cluster is not None:
                 cluster.close()
-    return BatchReport(len(study.tasks), len(done), computed, failed, tuple(sorted(errors)),
-                       time.perf_counter() - start, n_workers)
+    return BatchReport(
+        len(study.tasks),
+        len(done),
+        computed,
+        failed,
+        tuple(sorted(errors)),
+        time.perf_counter() - start,
+        n_workers,
+    )

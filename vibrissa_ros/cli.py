@@ -15,6 +15,7 @@ from .core.profiles import PROFILE_PARAMETERS, make_profile
 from .core.general import GeneralWhiskerModel, WhiskerShape
 from .core.profiles import Peg
 from .core.scan import run_poses, run_scan, scan_grid
+from .parameters import ParameterSpec
 from .scan_io import read_poses_csv, write_events_json, write_scan_csv
 
 
@@ -25,34 +26,33 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {message}\n")
 
 
-def _finite(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not math.isfinite(value):
-        raise argparse.ArgumentTypeError(f"{text!r} must be finite")
-    return value
+def _number(spec: ParameterSpec):
+    """Return an argparse type: a number that ``spec`` allows (the nodes' parameter checks)."""
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+        problem = spec.problem(value)
+        if problem is not None:
+            raise argparse.ArgumentTypeError(f"{text!r} {problem}")
+        return value
+
+    return parse
 
 
-def _positive(text: str) -> float:
-    value = _finite(text)
-    if value <= 0.0:
-        raise argparse.ArgumentTypeError(f"{text!r} must be > 0")
-    return value
-
-
-def _nonnegative(text: str) -> float:
-    value = _finite(text)
-    if value < 0.0:
-        raise argparse.ArgumentTypeError(f"{text!r} must be >= 0")
-    return value
+_finite = _number(ParameterSpec("value", 0.0, ""))
+_positive = _number(ParameterSpec("value", 1.0, "", minimum=0.0, exclusive_minimum=True))
+_nonnegative = _number(ParameterSpec("value", 0.0, "", minimum=0.0))
 
 
 def _taper(text: str) -> float:
     value = _finite(text)
     if not 0.0 < value <= 1.0:
-        raise argparse.ArgumentTypeError(f"{text!r}: the taper (tip radius / base radius) must be in (0, 1]")
+        raise argparse.ArgumentTypeError(
+            f"{text!r}: the taper (tip radius / base radius) must be in (0, 1]"
+        )
     return value
 
 
@@ -89,96 +89,180 @@ def _workers(text: str) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = _Parser(prog="vibrissa", description="Virtual whisker: exact quasistatic elastica scans.")
+    parser = _Parser(
+        prog="vibrissa", description="Virtual whisker: exact quasistatic elastica scans."
+    )
     sub = parser.add_subparsers(dest="verb", required=True, parser_class=_Parser)
     scan = sub.add_parser(
         "scan",
         help="sweep the foot along the x-axis past an obstacle and write the states",
-        description="Sweep the whisker's foot along the x-axis (heading +y) past a convex obstacle. "
+        description="Sweep the whisker's foot along the x-axis (heading +y) past a convex "
+        "obstacle. "
         "Dimensionless units: length L, force EI/L^2, moment EI/L.",
     )
     names = ", ".join(f"{p} ({', '.join(ks)})" for p, ks in PROFILE_PARAMETERS.items())
-    scan.add_argument("--profile", required=True, choices=sorted(PROFILE_PARAMETERS), help=f"obstacle: {names}")
-    scan.add_argument("--param", action="append", type=_param, default=[], metavar="NAME=VALUE",
-                      help="profile parameter, repeatable (e.g. --param p0=0.3 --param k=1)")
-    scan.add_argument("--model", default="elastica", choices=sorted(MODELS) + ["both"],
-                      help="whisker model: elastica (paper §2), rigid (paper §3) or both side by side")
-    scan.add_argument("--spring-stiffness", type=_positive, default=None, metavar="K",
-                      help="rigid model: pivot stiffness c = K*EI/L; its forces and moments are then "
-                      "written in the elastica's units (EI/L^2, EI/L). Without it the rigid model is "
-                      "written in the paper's §3 units (c/L, c). Default with --model both: 3, the "
-                      "stiffness that matches the elastica's small-deflection tip stiffness")
-    scan.add_argument("--taper", type=_taper, default=None, metavar="RHO",
-                      help="tip radius / base radius in (0, 1] (default 1): bending stiffness (1-(1-RHO)s)^4 EI_b")
-    scan.add_argument("--curvature", type=_curvature, default=None, metavar="K0[,K1]",
-                      help="intrinsic curvature k0 + k1 s [1/L], counter-clockwise positive (default 0,0); "
-                      "write --curvature=-1,0 for a negative k0")
-    scan.add_argument("--solver", default="auto", choices=("auto", "exact", "numeric"),
-                      help="exact: the closed forms (uniform straight whisker, convex profiles); numeric: "
-                      "Chebyshev collocation, any whisker and obstacle; auto (default): exact where it applies")
-    scan.add_argument("--place", type=_placement, default=(0.0, 0.0, 0.0), metavar="X,Y,DEG",
-                      help="move the obstacle: turn it by DEG degrees counter-clockwise about its apex, then "
-                      "shift it by (X, Y) (whisker lengths); as a study's placement")
+    scan.add_argument(
+        "--profile", required=True, choices=sorted(PROFILE_PARAMETERS), help=f"obstacle: {names}"
+    )
+    scan.add_argument(
+        "--param",
+        action="append",
+        type=_param,
+        default=[],
+        metavar="NAME=VALUE",
+        help="profile parameter, repeatable (e.g. --param p0=0.3 --param k=1)",
+    )
+    scan.add_argument(
+        "--model",
+        default="elastica",
+        choices=sorted(MODELS) + ["both"],
+        help="whisker model: elastica (paper §2), rigid (paper §3) or both side by side",
+    )
+    scan.add_argument(
+        "--spring-stiffness",
+        type=_positive,
+        default=None,
+        metavar="K",
+        help="rigid model: pivot stiffness c = K*EI/L; its forces and moments are then "
+        "written in the elastica's units (EI/L^2, EI/L). Without it the rigid model is "
+        "written in the paper's §3 units (c/L, c). Default with --model both: 3, the "
+        "stiffness that matches the elastica's small-deflection tip stiffness",
+    )
+    scan.add_argument(
+        "--taper",
+        type=_taper,
+        default=None,
+        metavar="RHO",
+        help="tip radius / base radius in (0, 1] (default 1): bending stiffness (1-(1-RHO)s)^4 EI_b",
+    )
+    scan.add_argument(
+        "--curvature",
+        type=_curvature,
+        default=None,
+        metavar="K0[,K1]",
+        help="intrinsic curvature k0 + k1 s [1/L], counter-clockwise positive (default 0,0); "
+        "write --curvature=-1,0 for a negative k0",
+    )
+    scan.add_argument(
+        "--solver",
+        default="auto",
+        choices=("auto", "exact", "numeric"),
+        help="exact: the closed forms (uniform straight whisker, convex profiles); numeric: "
+        "Chebyshev collocation, any whisker and obstacle; auto (default): exact where it applies",
+    )
+    scan.add_argument(
+        "--place",
+        type=_placement,
+        default=(0.0, 0.0, 0.0),
+        metavar="X,Y,DEG",
+        help="move the obstacle: turn it by DEG degrees counter-clockwise about its apex, then "
+        "shift it by (X, Y) (whisker lengths); as a study's placement",
+    )
     scan.add_argument("--from", dest="x_from", type=_finite, help="first foot position x0")
     scan.add_argument("--to", dest="x_to", type=_finite, help="last foot position x0 (inclusive)")
     scan.add_argument("--step", type=_positive, help="grid spacing of x0 (> 0)")
-    scan.add_argument("--poses", metavar="POSES.csv",
-                      help="foot poses instead of --from/--to/--step: a CSV with columns x,y,heading "
-                      "(heading in rad, pi/2 = the paper's set-up), visited in order")
+    scan.add_argument(
+        "--poses",
+        metavar="POSES.csv",
+        help="foot poses instead of --from/--to/--step: a CSV with columns x,y,heading "
+        "(heading in rad, pi/2 = the paper's set-up), visited in order",
+    )
     scan.add_argument("--back", action="store_true", help="append the sweep back to --from")
     scan.add_argument("--csv", required=True, help="output CSV ('-' for standard output)")
     scan.add_argument("--events", help="output events JSON")
     scan.add_argument("--plot", metavar="PNG", help="also draw the paper's figures of this scan")
-    scan.add_argument("--small-png", action="store_true", help="write the figure with 256 colours (3x smaller)")
+    scan.add_argument(
+        "--small-png", action="store_true", help="write the figure with 256 colours (3x smaller)"
+    )
     scan.set_defaults(func=_cmd_scan)
 
     sweep = sub.add_parser(
         "sweep",
         help="drive a whisker_node through a sweep of foot poses and write its answers (SI)",
-        description="Publish foot poses along the world x-axis to a whisker_node, one at a time, and write "
-        "the wrench (base frame) and contact state it answers to a CSV in SI units. With --launch, start "
+        description="Publish foot poses along the world x-axis to a whisker_node, one at a time, "
+        "and write the wrench (base frame) and contact state it answers to a CSV in SI units. "
+        "With --launch, start "
         "whisker_node with that parameter file first and stop it at the end.",
     )
-    sweep.add_argument("--launch", metavar="PARAMS.yaml", help="start whisker_node with this parameter file")
-    sweep.add_argument("--node", default="/whisker_node", help="the node's name with namespace (topic prefix)")
-    sweep.add_argument("--from", dest="x_from", type=_finite, required=True, help="first foot x [m]")
-    sweep.add_argument("--to", dest="x_to", type=_finite, required=True, help="last foot x [m] (inclusive)")
+    sweep.add_argument(
+        "--launch", metavar="PARAMS.yaml", help="start whisker_node with this parameter file"
+    )
+    sweep.add_argument(
+        "--node", default="/whisker_node", help="the node's name with namespace (topic prefix)"
+    )
+    sweep.add_argument(
+        "--from", dest="x_from", type=_finite, required=True, help="first foot x [m]"
+    )
+    sweep.add_argument(
+        "--to", dest="x_to", type=_finite, required=True, help="last foot x [m] (inclusive)"
+    )
     sweep.add_argument("--step", type=_positive, required=True, help="spacing of foot x [m] (> 0)")
     sweep.add_argument("--back", action="store_true", help="append the sweep back to --from")
     sweep.add_argument("--y", type=_finite, default=0.0, help="foot y [m] (default 0)")
-    sweep.add_argument("--yaw-deg", type=_finite, default=90.0, help="base yaw [deg] (default 90: whisker along +y)")
-    sweep.add_argument("--frame", default="world", help="frame_id of the poses (the node's world_frame)")
-    sweep.add_argument("--timeout", type=_positive, default=10.0, help="seconds to wait for each answer")
+    sweep.add_argument(
+        "--yaw-deg",
+        type=_finite,
+        default=90.0,
+        help="base yaw [deg] (default 90: whisker along +y)",
+    )
+    sweep.add_argument(
+        "--frame", default="world", help="frame_id of the poses (the node's world_frame)"
+    )
+    sweep.add_argument(
+        "--timeout", type=_positive, default=10.0, help="seconds to wait for each answer"
+    )
     sweep.add_argument("--csv", required=True, help="output CSV ('-' for standard output)")
     sweep.set_defaults(func=_cmd_sweep)
 
-    info = sub.add_parser("info", help="what a recorded log holds: topics, counts, duration, configuration, "
-                          "phases and events")
+    info = sub.add_parser(
+        "info",
+        help="what a recorded log holds: topics, counts, duration, configuration, "
+        "phases and events",
+    )
     info.add_argument("log", help="an MCAP log written by whisker_node (record.path)")
     info.set_defaults(func=_cmd_info)
 
-    replay = sub.add_parser("replay", help="publish a log's messages into ROS with their recorded timing")
+    replay = sub.add_parser(
+        "replay", help="publish a log's messages into ROS with their recorded timing"
+    )
     replay.add_argument("log")
-    replay.add_argument("--rate", type=_nonnegative, default=1.0,
-                        help="speed factor of the recorded timing (2 = twice as fast); 0 = as fast as the "
-                        "subscribers take them")
-    replay.add_argument("--topics", nargs="+", metavar="TOPIC", help="only these topics (default: all)")
+    replay.add_argument(
+        "--rate",
+        type=_nonnegative,
+        default=1.0,
+        help="speed factor of the recorded timing (2 = twice as fast); 0 = as fast as the "
+        "subscribers take them",
+    )
+    replay.add_argument(
+        "--topics", nargs="+", metavar="TOPIC", help="only these topics (default: all)"
+    )
     replay.set_defaults(func=_cmd_replay)
 
-    resim = sub.add_parser("resim", help="re-run a log's poses through the core with its configuration and "
-                           "compare with its outputs field by field")
+    resim = sub.add_parser(
+        "resim",
+        help="re-run a log's poses through the core with its configuration and "
+        "compare with its outputs field by field",
+    )
     resim.add_argument("log")
-    resim.add_argument("--tolerance", type=_positive, default=1e-12,
-                       help="largest relative deviation allowed (default 1e-12)")
+    resim.add_argument(
+        "--tolerance",
+        type=_positive,
+        default=1e-12,
+        help="largest relative deviation allowed (default 1e-12)",
+    )
     resim.set_defaults(func=_cmd_resim)
 
-    export = sub.add_parser("export", help="a log as the scan CSV contract (dimensionless), plus a time column")
+    export = sub.add_parser(
+        "export", help="a log as the scan CSV contract (dimensionless), plus a time column"
+    )
     export.add_argument("log")
     export.add_argument("--csv", required=True, help="output CSV ('-' for standard output)")
     export.set_defaults(func=_cmd_export)
 
-    repair = sub.add_parser("repair", help="rewrite a log that was not finished (e.g. after kill -9) into a "
-                            "valid one")
+    repair = sub.add_parser(
+        "repair",
+        help="rewrite a log that was not finished (e.g. after kill -9) into a " "valid one",
+    )
     repair.add_argument("log")
     repair.add_argument("-o", "--output", required=True, help="the repaired MCAP file")
     repair.set_defaults(func=_cmd_repair)
@@ -186,21 +270,48 @@ def build_parser() -> argparse.ArgumentParser:
     plot = sub.add_parser("plot", help="draw the paper's figures of a scan CSV or a recorded log")
     plot.add_argument("input", help="a scan CSV (with --profile/--param) or an MCAP log")
     plot.add_argument("-o", "--output", required=True, metavar="PNG")
-    plot.add_argument("--profile", choices=sorted(PROFILE_PARAMETERS), help="the scanned profile (CSV input)")
+    plot.add_argument(
+        "--profile", choices=sorted(PROFILE_PARAMETERS), help="the scanned profile (CSV input)"
+    )
     plot.add_argument("--param", action="append", type=_param, default=[], metavar="NAME=VALUE")
-    plot.add_argument("--model", default="elastica", choices=sorted(MODELS), help="the model of the CSV")
-    plot.add_argument("--spring-stiffness", type=_positive, default=None, metavar="K",
-                      help="rigid model of the CSV: c = K EI/L (as given to scan)")
-    plot.add_argument("--small-png", action="store_true", help="write the figure with 256 colours (3x smaller)")
+    plot.add_argument(
+        "--model", default="elastica", choices=sorted(MODELS), help="the model of the CSV"
+    )
+    plot.add_argument(
+        "--spring-stiffness",
+        type=_positive,
+        default=None,
+        metavar="K",
+        help="rigid model of the CSV: c = K EI/L (as given to scan)",
+    )
+    plot.add_argument(
+        "--small-png", action="store_true", help="write the figure with 256 colours (3x smaller)"
+    )
     plot.set_defaults(func=_cmd_plot)
 
-    rec = sub.add_parser("reconstruct", help="the scanned contour from the sensor's readings (foot pose and base "
-                         "wrench) of a log or a scan CSV")
-    rec.add_argument("input", help="an MCAP log, or a CSV with at least the columns x0, fx, fy, m0 (scan contract)")
-    rec.add_argument("--csv", required=True, help="output: x0,phase,contact_x,contact_y,alpha ('-' for stdout)")
-    rec.add_argument("--plot", metavar="PNG", help="draw the reconstruction over the true profile, if the input has it")
-    rec.add_argument("--min-force", type=_nonnegative, default=0.0,
-                     help="readings with a smaller force are taken as no contact (input units; noisy data)")
+    rec = sub.add_parser(
+        "reconstruct",
+        help="the scanned contour from the sensor's readings (foot pose and base "
+        "wrench) of a log or a scan CSV",
+    )
+    rec.add_argument(
+        "input",
+        help="an MCAP log, or a CSV with at least the columns x0, fx, fy, m0 (scan contract)",
+    )
+    rec.add_argument(
+        "--csv", required=True, help="output: x0,phase,contact_x,contact_y,alpha ('-' for stdout)"
+    )
+    rec.add_argument(
+        "--plot",
+        metavar="PNG",
+        help="draw the reconstruction over the true profile, if the input has it",
+    )
+    rec.add_argument(
+        "--min-force",
+        type=_nonnegative,
+        default=0.0,
+        help="readings with a smaller force are taken as no contact (input units; noisy data)",
+    )
     rec.set_defaults(func=_cmd_reconstruct)
     batch = sub.add_parser(
         "batch",
@@ -210,13 +321,25 @@ def build_parser() -> argparse.ArgumentParser:
         "Running the same command again computes only the tasks that are missing.",
     )
     batch.add_argument("study", help="the study file (YAML; see config/study_small.yaml)")
-    batch.add_argument("--out", required=True, metavar="DIR", help="the dataset directory (created or resumed)")
-    batch.add_argument("--workers", type=_workers, default=None, metavar="N",
-                       help="worker processes of the embedded cluster (default: the number of cores)")
-    batch.add_argument("--scheduler", metavar="ADDRESS",
-                       help="run on an existing Dask cluster, e.g. tcp://host:8786 (its workers need "
-                       "vibrissa_ros[batch] of this version)")
-    batch.add_argument("--dry-run", action="store_true", help="check the study, print its size and stop")
+    batch.add_argument(
+        "--out", required=True, metavar="DIR", help="the dataset directory (created or resumed)"
+    )
+    batch.add_argument(
+        "--workers",
+        type=_workers,
+        default=None,
+        metavar="N",
+        help="worker processes of the embedded cluster (default: the number of cores)",
+    )
+    batch.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="run on an existing Dask cluster, e.g. tcp://host:8786 (its workers need "
+        "vibrissa_ros[batch] of this version)",
+    )
+    batch.add_argument(
+        "--dry-run", action="store_true", help="check the study, print its size and stop"
+    )
     batch.add_argument("--quiet", action="store_true", help="no progress bar")
     batch.set_defaults(func=_cmd_batch)
     return parser
@@ -228,12 +351,18 @@ def _cmd_batch(args) -> int:
         from .dataset import DatasetError
         from .study import load_study
     except ImportError as exc:
-        print(f"vibrissa batch: error: needs Dask, pyarrow, tqdm and PyYAML ({exc}); pip install "
-              "'vibrissa_ros[batch]'", file=sys.stderr)
+        print(
+            f"vibrissa batch: error: needs Dask, pyarrow, tqdm and PyYAML ({exc}); pip install "
+            "'vibrissa_ros[batch]'",
+            file=sys.stderr,
+        )
         return 2
     if args.workers is not None and args.scheduler:
-        print("vibrissa batch: error: --workers sizes the embedded cluster; with --scheduler the cluster's "
-              "own workers run the study", file=sys.stderr)
+        print(
+            "vibrissa batch: error: --workers sizes the embedded cluster; with --scheduler the cluster's "
+            "own workers run the study",
+            file=sys.stderr,
+        )
         return 2
     try:
         study = load_study(args.study)
@@ -244,31 +373,47 @@ def _cmd_batch(args) -> int:
         print(f"{args.study}: {len(study.tasks)} tasks, {study.poses} poses")
         return 0
     try:
-        report = run_study(study, args.out, workers=args.workers, scheduler=args.scheduler,
-                           progress=None if args.quiet else sys.stderr)
+        report = run_study(
+            study,
+            args.out,
+            workers=args.workers,
+            scheduler=args.scheduler,
+            progress=None if args.quiet else sys.stderr,
+        )
     except DatasetError as exc:
         print(f"vibrissa batch: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        print("vibrissa batch: interrupted; the tasks written are kept: run the same command again to "
-              "compute the rest", file=sys.stderr)
+        print(
+            "vibrissa batch: interrupted; the tasks written are kept: run the same command again to "
+            "compute the rest",
+            file=sys.stderr,
+        )
         return 130
     except OSError as exc:  # e.g. the scheduler cannot be reached
         print(f"vibrissa batch: error: {exc}", file=sys.stderr)
         return 1
     if report.computed == 0 and not report.errors:
-        print(f"vibrissa batch: all {report.tasks} tasks of {args.study} are already in {args.out}; nothing to do",
-              file=sys.stderr)
+        print(
+            f"vibrissa batch: all {report.tasks} tasks of {args.study} are already in {args.out}; nothing to do",
+            file=sys.stderr,
+        )
         return 0
     rate = report.computed / report.seconds if report.seconds > 0 else 0.0
-    print(f"vibrissa batch: {report.computed} tasks computed ({report.failed} failed, reasons in "
-          f"{args.out}/failures), {report.already_done} were already done; {report.workers} workers, "
-          f"{report.seconds:.1f} s ({rate:.2f} tasks/s) -> {args.out}", file=sys.stderr)
+    print(
+        f"vibrissa batch: {report.computed} tasks computed ({report.failed} failed, reasons in "
+        f"{args.out}/failures), {report.already_done} were already done; {report.workers} workers, "
+        f"{report.seconds:.1f} s ({rate:.2f} tasks/s) -> {args.out}",
+        file=sys.stderr,
+    )
     if report.errors:
         for index, message in report.errors[:5]:
             print(f"vibrissa batch: error: task {index} not computed: {message}", file=sys.stderr)
-        print(f"vibrissa batch: {len(report.errors)} tasks not computed; run the same command again to retry "
-              "them", file=sys.stderr)
+        print(
+            f"vibrissa batch: {len(report.errors)} tasks not computed; run the same command again to retry "
+            "them",
+            file=sys.stderr,
+        )
         return 1
     return 0
 
@@ -322,19 +467,33 @@ def _cmd_scan(args) -> int:
 
         profile = place_obstacle(make_profile(args.profile, _params(args.param)), *args.place)
         grid, poses = _scan_path(args)
-        if args.model != "elastica" and (args.taper is not None or args.curvature is not None or args.solver == "numeric"):
-            raise VibrissaError("--taper, --curvature and --solver numeric apply to --model elastica")
+        if args.model != "elastica" and (
+            args.taper is not None or args.curvature is not None or args.solver == "numeric"
+        ):
+            raise VibrissaError(
+                "--taper, --curvature and --solver numeric apply to --model elastica"
+            )
         if args.model == "both" and args.csv == "-":
-            raise VibrissaError("--model both writes two CSV files: give --csv a file name, not '-'")
+            raise VibrissaError(
+                "--model both writes two CSV files: give --csv a file name, not '-'"
+            )
         if args.spring_stiffness is not None and args.model == "elastica":
-            raise VibrissaError("--spring-stiffness applies to --model rigid or both, not elastica")
+            raise VibrissaError(
+                "--spring-stiffness applies to --model rigid or both, not elastica"
+            )
         stiffness = args.spring_stiffness or (3.0 if args.model == "both" else 1.0)
         runs = []
         for name in (["elastica", "rigid"] if args.model == "both" else [args.model]):
-            model = make_model(name, stiffness=stiffness) if name == "rigid" else _elastica_model(args, profile)
+            model = (
+                make_model(name, stiffness=stiffness)
+                if name == "rigid"
+                else _elastica_model(args, profile)
+            )
             suffix = args.model == "both" and name == "rigid"
             csv_path = rigid_output_path(args.csv) if suffix else args.csv
-            events_path = rigid_output_path(args.events) if (suffix and args.events) else args.events
+            events_path = (
+                rigid_output_path(args.events) if (suffix and args.events) else args.events
+            )
             runs.append((model, csv_path, events_path))
     except VibrissaError as exc:
         print(f"vibrissa scan: error: {exc}", file=sys.stderr)
@@ -342,7 +501,11 @@ def _cmd_scan(args) -> int:
     results = []
     for model, csv_path, events_path in runs:
         try:
-            result = run_scan(profile, grid, model=model) if poses is None else run_poses(profile, poses, model=model)
+            result = (
+                run_scan(profile, grid, model=model)
+                if poses is None
+                else run_poses(profile, poses, model=model)
+            )
         except VibrissaError as exc:
             print(f"vibrissa scan: error: {model.name} model: {exc}", file=sys.stderr)
             return 2 if isinstance(exc, ValueError) else 1
@@ -360,14 +523,21 @@ def _cmd_scan(args) -> int:
         try:
             from .plots import PlotRun, plot_runs
         except ImportError as exc:
-            print(f"vibrissa scan: error: --plot needs matplotlib ({exc}); pip install '.[plots]'", file=sys.stderr)
+            print(
+                f"vibrissa scan: error: --plot needs matplotlib ({exc}); pip install '.[plots]'",
+                file=sys.stderr,
+            )
             return 2
 
         title = f"{profile.describe()}: " + " vs ".join(name for name, _ in results)
         # foot poses that only turn the whisker (whisking) are drawn against the heading
         abscissa = "heading" if poses is not None and len({p.x for p in poses}) == 1 else "x0"
-        figure = plot_runs([PlotRun(name, r.states, r.events, r.event_steps) for name, r in results], profile,
-                           title=title, abscissa=abscissa)
+        figure = plot_runs(
+            [PlotRun(name, r.states, r.events, r.event_steps) for name, r in results],
+            profile,
+            title=title,
+            abscissa=abscissa,
+        )
         figure.save(args.plot, small=args.small_png)
     return 0
 
@@ -379,12 +549,18 @@ def _cmd_sweep(args) -> int:
         print(f"vibrissa sweep: error: {exc}", file=sys.stderr)
         return 2
     if args.launch and not os.path.isfile(args.launch):
-        print(f"vibrissa sweep: error: --launch {args.launch!r}: no such parameter file", file=sys.stderr)
+        print(
+            f"vibrissa sweep: error: --launch {args.launch!r}: no such parameter file",
+            file=sys.stderr,
+        )
         return 2
     try:
-        from .sweep import launch_node, run_sweep, stop_node, write_sweep_csv
+        from .ros.sweep import launch_node, run_sweep, stop_node, write_sweep_csv
     except ImportError as exc:  # ROS 2 is an optional dependency of the package
-        print(f"vibrissa sweep: error: ROS 2 is not installed ({exc}); pip install '.[ros]'", file=sys.stderr)
+        print(
+            f"vibrissa sweep: error: ROS 2 is not installed ({exc}); pip install '.[ros]'",
+            file=sys.stderr,
+        )
         return 2
     yaw = math.radians(args.yaw_deg)
     poses = [(float(x), args.y, yaw) for x in grid]
@@ -392,7 +568,9 @@ def _cmd_sweep(args) -> int:
     proc = launch_node(args.launch, node_namespace) if args.launch else None
     code = 0
     try:
-        rows = run_sweep(poses, node=args.node, frame=args.frame, timeout=args.timeout, progress=sys.stderr)
+        rows = run_sweep(
+            poses, node=args.node, frame=args.frame, timeout=args.timeout, progress=sys.stderr
+        )
     except (TimeoutError, VibrissaError) as exc:
         print(f"vibrissa sweep: error: {exc}", file=sys.stderr)
         code = 1
@@ -400,7 +578,10 @@ def _cmd_sweep(args) -> int:
         if proc is not None:
             node_code = stop_node(proc)
             if node_code != 0 and code == 0:
-                print(f"vibrissa sweep: error: whisker_node exited with status {node_code}", file=sys.stderr)
+                print(
+                    f"vibrissa sweep: error: whisker_node exited with status {node_code}",
+                    file=sys.stderr,
+                )
                 code = 1
     if code:
         return code
@@ -410,7 +591,10 @@ def _cmd_sweep(args) -> int:
         with open(args.csv, "w", newline="") as stream:
             write_sweep_csv(rows, stream)
     contact = sum(1 for r in rows if r.phase)
-    print(f"vibrissa sweep: {len(rows)} poses answered ({contact} in contact) -> {args.csv}", file=sys.stderr)
+    print(
+        f"vibrissa sweep: {len(rows)} poses answered ({contact} in contact) -> {args.csv}",
+        file=sys.stderr,
+    )
     return 0
 
 
@@ -422,7 +606,11 @@ def _log_tool(verb: str, action) -> int:
         print(f"vibrissa {verb}: error: {exc.filename}: no such file", file=sys.stderr)
         return 2
     except ImportError as exc:
-        print(f"vibrissa {verb}: error: ROS 2 or mcap is not installed ({exc}); pip install '.[ros]'", file=sys.stderr)
+        print(
+            f"vibrissa {verb}: error: ROS 2 or mcap is not installed ({exc}); "
+            "pip install '.[ros]'",
+            file=sys.stderr,
+        )
         return 2
     except VibrissaError as exc:
         print(f"vibrissa {verb}: error: {exc}", file=sys.stderr)
@@ -450,8 +638,11 @@ def _cmd_info(args) -> int:
         print(f"phases:    {phases}")
         print(f"events:    {len(info.events)}")
         for e in info.events:
-            print(f"  {e['kind']:<8} {e['from_phase']} -> {e['to_phase']} at x = {e['x']:.9g} m, y = {e['y']:.9g} m, "
-                  f"yaw = {e['yaw']:.9g} rad")
+            print(
+                f"  {e['kind']:<8} {e['from_phase']} -> {e['to_phase']} at x = {e['x']:.9g} m, "
+                f"y = {e['y']:.9g} m, "
+                f"yaw = {e['yaw']:.9g} rad"
+            )
         return 0
 
     return _log_tool("info", run)
@@ -459,9 +650,12 @@ def _cmd_info(args) -> int:
 
 def _cmd_replay(args) -> int:
     def run():
-        from .log_tools import replay
+        from tqdm import tqdm
 
-        n = replay(args.log, rate=args.rate, topics=args.topics, progress=sys.stderr)
+        from .ros.replay import replay
+
+        with tqdm(unit="msg", file=sys.stderr, desc="replay", dynamic_ncols=True) as bar:
+            n = replay(args.log, rate=args.rate, topics=args.topics, progress=bar)
         print(f"vibrissa replay: {n} messages published", file=sys.stderr)
         return 0
 
@@ -473,15 +667,20 @@ def _cmd_resim(args) -> int:
         from .log_tools import resimulate
 
         sim = resimulate(args.log)
-        print(f"{len(sim.states)} poses re-simulated, {sum(sim.dropped.values())} dropped as recorded"
-              + (f" ({dict(sim.dropped)})" if sim.dropped else ""))
+        print(
+            f"{len(sim.states)} poses re-simulated, {sum(sim.dropped.values())} dropped as "
+            "recorded" + (f" ({dict(sim.dropped)})" if sim.dropped else "")
+        )
         print(f"{'field':<34} {'compared':>9} {'largest relative deviation':>28}")
         for key in sorted(sim.deviations):
             print(f"{key:<34} {sim.compared[key]:>9} {sim.deviations[key]:>28.3e}")
         for line in sim.mismatches:
             print(f"mismatch: {line}")
         bad = sim.mismatches or sim.worst() > args.tolerance
-        print(f"{'FAIL' if bad else 'OK'}: largest deviation {sim.worst():.3e} (tolerance {args.tolerance:g})")
+        print(
+            f"{'FAIL' if bad else 'OK'}: largest deviation {sim.worst():.3e} "
+            f"(tolerance {args.tolerance:g})"
+        )
         return 1 if bad else 0
 
     return _log_tool("resim", run)
@@ -502,8 +701,12 @@ def _cmd_export(args) -> int:
             if stream is not sys.stdout:
                 stream.close()
         if sim.mismatches or sim.worst() > 1e-12:
-            print(f"vibrissa export: warning: the log's outputs differ from its re-simulation by up to "
-                  f"{sim.worst():.3e}; run 'vibrissa resim {args.log}'", file=sys.stderr)
+            print(
+                "vibrissa export: warning: the log's outputs differ from its re-simulation by up "
+                f"to "
+                f"{sim.worst():.3e}; run 'vibrissa resim {args.log}'",
+                file=sys.stderr,
+            )
         return 0
 
     return _log_tool("export", run)
@@ -524,10 +727,14 @@ def _cmd_plot(args) -> int:
     try:
         from .plots import PlotRun, plot_runs, si_units
     except ImportError as exc:
-        print(f"vibrissa plot: error: needs matplotlib ({exc}); pip install '.[plots]'", file=sys.stderr)
+        print(
+            f"vibrissa plot: error: needs matplotlib ({exc}); pip install '.[plots]'",
+            file=sys.stderr,
+        )
         return 2
 
     if args.input.endswith(".mcap"):
+
         def run():
             from .log_tools import configurations, export_rows
             from .mcap_log import read_log
@@ -539,14 +746,18 @@ def _cmd_plot(args) -> int:
             states = tuple(state for _, state in rows)
             units = si_units(cfg.units.length, cfg.units.force, cfg.units.moment, cfg.world_frame)
             title = f"{args.input}: {cfg.describe()}"
-            run_ = PlotRun(values.get("model", "elastica"), states, tuple(sim.events), tuple(sim.event_steps))
+            run_ = PlotRun(
+                values.get("model", "elastica"), states, tuple(sim.events), tuple(sim.event_steps)
+            )
             plot_runs([run_], cfg.profile, units, title).save(args.output, small=args.small_png)
             return 0
 
         return _log_tool("plot", run)
     try:
         if not args.profile:
-            raise VibrissaError("a scan CSV needs --profile and --param (the figure draws the obstacle)")
+            raise VibrissaError(
+                "a scan CSV needs --profile and --param (the figure draws the obstacle)"
+            )
         profile = make_profile(args.profile, _params(args.param))
         with open(args.input) as stream:
             import csv as _csv
@@ -555,8 +766,11 @@ def _cmd_plot(args) -> int:
         if not rows or "x0" not in rows[0]:
             raise VibrissaError(f"{args.input}: not a scan CSV (no x0 column)")
         x0 = [float(r["x0"]) for r in rows]
-        model = (make_model("rigid", stiffness=args.spring_stiffness or 1.0) if args.model == "rigid"
-                 else make_model(args.model))
+        model = (
+            make_model("rigid", stiffness=args.spring_stiffness or 1.0)
+            if args.model == "rigid"
+            else make_model(args.model)
+        )
         result = run_scan(profile, x0, model=model)
     except FileNotFoundError:
         print(f"vibrissa plot: error: {args.input}: no such file", file=sys.stderr)
@@ -566,11 +780,18 @@ def _cmd_plot(args) -> int:
         return 2
     worst = max(abs(float(r["m0"]) - s.m0) for r, s in zip(rows, result.states))
     if worst > 1e-9 * max(1.0, max(abs(s.m0) for s in result.states)):
-        print(f"vibrissa plot: error: the CSV is not this profile's scan (m0 differs by {worst:.3g}); check "
-              "--profile, --param and --model", file=sys.stderr)
+        print(
+            f"vibrissa plot: error: the CSV is not this profile's scan (m0 differs by "
+            f"{worst:.3g}); check "
+            "--profile, --param and --model",
+            file=sys.stderr,
+        )
         return 2
-    plot_runs([PlotRun(model.name, result.states, result.events, result.event_steps)], profile,
-              title=f"{profile.describe()} ({model.name})").save(args.output, small=args.small_png)
+    plot_runs(
+        [PlotRun(model.name, result.states, result.events, result.event_steps)],
+        profile,
+        title=f"{profile.describe()} ({model.name})",
+    ).save(args.output, small=args.small_png)
     return 0
 
 
@@ -589,8 +810,12 @@ def _cmd_reconstruct(args) -> int:
         if args.plot:
             plot(rec, args.plot, title=f"{args.input}: contour from the base wrench")
         phases = [int(e.phase) for e in rec.estimates]
-        print(f"vibrissa reconstruct: {len(rec.estimates)} contact points ({phases.count(1)} tangential, "
-              f"{phases.count(2)} at the tip)", file=sys.stderr)
+        print(
+            f"vibrissa reconstruct: {len(rec.estimates)} contact points "
+            f"({phases.count(1)} tangential, "
+            f"{phases.count(2)} at the tip)",
+            file=sys.stderr,
+        )
         return 0
 
     return _log_tool("reconstruct", run)

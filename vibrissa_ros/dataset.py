@@ -38,8 +38,15 @@ from .study import Study, Task
 FORMAT = "vibrissa-batch/1"
 TABLES = ("poses", "events", "failures")
 _NOISY = ("fx_noisy", "fy_noisy", "m0_noisy")
-_NOISE_FIELDS = ("force_stddev", "torque_stddev", "force_bias_x", "force_bias_y", "torque_bias", "force_step",
-                 "torque_step")
+_NOISE_FIELDS = (
+    "force_stddev",
+    "torque_stddev",
+    "force_bias_x",
+    "force_bias_y",
+    "torque_bias",
+    "force_step",
+    "torque_step",
+)
 
 
 class DatasetError(VibrissaError):
@@ -47,6 +54,7 @@ class DatasetError(VibrissaError):
 
 
 # -- schema ---------------------------------------------------------------------------------------
+
 
 @dataclass(frozen=True)
 class Layout:
@@ -75,7 +83,9 @@ def parameter_fields(layout: Layout) -> List[pa.Field]:
     ]
     fields += [pa.field(name, pa.float64()) for name in layout.param_names]
     fields += [pa.field(k, pa.float64(), nullable=False) for k in ("x", "y", "rotation_deg")]
-    fields += [pa.field(k, pa.float64(), nullable=False) for k in ("sweep_from", "sweep_to", "sweep_step")]
+    fields += [
+        pa.field(k, pa.float64(), nullable=False) for k in ("sweep_from", "sweep_to", "sweep_step")
+    ]
     fields.append(pa.field("back", pa.bool_(), nullable=False))
     if layout.noise:
         fields += [pa.field(k, pa.float64(), nullable=False) for k in _NOISE_FIELDS]
@@ -104,22 +114,45 @@ def _schemas(layout: Layout) -> Dict[str, pa.Schema]:
     return {
         "tasks": pa.schema([task] + params + [pa.field("command", pa.string(), nullable=False)]),
         "poses": pa.schema([task, step] + contract + noisy + params),
-        "events": pa.schema([task, step, pa.field("x0", pa.float64(), nullable=False),
-                             pa.field("kind", pa.string(), nullable=False),
-                             pa.field("from_phase", pa.int8(), nullable=False),
-                             pa.field("to_phase", pa.int8(), nullable=False)]),
-        "failures": pa.schema([task, pa.field("error", pa.string(), nullable=False),
-                               pa.field("reason", pa.string(), nullable=False)] + params),
+        "events": pa.schema(
+            [
+                task,
+                step,
+                pa.field("x0", pa.float64(), nullable=False),
+                pa.field("kind", pa.string(), nullable=False),
+                pa.field("from_phase", pa.int8(), nullable=False),
+                pa.field("to_phase", pa.int8(), nullable=False),
+            ]
+        ),
+        "failures": pa.schema(
+            [
+                task,
+                pa.field("error", pa.string(), nullable=False),
+                pa.field("reason", pa.string(), nullable=False),
+            ]
+            + params
+        ),
     }
 
 
 def task_parameters(task: Task, study_params: Sequence[str]) -> Dict[str, object]:
     """The task's parameter columns (a value for each of :func:`parameter_fields`)."""
     params = dict(task.params)
-    row: Dict[str, object] = {"model": task.model, "spring_stiffness": task.spring_stiffness, "profile": task.profile}
+    row: Dict[str, object] = {
+        "model": task.model,
+        "spring_stiffness": task.spring_stiffness,
+        "profile": task.profile,
+    }
     row.update({name: params.get(name) for name in study_params})
-    row.update(x=task.x, y=task.y, rotation_deg=task.rotation_deg, sweep_from=task.sweep_from,
-               sweep_to=task.sweep_to, sweep_step=task.sweep_step, back=task.back)
+    row.update(
+        x=task.x,
+        y=task.y,
+        rotation_deg=task.rotation_deg,
+        sweep_from=task.sweep_from,
+        sweep_to=task.sweep_to,
+        sweep_step=task.sweep_step,
+        back=task.back,
+    )
     if task.noise is not None:
         row.update({k: getattr(task.noise, k) for k in _NOISE_FIELDS})
         row["noise_seed"] = task.noise_seed
@@ -127,6 +160,7 @@ def task_parameters(task: Task, study_params: Sequence[str]) -> Dict[str, object
 
 
 # -- one task's tables ------------------------------------------------------------------------------
+
 
 @dataclass(frozen=True)
 class TaskTables:
@@ -156,7 +190,11 @@ class TaskFiles:
 def encode(tables: TaskTables) -> TaskFiles:
     """A task's tables as Parquet files (zstd)."""
     files = {}
-    for name, table in (("events", tables.events), ("poses", tables.poses), ("failures", tables.failure)):
+    for name, table in (
+        ("events", tables.events),
+        ("poses", tables.poses),
+        ("failures", tables.failure),
+    ):
         if table is not None:
             sink = pa.BufferOutputStream()
             pq.write_table(table, sink, compression="zstd")
@@ -189,8 +227,13 @@ def result_tables(task: Task, result: ScanResult, layout: Layout) -> TaskTables:
         "contact_y": pa.array([s.contact[1] if s.contact else None for s in states], pa.float64()),
     }
     if task.noise is not None:
-        noise = SensorNoise(NoiseSpec(enabled=True, seed=task.noise_seed,
-                                      **{k: getattr(task.noise, k) for k in _NOISE_FIELDS}))
+        noise = SensorNoise(
+            NoiseSpec(
+                enabled=True,
+                seed=task.noise_seed,
+                **{k: getattr(task.noise, k) for k in _NOISE_FIELDS},
+            )
+        )
         readings = [noise.apply(s.fx, s.fy, s.m0) for s in states]
         for i, name in enumerate(_NOISY):
             cols[name] = pa.array([r[i] for r in readings], pa.float64())
@@ -200,27 +243,36 @@ def result_tables(task: Task, result: ScanResult, layout: Layout) -> TaskTables:
     events = None
     if result.events:
         k = len(result.events)
-        events = pa.Table.from_pydict({
-            "task": pa.array([task.index] * k, pa.int64()),
-            "step": pa.array(result.event_steps, pa.int32()),
-            "x0": pa.array([float(e.x0) for e in result.events], pa.float64()),
-            "kind": pa.array([e.kind for e in result.events], pa.string()),
-            "from_phase": pa.array([int(e.from_phase) for e in result.events], pa.int8()),
-            "to_phase": pa.array([int(e.to_phase) for e in result.events], pa.int8()),
-        }, schema=schema["events"])
+        events = pa.Table.from_pydict(
+            {
+                "task": pa.array([task.index] * k, pa.int64()),
+                "step": pa.array(result.event_steps, pa.int32()),
+                "x0": pa.array([float(e.x0) for e in result.events], pa.float64()),
+                "kind": pa.array([e.kind for e in result.events], pa.string()),
+                "from_phase": pa.array([int(e.from_phase) for e in result.events], pa.int8()),
+                "to_phase": pa.array([int(e.to_phase) for e in result.events], pa.int8()),
+            },
+            schema=schema["events"],
+        )
     return TaskTables(task.index, poses, events, None)
 
 
 def failure_tables(task: Task, exc: BaseException, layout: Layout) -> TaskTables:
     """The failures row of a task whose scan raised ``exc``."""
     schema, study_params = layout.schemas, layout.param_names
-    cols = {"task": pa.array([task.index], pa.int64()), "error": pa.array([type(exc).__name__]),
-            "reason": pa.array([str(exc) or type(exc).__name__])}
+    cols = {
+        "task": pa.array([task.index], pa.int64()),
+        "error": pa.array([type(exc).__name__]),
+        "reason": pa.array([str(exc) or type(exc).__name__]),
+    }
     cols.update(_repeat(schema["failures"], task_parameters(task, study_params), 1))
-    return TaskTables(task.index, None, None, pa.Table.from_pydict(cols, schema=schema["failures"]))
+    return TaskTables(
+        task.index, None, None, pa.Table.from_pydict(cols, schema=schema["failures"])
+    )
 
 
 # -- the directory ------------------------------------------------------------------------------------
+
 
 def _task_file(study_dir: str, table: str, index: int, width: int) -> str:
     return os.path.join(study_dir, table, f"task-{index:0{width}d}.parquet")
@@ -229,11 +281,19 @@ def _task_file(study_dir: str, table: str, index: int, width: int) -> str:
 def _task_files(study_dir: str, table: str) -> List[str]:
     """The table's task files, sorted (= in task order: the names are zero-padded)."""
     folder = os.path.join(study_dir, table)
-    return sorted(os.path.join(folder, f) for f in os.listdir(folder) if f.startswith("task-") and f.endswith(".parquet"))
+    return sorted(
+        os.path.join(folder, f)
+        for f in os.listdir(folder)
+        if f.startswith("task-") and f.endswith(".parquet")
+    )
 
 
 def _done(study_dir: str) -> Set[int]:
-    return {int(os.path.basename(f)[5:-8]) for table in ("poses", "failures") for f in _task_files(study_dir, table)}
+    return {
+        int(os.path.basename(f)[5:-8])
+        for table in ("poses", "failures")
+        for f in _task_files(study_dir, table)
+    }
 
 
 def _width(n_tasks: int) -> int:
@@ -285,8 +345,10 @@ def manifest(study: Study) -> dict:
 
 def tasks_table(study: Study) -> pa.Table:
     schema = schemas(study)["tasks"]
-    rows = [dict(task=t.index, **task_parameters(t, study.param_names), command=t.scan_command())
-            for t in study.tasks]
+    rows = [
+        dict(task=t.index, **task_parameters(t, study.param_names), command=t.scan_command())
+        for t in study.tasks
+    ]
     return pa.Table.from_pylist(rows, schema=schema)
 
 
@@ -318,15 +380,23 @@ class StudyWriter:
             if found.get("format") != FORMAT:
                 raise DatasetError(f"{study_dir}: not a {FORMAT} dataset")
             if found.get("study_sha256") != study.digest:
-                raise DatasetError(f"{study_dir} holds the results of another study file; give a new --out")
+                raise DatasetError(
+                    f"{study_dir} holds the results of another study file; give a new --out"
+                )
             if found.get("vibrissa_ros") != __version__:
-                raise DatasetError(f"{study_dir} was computed by vibrissa_ros {found.get('vibrissa_ros')}, this is "
-                                   f"{__version__}: finish it with that version or give a new --out")
+                raise DatasetError(
+                    f"{study_dir} was computed by vibrissa_ros {found.get('vibrissa_ros')}, this is "
+                    f"{__version__}: finish it with that version or give a new --out"
+                )
             if found != expected:
-                raise DatasetError(f"{study_dir}: the study expands to other tasks than the ones stored "
-                                   "(another numpy random stream?); give a new --out")
+                raise DatasetError(
+                    f"{study_dir}: the study expands to other tasks than the ones stored "
+                    "(another numpy random stream?); give a new --out"
+                )
         elif os.path.isdir(study_dir) and os.listdir(study_dir):
-            raise DatasetError(f"{study_dir} exists and is not a study dataset; give a new or empty --out")
+            raise DatasetError(
+                f"{study_dir} exists and is not a study dataset; give a new or empty --out"
+            )
         for table in TABLES:
             os.makedirs(os.path.join(study_dir, table), exist_ok=True)
         writer = cls(study_dir, study)
@@ -335,7 +405,9 @@ class StudyWriter:
             _write_parquet(tasks_path, tasks_table(study))
         if not os.path.exists(os.path.join(study_dir, "study.yaml")):
             _write_text(os.path.join(study_dir, "study.yaml"), study.text)
-        if not os.path.exists(path):  # last: the manifest marks a directory as this study's dataset
+        if not os.path.exists(
+            path
+        ):  # last: the manifest marks a directory as this study's dataset
             _write_text(path, json.dumps(expected, indent=1) + "\n")
         return writer
 
@@ -350,14 +422,19 @@ class StudyWriter:
     def write(self, result: TaskFiles) -> None:
         """Write one task's files atomically: events first, the poses (or failure) file last."""
         if result.version != __version__:
-            raise DatasetError(f"task {result.task} was computed by a worker with vibrissa_ros {result.version}; "
-                               f"this study runs {__version__}: install the same version on every worker")
+            raise DatasetError(
+                f"task {result.task} was computed by a worker with vibrissa_ros {result.version}; "
+                f"this study runs {__version__}: install the same version on every worker"
+            )
         for table in ("events", "poses", "failures"):
             if table in result.files:
-                _write_bytes(_task_file(self.dir, table, result.task, self.width), result.files[table])
+                _write_bytes(
+                    _task_file(self.dir, table, result.task, self.width), result.files[table]
+                )
 
 
 # -- reading ---------------------------------------------------------------------------------------------
+
 
 class StudyDataset:
     """A study directory opened for reading (see :func:`open`).
@@ -403,13 +480,17 @@ class StudyDataset:
         if name not in TABLES:
             raise ValueError(f"unknown table {name!r}; allowed: tasks, {', '.join(TABLES)}")
         files = _task_files(self.path, name)
-        if name == "events":  # events of a task killed before its poses were written are not results
+        if (
+            name == "events"
+        ):  # events of a task killed before its poses were written are not results
             done = set(os.path.basename(f) for f in _task_files(self.path, "poses"))
             files = [f for f in files if os.path.basename(f) in done]
         if not files:
             table = self.schemas()[name].empty_table()
             return table.select(columns) if columns is not None else table
-        return pads.dataset(files, format="parquet", schema=pq.read_schema(files[0])).to_table(columns=columns)
+        return pads.dataset(files, format="parquet", schema=pq.read_schema(files[0])).to_table(
+            columns=columns
+        )
 
     @property
     def poses(self):
@@ -442,7 +523,9 @@ class StudyDataset:
         return not self.missing()
 
 
-def open(path: str) -> StudyDataset:  # noqa: A001 - the module's entry point, ``vibrissa_ros.dataset.open``
+def open(
+    path: str,
+) -> StudyDataset:  # noqa: A001 - the module's entry point, ``vibrissa_ros.dataset.open``
     """Open a study directory written by ``vibrissa batch`` for reading."""
     if not os.path.isdir(path):
         raise DatasetError(f"{path}: no such study directory")

@@ -1,45 +1,41 @@
-"""Tools on recorded runs: info, resim, export, replay (the ``vibrissa`` verbs of the same names).
+"""
+Tools on recorded runs: info, resim, export (the ``vibrissa`` verbs of the same names).
 
-Decoding uses rclpy's serialization with the installed message classes; the logs themselves carry
-their full schemas, so other tools (Foxglove, rosbags, mcap-ros2-support) need none of this.
+Decoding uses rclpy's serialization with the installed message classes (imported when a log is
+read, from :mod:`vibrissa_ros.ros.serialization`); the logs themselves carry their full schemas,
+so other tools (Foxglove, rosbags, mcap-ros2-support) need none of this. ``vibrissa replay`` is
+:mod:`vibrissa_ros.ros.replay`.
 """
 
 from __future__ import annotations
 
-import importlib
 import json
 import math
-import time
 from collections import Counter, defaultdict
-from dataclasses import dataclass, field
-from typing import Dict, List, Optional, Sequence, Tuple
+from dataclasses import asdict, dataclass, field
+from typing import Dict, List, Tuple
 
 from .core.errors import VibrissaError
 from .core.state import WhiskerState
+from .edge import decode_event, header_ns
 from .mcap_log import CONFIGURATION_METADATA, LogError, LogMessage, read_log
 from .node_config import build_config
 from .pipeline import PosePipeline, drop_reason
 
 
-def message_class(type_name: str):
-    """'geometry_msgs/msg/PoseStamped' -> the installed Python message class."""
-    package, _, name = type_name.split("/")
-    return getattr(importlib.import_module(f"{package}.msg"), name)
-
-
 def decode(message: LogMessage):
-    from rclpy.serialization import deserialize_message
+    """Return the message object of a logged message (needs ROS 2's message packages)."""
+    from .ros.serialization import decode as decode_cdr
 
-    return deserialize_message(message.data, message_class(message.type_name))
-
-
-def _stamp(msg) -> int:
-    return msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+    return decode_cdr(message)
 
 
 def configurations(metadata) -> List[Tuple[int, Dict[str, object]]]:
-    """(log_time, parameter values) of every configuration record, in time order; the values carry
-    ``node`` and ``resets`` besides the parameters."""
+    """
+    Return (log_time, parameter values) of every configuration record, in time order.
+
+    The values carry ``node`` and ``resets`` besides the parameters.
+    """
     out = []
     for record in metadata:
         if record.name == CONFIGURATION_METADATA:
@@ -58,7 +54,7 @@ class LogInfo:
     end_ns: int
     configurations: List[Tuple[int, Dict[str, object]]]
     phases: Dict[int, int]
-    events: List[dict]
+    events: List[dict]  # the fields of an EventRecord
 
     @property
     def duration(self) -> float:
@@ -68,14 +64,17 @@ class LogInfo:
 def log_info(path: str) -> LogInfo:
     _, channels, metadata, messages = read_log(path)
     counts = Counter(m.topic for m in messages)
-    types = {c.topic: next((m.type_name for m in messages if m.topic == c.topic), "") for c in channels.values()}
+    types = {
+        c.topic: next((m.type_name for m in messages if m.topic == c.topic), "")
+        for c in channels.values()
+    }
     phases: Counter = Counter()
     events = []
     for m in messages:
         if m.topic.endswith("/phase"):
             phases[decode(m).data] += 1
         elif m.topic.endswith("/events"):
-            events.append(json.loads(decode(m).data))
+            events.append(asdict(decode_event(decode(m).data)))
     times = [m.log_time for m in messages] or [0]
     return LogInfo(
         topics={t: (types.get(t, ""), counts.get(t, 0)) for t in sorted(types)},
@@ -92,11 +91,17 @@ def log_info(path: str) -> LogInfo:
 class Resimulation:
     """The recorded poses run again through the node's pipeline, next to the recorded outputs."""
 
-    states: List[Tuple[int, WhiskerState]] = field(default_factory=list)  # (stamp, state) per accepted pose
+    states: List[Tuple[int, WhiskerState]] = field(
+        default_factory=list
+    )  # (stamp, state) per accepted pose
     events: list = field(default_factory=list)  # the events crossed, in order
-    event_steps: List[int] = field(default_factory=list)  # index into states of the step that crossed each
+    event_steps: List[int] = field(
+        default_factory=list
+    )  # index into states of the step that crossed each
     dropped: Counter = field(default_factory=Counter)
-    deviations: Dict[str, float] = field(default_factory=dict)  # field -> largest relative deviation
+    deviations: Dict[str, float] = field(
+        default_factory=dict
+    )  # field -> largest relative deviation
     compared: Counter = field(default_factory=Counter)
     mismatches: List[str] = field(default_factory=list)
 
@@ -113,7 +118,7 @@ def _relative(a: float, b: float) -> float:
 
 
 def resimulate(path: str) -> Resimulation:
-    """Re-run every recorded foot pose with the recorded configuration(s); compare field by field."""
+    """Re-run every recorded foot pose with the recorded configuration(s), compare each field."""
     _, _, metadata, messages = read_log(path)
     configs = configurations(metadata)
     node = configs[0][1].get("node", "/whisker_node")
@@ -126,8 +131,15 @@ def resimulate(path: str) -> Resimulation:
         key = m.topic[len(prefix):]
         if key == "foot_pose":
             poses.append(m)
-        elif key in ("wrench", "phase", "contact_force", "contact_force_magnitude", "contact_point", "arc_length",
-                     "events"):
+        elif key in (
+            "wrench",
+            "phase",
+            "contact_force",
+            "contact_force_magnitude",
+            "contact_point",
+            "arc_length",
+            "events",
+        ):
             recorded[key].append(decode(m))
     result = Resimulation()
     pipeline = PosePipeline(build_config(configs[0][1]))
@@ -139,12 +151,13 @@ def resimulate(path: str) -> Resimulation:
             pipeline.reconfigure(build_config(values), bool(values.get("resets", True)))
         msg = decode(m)
         p, q = msg.pose.position, msg.pose.orientation
+        stamp = header_ns(msg)
         try:
-            state, events = pipeline.handle(msg.header.frame_id, _stamp(msg), (p.x, p.y, p.z), (q.x, q.y, q.z, q.w))
+            state, events = pipeline.handle(msg.header.frame_id, stamp, (p.x, p.y, p.z),
+                                            (q.x, q.y, q.z, q.w))
         except VibrissaError as exc:
             result.dropped[drop_reason(exc)] += 1
             continue
-        stamp = _stamp(msg)
         result.states.append((stamp, state))
         result.events.extend(events)
         result.event_steps.extend([len(result.states) - 1] * len(events))
@@ -158,19 +171,30 @@ def resimulate(path: str) -> Resimulation:
             expected["contact_point"].append((stamp, r.contact_world))
             expected["arc_length"].append((None, (r.s1,)))
         for e in events:
-            expected["events"].append((None, (e.kind, int(e.from_phase), int(e.to_phase), e.pose.x * L, e.pose.y * L)))
+            expected["events"].append(
+                (None, (e.kind, int(e.from_phase), int(e.to_phase), e.pose.x * L, e.pose.y * L))
+            )
     got = {
-        "wrench": [(_stamp(w), (w.wrench.force.x, w.wrench.force.y, w.wrench.torque.z)) for w in recorded["wrench"]],
+        "wrench": [
+            (header_ns(w), (w.wrench.force.x, w.wrench.force.y, w.wrench.torque.z))
+            for w in recorded["wrench"]
+        ],
         "phase": [(None, (float(x.data),)) for x in recorded["phase"]],
-        "contact_force": [(_stamp(v), (v.vector.x, v.vector.y)) for v in recorded["contact_force"]],
-        "contact_force_magnitude": [(None, (x.data,)) for x in recorded["contact_force_magnitude"]],
-        "contact_point": [(_stamp(v), (v.point.x, v.point.y)) for v in recorded["contact_point"]],
+        "contact_force": [
+            (header_ns(v), (v.vector.x, v.vector.y)) for v in recorded["contact_force"]
+        ],
+        "contact_force_magnitude": [
+            (None, (x.data,)) for x in recorded["contact_force_magnitude"]
+        ],
+        "contact_point": [
+            (header_ns(v), (v.point.x, v.point.y)) for v in recorded["contact_point"]
+        ],
         "arc_length": [(None, (x.data,)) for x in recorded["arc_length"]],
         "events": [],
     }
     for e in recorded["events"]:
-        d = json.loads(e.data)
-        got["events"].append((None, (d["kind"], d["from_phase"], d["to_phase"], d["x"], d["y"])))
+        d = decode_event(e.data)
+        got["events"].append((None, (d.kind, d.from_phase, d.to_phase, d.x, d.y)))
     names = {
         "wrench": ("force.x", "force.y", "torque.z"),
         "phase": ("data",),
@@ -186,11 +210,17 @@ def resimulate(path: str) -> Resimulation:
             result.mismatches.append(f"{topic}: {len(have)} recorded, {len(want)} re-simulated")
         for (s_want, v_want), (s_have, v_have) in zip(want, have):
             if s_want is not None and s_want != s_have:
-                result.mismatches.append(f"{topic}: stamp {s_have} recorded where {s_want} was expected")
+                result.mismatches.append(
+                    f"{topic}: stamp {s_have} recorded where {s_want} was expected"
+                )
                 break
             for name, a, b in zip(fields, v_have, v_want):
                 key = f"{topic}.{name}"
-                dev = _relative(float(a), float(b)) if not isinstance(a, str) else (0.0 if a == b else math.inf)
+                dev = (
+                    _relative(float(a), float(b))
+                    if not isinstance(a, str)
+                    else (0.0 if a == b else math.inf)
+                )
                 result.deviations[key] = max(result.deviations.get(key, 0.0), dev)
                 result.compared[key] += 1
     return result
@@ -200,69 +230,3 @@ def export_rows(path: str):
     """(time [s], state) per accepted pose of a log, from the recorded poses and configuration."""
     sim = resimulate(path)
     return [(stamp / 1e9, state) for stamp, state in sim.states], sim
-
-
-# -- replay -----------------------------------------------------------------------------------
-def replay(path: str, rate: float = 1.0, topics: Optional[Sequence[str]] = None, wait_subscribers: float = 5.0,
-           progress=None) -> int:
-    """Publish recorded messages with their recorded relative timing divided by ``rate``.
-
-    ``rate`` 0 publishes as fast as the subscribers acknowledge them (reliable topics are checked
-    with wait_for_all_acked every 50 messages). Returns the number of messages published.
-    """
-    import rclpy
-    from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
-
-    _, channels, _, messages = read_log(path)
-    wanted = set(topics) if topics else None
-    chosen = [m for m in messages if wanted is None or m.topic in wanted]
-    if wanted:
-        missing = wanted - {m.topic for m in messages}
-        if missing:
-            raise LogError(f"topics not in the log: {', '.join(sorted(missing))}")
-    qos_of = {}
-    for c in channels.values():
-        text = c.metadata.get("offered_qos_profiles", "")
-        qos_of[c.topic] = QoSProfile(
-            history=HistoryPolicy.KEEP_LAST,
-            depth=1000,
-            reliability=ReliabilityPolicy.BEST_EFFORT if "best_effort" in text else ReliabilityPolicy.RELIABLE,
-            durability=DurabilityPolicy.TRANSIENT_LOCAL if "transient_local" in text else DurabilityPolicy.VOLATILE,
-        )
-    context = rclpy.Context()
-    rclpy.init(context=context)
-    node = rclpy.create_node("vibrissa_replay", context=context)
-    publishers = {}
-    try:
-        for m in chosen:
-            if m.topic not in publishers:
-                publishers[m.topic] = node.create_publisher(message_class(m.type_name), m.topic, qos_of[m.topic])
-        end = time.monotonic() + wait_subscribers
-        while time.monotonic() < end and not all(p.get_subscription_count() for p in publishers.values()):
-            time.sleep(0.05)
-        time.sleep(0.2)  # matched in the graph is not yet matched in DDS for every reader
-        if not chosen:
-            return 0
-        t0_log = chosen[0].log_time
-        t0 = time.monotonic()
-        for i, m in enumerate(chosen):
-            if rate > 0:
-                due = t0 + (m.log_time - t0_log) / 1e9 / rate
-                delay = due - time.monotonic()
-                if delay > 0:
-                    time.sleep(delay)
-            publishers[m.topic].publish(m.data)  # serialized CDR, published as is
-            if rate == 0 and i % 50 == 49:
-                for pub in publishers.values():
-                    pub.wait_for_all_acked(rclpy.duration.Duration(seconds=5.0))
-            if progress is not None and i % 1000 == 999:
-                progress.write(f"\r{i + 1}/{len(chosen)} messages")
-                progress.flush()
-        for pub in publishers.values():
-            pub.wait_for_all_acked(rclpy.duration.Duration(seconds=5.0))
-        if progress is not None:
-            progress.write(f"\r{len(chosen)}/{len(chosen)} messages published\n")
-        return len(chosen)
-    finally:
-        node.destroy_node()
-        rclpy.try_shutdown(context=context)

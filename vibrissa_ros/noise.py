@@ -1,4 +1,5 @@
-"""An optional, seeded model of the follicle sensor's imperfections, applied to the published wrench.
+"""
+An optional, seeded model of the follicle sensor's imperfections, added to the published wrench.
 
 Per reading: Gaussian noise (independent on force x, force y and torque z), then a constant bias,
 then quantization to the sensor's resolution. Seeded (numpy PCG64), so a log re-simulated with the

@@ -1,11 +1,12 @@
-"""The paper's figures from any scan or log (matplotlib, Agg backend, deterministic PNGs).
+"""
+The paper's figures from any scan or log (matplotlib, Agg backend, deterministic PNGs).
 
 One figure, four panels: the configuration sketch (obstacle and centerlines at well-chosen foot
 positions, coloured by phase, contact points marked, equal axes; paper Figs 2.1, 2.4, 3.1), and
 the observables against the foot position, m0 and f (Figs 2.2, 2.5, 3.2), fx and fy (Figs 2.3,
-2.6), s1 (Fig. 3.3), with the phases shaded and the events marked. A back-and-forth sweep draws each
-direction as its own curve with arrows along the direction of travel (the hysteresis loops); a
-second model (``--model both``) is drawn dashed on the same axes.
+2.6), s1 (Fig. 3.3), with the phases shaded and the events marked. A back-and-forth sweep draws
+each direction as its own curve with arrows along the direction of travel (the hysteresis loops);
+a second model (``--model both``) is drawn dashed on the same axes.
 
 The plotting code only draws :class:`PlotRun` values; it never computes mechanics.
 """
@@ -30,7 +31,7 @@ SHADE = {1: "#1f77b4", 2: "#d62728"}
 
 
 @dataclass(frozen=True)
-class Units:
+class AxisUnits:
     """Axis units: dimensionless for scans, SI for logs (with the frame named)."""
 
     length: str = "L"
@@ -61,8 +62,11 @@ class Figure:
     axes: dict = field(default_factory=dict)
 
     def save(self, path: str, dpi: int = 100, small: bool = False) -> None:
-        """Write a PNG (no timestamp or software stamp: the same data gives the same file);
-        ``small`` quantizes it to 256 colours, about 3x smaller, for documentation."""
+        """
+        Write a PNG (no timestamp or software stamp: the same data gives the same file).
+
+        ``small`` quantizes it to 256 colours, about 3x smaller, for documentation.
+        """
         if not small:
             self.figure.savefig(path, dpi=dpi, metadata={"Software": None})
         else:
@@ -73,8 +77,9 @@ class Figure:
             buffer = io.BytesIO()
             self.figure.savefig(buffer, dpi=dpi, format="png", metadata={"Software": None})
             buffer.seek(0)
-            Image.open(buffer).convert("RGB").quantize(256, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE) \
-                .save(path, optimize=True)
+            Image.open(buffer).convert("RGB").quantize(
+                256, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE
+            ).save(path, optimize=True)
         plt.close(self.figure)
 
 
@@ -105,10 +110,15 @@ def direction_segments(states: Sequence[WhiskerState], key=_foot_x) -> List[Tupl
     return segments
 
 
-def sketch_selection(states: Sequence[WhiskerState], events: Sequence[Event], count: int = 15,
-                     key=_foot_x) -> List[int]:
-    """Indices of ~``count`` states for the configuration sketch: the first contact state, the states
-    next to every event (the last one before a snap included), then evenly spread contact states."""
+def sketch_selection(
+    states: Sequence[WhiskerState], events: Sequence[Event], count: int = 15, key=_foot_x
+) -> List[int]:
+    """
+    Return the indices of ~``count`` states for the configuration sketch.
+
+    The first contact state, the states next to every event (the last one before a snap
+    included), then evenly spread contact states.
+    """
     contact = [i for i, s in enumerate(states) if s.phase]
     if not contact:
         return [0]
@@ -139,7 +149,7 @@ def _profile_curve(profile: ConvexProfile, xs: np.ndarray, top: float) -> np.nda
 def plot_runs(
     runs: Sequence[PlotRun],
     profile: Optional[ConvexProfile],
-    units: Units = Units(),
+    units: AxisUnits = AxisUnits(),
     title: str = "",
     sketch_count: int = 15,
     abscissa: str = "x0",
@@ -156,38 +166,57 @@ def plot_runs(
     ax_fxy = fig.add_subplot(grid[1, 1], sharex=ax_m)
     ax_s1 = fig.add_subplot(grid[2, 0], sharex=ax_m)
     ax_f = fig.add_subplot(grid[2, 1], sharex=ax_m)
-    out = Figure(fig, axes={"sketch": ax_sketch, "m0": ax_m, "fxy": ax_fxy, "s1": ax_s1, "f": ax_f})
+    out = Figure(
+        fig, axes={"sketch": ax_sketch, "m0": ax_m, "fxy": ax_fxy, "s1": ax_s1, "f": ax_f}
+    )
     main = runs[0]
     L, F, M = units.scale_length, units.scale_force, units.scale_moment
 
     # -- configuration sketch ----------------------------------------------------------------
     first = direction_segments(main.states, coord)[0]
-    states = main.states[first[0]:first[1]]
+    states = main.states[first[0] : first[1]]
     if main.event_steps:
-        first_events = [e for e, i in zip(main.events, main.event_steps) if first[0] < i < first[1]]
+        first_events = [
+            e for e, i in zip(main.events, main.event_steps) if first[0] < i < first[1]
+        ]
     else:
         first_events = list(main.events)
     picks = sketch_selection(states, first_events, sketch_count, coord)
     xs = np.array([s.x0 for s in main.states]) * L
     if isinstance(profile, Peg):
         ring = np.linspace(0.0, 2.0 * np.pi, 241)
-        px, py = (profile.x + profile.r * np.cos(ring)) * L, (profile.y + profile.r * np.sin(ring)) * L
+        px, py = (profile.x + profile.r * np.cos(ring)) * L, (
+            profile.y + profile.r * np.sin(ring)
+        ) * L
         ax_sketch.fill(px, py, color="#c8a27a", alpha=0.6, lw=0)
         ax_sketch.plot(px, py, color="#8c5a2b", lw=1.5, label="peg", gid="obstacle")
         ax_sketch.plot(profile.x * L, profile.y * L, "+", color="#8c5a2b", ms=5)
     elif profile is not None:
         curve = _profile_curve(profile, xs / L, 1.6) * L
-        ax_sketch.fill_between(curve[:, 0], curve[:, 1], 1.6 * L, color="#c8a27a", alpha=0.45, lw=0)
-        ax_sketch.plot(curve[:, 0], curve[:, 1], color="#8c5a2b", lw=1.5, label="obstacle", gid="obstacle")
+        ax_sketch.fill_between(
+            curve[:, 0], curve[:, 1], 1.6 * L, color="#c8a27a", alpha=0.45, lw=0
+        )
+        ax_sketch.plot(
+            curve[:, 0], curve[:, 1], color="#8c5a2b", lw=1.5, label="obstacle", gid="obstacle"
+        )
     seen_phases = set()
     for i in picks:
         s = states[i]
         line = s.centerline(81) * L
         label = PHASE_NAMES[int(s.phase)] if int(s.phase) not in seen_phases else None
         seen_phases.add(int(s.phase))
-        ax_sketch.plot(line[:, 0], line[:, 1], color=PHASE_COLORS[int(s.phase)], lw=1.3, label=label, gid="centerline")
+        ax_sketch.plot(
+            line[:, 0],
+            line[:, 1],
+            color=PHASE_COLORS[int(s.phase)],
+            lw=1.3,
+            label=label,
+            gid="centerline",
+        )
         if s.contact is not None:
-            ax_sketch.plot(s.contact[0] * L, s.contact[1] * L, "o", ms=3.5, color="black", gid="contact")
+            ax_sketch.plot(
+                s.contact[0] * L, s.contact[1] * L, "o", ms=3.5, color="black", gid="contact"
+            )
         ax_sketch.plot(s.x0 * L, s.pose.y * L, "^", ms=4, color="#444444", gid="foot")
         out.sketch_states.append(s)
     drawn = np.vstack([s.centerline(81) for s in out.sketch_states]) * L
@@ -195,11 +224,16 @@ def plot_runs(
     x_lo = min(drawn[:, 0].min(), min((c[0] for c in contacts), default=0) * L) - 0.35 * L
     x_hi = max(drawn[:, 0].max(), max((c[0] for c in contacts), default=0) * L) + 0.35 * L
     ax_sketch.set_xlim(x_lo, x_hi)
-    ax_sketch.set_ylim(min(drawn[:, 1].min(), 0.0) - 0.05 * L, 1.45 * L + max(0.0, drawn[:, 1].max() - L))
+    ax_sketch.set_ylim(
+        min(drawn[:, 1].min(), 0.0) - 0.05 * L, 1.45 * L + max(0.0, drawn[:, 1].max() - L)
+    )
     ax_sketch.set_aspect("equal", adjustable="box")
     ax_sketch.set_xlabel(f"x [{units.length}] ({units.frame})")
     ax_sketch.set_ylabel(f"y [{units.length}]")
-    ax_sketch.set_title("configurations during the scan" + (" (first sweep direction)" if len(direction_segments(main.states, coord)) > 1 else ""))
+    ax_sketch.set_title(
+        "configurations during the scan"
+        + (" (first sweep direction)" if len(direction_segments(main.states, coord)) > 1 else "")
+    )
     ax_sketch.legend(loc="upper right", fontsize=8)
 
     # -- observables ---------------------------------------------------------------------------
@@ -214,14 +248,28 @@ def plot_runs(
             "fy": np.array([s.fy for s in st]) * F,
             "s1": np.array([np.nan if s.s1 is None else s.s1 for s in st]) * L,
         }
-        for d, (a, b) in enumerate(direction_segments(st, coord)):
-            tag = f"{run.label}" + (f", sweep {d + 1}" if len(direction_segments(st, coord)) > 1 else "")
-            for ax, key, color in ((ax_m, "m0", "#2ca02c"), (ax_f, "f", "#9467bd"), (ax_fxy, "fx", "#ff7f0e"),
-                                   (ax_fxy, "fy", "#17becf"), (ax_s1, "s1", "#8c564b")):
+        segments = direction_segments(st, coord)
+        for d, (a, b) in enumerate(segments):
+            tag = f"{run.label}" + (f", sweep {d + 1}" if len(segments) > 1 else "")
+            for ax, key, color in (
+                (ax_m, "m0", "#2ca02c"),
+                (ax_f, "f", "#9467bd"),
+                (ax_fxy, "fx", "#ff7f0e"),
+                (ax_fxy, "fy", "#17becf"),
+                (ax_s1, "s1", "#8c564b"),
+            ):
                 alpha = 1.0 if d == 0 else 0.55
-                (line,) = ax.plot(x[a:b], series[key][a:b], styles[k % 2], color=color, lw=1.4, alpha=alpha,
-                                  label=f"{key} ({tag})", gid=f"{run.label}:{key}:{d}")
-                if len(direction_segments(st, coord)) > 1:
+                (line,) = ax.plot(
+                    x[a:b],
+                    series[key][a:b],
+                    styles[k % 2],
+                    color=color,
+                    lw=1.4,
+                    alpha=alpha,
+                    label=f"{key} ({tag})",
+                    gid=f"{run.label}:{key}:{d}",
+                )
+                if len(segments) > 1:
                     _arrows(ax, x[a:b], series[key][a:b], color, alpha)
     # phases shaded (first run, first direction) and events marked (all of the first run)
     a, b = first
@@ -232,14 +280,27 @@ def plot_runs(
         for i in range(1, len(ph) + 1):
             if i == len(ph) or ph[i] != ph[start]:
                 if ph[start] in SHADE:
-                    ax.axvspan(min(x[start], x[i - 1]), max(x[start], x[i - 1]), color=SHADE[ph[start]], alpha=0.08,
-                               lw=0, gid=f"phase{ph[start]}")
+                    ax.axvspan(
+                        min(x[start], x[i - 1]),
+                        max(x[start], x[i - 1]),
+                        color=SHADE[ph[start]],
+                        alpha=0.08,
+                        lw=0,
+                        gid=f"phase{ph[start]}",
+                    )
                 start = i
         for e in main.events:
             ax.axvline(coord(e) * scale_key, color="black", lw=0.6, ls=":", gid=f"event:{e.kind}")
     for e in main.events:
-        ax_m.annotate(e.kind, (coord(e) * scale_key, 1.0), xycoords=("data", "axes fraction"), fontsize=7, rotation=90,
-                      va="top", ha="right")
+        ax_m.annotate(
+            e.kind,
+            (coord(e) * scale_key, 1.0),
+            xycoords=("data", "axes fraction"),
+            fontsize=7,
+            rotation=90,
+            va="top",
+            ha="right",
+        )
     ax_m.set_ylabel(f"m0 [{units.moment}]")
     ax_f.set_ylabel(f"f [{units.force}]")
     ax_fxy.set_ylabel(f"fx, fy [{units.force}] ({units.frame})")
@@ -267,12 +328,25 @@ def _arrows(ax, x, y, color, alpha) -> None:
         j = min(i + max(1, len(ok) // 50), len(x) - 1)
         if not (np.isfinite(y[i]) and np.isfinite(y[j])) or (x[i] == x[j] and y[i] == y[j]):
             continue
-        ax.annotate("", xy=(x[j], y[j]), xytext=(x[i], y[i]),
-                    arrowprops=dict(arrowstyle="->", color=color, alpha=alpha, lw=1.2), gid="arrow")
+        ax.annotate(
+            "",
+            xy=(x[j], y[j]),
+            xytext=(x[i], y[i]),
+            arrowprops=dict(arrowstyle="->", color=color, alpha=alpha, lw=1.2),
+            gid="arrow",
+        )
 
 
-def si_units(length: float, force: float, moment: float, frame: str) -> Units:
-    return Units("m", "N", "N·m", length, force, moment, f"frame '{frame}'")
+def si_units(length: float, force: float, moment: float, frame: str) -> AxisUnits:
+    return AxisUnits("m", "N", "N·m", length, force, moment, f"frame '{frame}'")
 
 
-__all__ = ["Figure", "PlotRun", "Units", "direction_segments", "plot_runs", "si_units", "sketch_selection"]
+__all__ = [
+    "Figure",
+    "PlotRun",
+    "AxisUnits",
+    "direction_segments",
+    "plot_runs",
+    "si_units",
+    "sketch_selection",
+]

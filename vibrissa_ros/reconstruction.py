@@ -1,4 +1,5 @@
-"""``vibrissa reconstruct``: the scanned contour from what the sensor measured (a scan CSV or a log).
+"""
+``vibrissa reconstruct``: the scanned contour from what the sensor measured (scan CSV or log).
 
 Only the sensor's side of the data is read: foot poses and base wrenches (from a log), or the
 columns x0, fx, fy, m0 (from a scan CSV); other columns are ignored by the estimate and used, when
@@ -15,8 +16,8 @@ from typing import IO, List, Optional, Sequence, Tuple
 from .core.errors import VibrissaError
 from .core.inverse import ContactEstimate, estimate_contact
 from .core.state import FootPose
+from .edge import Units, header_ns, pose_of, wrench_to_core
 
-HALF_PI = 0.5 * math.pi
 RECONSTRUCTION_COLUMNS = ("x0", "phase", "contact_x", "contact_y", "alpha")
 
 
@@ -28,8 +29,12 @@ class Reconstruction:
     length: float  # input unit of length per L (1 for a scan CSV, L in m for a log)
     unit: str
     frame: str
-    truth: List[Tuple[float, float]]  # true contact points in input units, where the input carries them
-    profile: Optional[object] = None  # the true profile (dimensionless), where the input carries it
+    truth: List[
+        Tuple[float, float]
+    ]  # true contact points in input units, where the input carries them
+    profile: Optional[object] = (
+        None  # the true profile (dimensionless), where the input carries it
+    )
 
 
 def from_scan_csv(path: str, min_force: float = 0.0) -> Reconstruction:
@@ -39,7 +44,9 @@ def from_scan_csv(path: str, min_force: float = 0.0) -> Reconstruction:
         raise VibrissaError(f"{path}: empty CSV")
     missing = {"x0", "fx", "fy", "m0"} - set(rows[0])
     if missing:
-        raise VibrissaError(f"{path}: missing column(s) {', '.join(sorted(missing))}; need x0, fx, fy, m0")
+        raise VibrissaError(
+            f"{path}: missing column(s) {', '.join(sorted(missing))}; need x0, fx, fy, m0"
+        )
     estimates, truth = [], []
     for i, row in enumerate(rows, start=2):
         try:
@@ -55,10 +62,11 @@ def from_scan_csv(path: str, min_force: float = 0.0) -> Reconstruction:
 
 
 def from_log(path: str, min_force: float = 0.0) -> Reconstruction:
-    """Pairs every recorded foot pose with the wrench stamped like it (as whisker_node stamps it)."""
-    from .log_tools import configurations, decode
+    """Pair every recorded foot pose with the wrench of its stamp (as whisker_node stamps it)."""
+    from .log_tools import configurations
     from .mcap_log import read_log
     from .node_config import build_config
+    from .ros.serialization import decode
 
     _, _, metadata, messages = read_log(path)
     values = configurations(metadata)[0][1]
@@ -68,32 +76,37 @@ def from_log(path: str, min_force: float = 0.0) -> Reconstruction:
     for m in messages:
         if m.topic == f"{node}/foot_pose":
             msg = decode(m)
-            poses[msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec] = msg
+            poses[header_ns(msg)] = msg
         elif m.topic == f"{node}/wrench":
             msg = decode(m)
-            wrenches[msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec] = msg
+            wrenches[header_ns(msg)] = msg
     units = cfg.units
     estimates = []
     for stamp in sorted(wrenches):
         if stamp not in poses:
             continue
-        p, q = poses[stamp].pose.position, poses[stamp].pose.orientation
-        yaw = math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+        try:  # the node accepted only poses that pass its own checks
+            x, y, yaw = pose_of(poses[stamp], cfg.values["input.z_tolerance"],
+                                cfg.values["input.angle_tolerance"])
+        except VibrissaError:
+            continue
         w = wrenches[stamp].wrench
-        est = estimate_from_wrench(p.x, p.y, yaw, w.force.x, w.force.y, w.torque.z, units, min_force)
+        est = estimate_from_wrench(x, y, yaw, w.force.x, w.force.y, w.torque.z, units, min_force)
         if est is not None:
             estimates.append(est)
-    truth = [(decode(m).point.x, decode(m).point.y) for m in messages if m.topic == f"{node}/contact_point"]
-    return Reconstruction(estimates, units.length, "m", f"frame '{cfg.world_frame}'", truth, cfg.profile)
+    points = (decode(m) for m in messages if m.topic == f"{node}/contact_point")
+    truth = [(p.point.x, p.point.y) for p in points]
+    return Reconstruction(
+        estimates, units.length, "m", f"frame '{cfg.world_frame}'", truth, cfg.profile
+    )
 
 
-def estimate_from_wrench(x: float, y: float, yaw: float, force_x: float, force_y: float, torque_z: float, units,
+def estimate_from_wrench(x: float, y: float, yaw: float, force_x: float, force_y: float,
+                         torque_z: float, units: Units,
                          min_force: float = 0.0) -> Optional[ContactEstimate]:
     """One SI reading (base pose in the world, base-frame wrench) -> a dimensionless estimate."""
-    c, s = math.cos(yaw), math.sin(yaw)
-    fx = (c * force_x - s * force_y) / units.force  # world frame
-    fy = (s * force_x + c * force_y) / units.force
-    return estimate_contact(units.foot_pose(x, y, yaw), fx, fy, torque_z / units.moment, min_force / units.force)
+    fx, fy, m0 = wrench_to_core(yaw, force_x, force_y, torque_z, units)
+    return estimate_contact(units.foot_pose(x, y, yaw), fx, fy, m0, min_force / units.force)
 
 
 def write_csv(rec: Reconstruction, stream: IO[str]) -> None:
@@ -101,33 +114,59 @@ def write_csv(rec: Reconstruction, stream: IO[str]) -> None:
     writer.writerow(RECONSTRUCTION_COLUMNS)
     L = rec.length
     for e in rec.estimates:
-        writer.writerow([repr(e.pose.x * L), int(e.phase), repr(e.contact[0] * L), repr(e.contact[1] * L), repr(e.alpha)])
+        writer.writerow(
+            [
+                repr(e.pose.x * L),
+                int(e.phase),
+                repr(e.contact[0] * L),
+                repr(e.contact[1] * L),
+                repr(e.alpha),
+            ]
+        )
 
 
 def plot(rec: Reconstruction, path: str, title: str = "") -> None:
-    """The reconstructed contact points (by phase) over the true profile / contact points."""
+    """Draw the reconstructed contact points (by phase) over the true profile / contact points."""
     import numpy as np
 
     from .plots import PHASE_COLORS, PHASE_NAMES, plt
 
     L = rec.length
-    fig, (ax, ax_err) = plt.subplots(2, 1, figsize=(9, 8), layout="constrained", height_ratios=[2, 1])
+    fig, (ax, ax_err) = plt.subplots(
+        2, 1, figsize=(9, 8), layout="constrained", height_ratios=[2, 1]
+    )
     if rec.profile is not None:
         prof = rec.profile
         alphas = np.linspace(prof.alpha_min + 1e-3, prof.alpha_max - 1e-3, 1500)
         pts = np.array([prof.point(float(a)) for a in alphas]) * L
         ys = np.array([e.contact[1] for e in rec.estimates] or [0.0]) * L
         keep = pts[:, 1] <= (ys.max() + 0.5 * L)
-        ax.plot(pts[keep, 0], pts[keep, 1], color="#8c5a2b", lw=1.2, label="true profile", gid="profile")
+        ax.plot(
+            pts[keep, 0],
+            pts[keep, 1],
+            color="#8c5a2b",
+            lw=1.2,
+            label="true profile",
+            gid="profile",
+        )
     if rec.truth:
         t = np.array(rec.truth)
-        ax.plot(t[:, 0], t[:, 1], ".", ms=2, color="#999999", label="true contact points", gid="truth")
+        ax.plot(
+            t[:, 0], t[:, 1], ".", ms=2, color="#999999", label="true contact points", gid="truth"
+        )
     for phase in (1, 2):
         sel = [e for e in rec.estimates if int(e.phase) == phase]
         if sel:
             c = np.array([e.contact for e in sel]) * L
-            ax.plot(c[:, 0], c[:, 1], "o", ms=2.5, color=PHASE_COLORS[phase], label=f"estimated, {PHASE_NAMES[phase]}",
-                    gid=f"estimate{phase}")
+            ax.plot(
+                c[:, 0],
+                c[:, 1],
+                "o",
+                ms=2.5,
+                color=PHASE_COLORS[phase],
+                label=f"estimated, {PHASE_NAMES[phase]}",
+                gid=f"estimate{phase}",
+            )
     ax.set_aspect("equal", adjustable="datalim")
     ax.set_xlabel(f"x [{rec.unit}] ({rec.frame})")
     ax.set_ylabel(f"y [{rec.unit}]")
@@ -135,10 +174,18 @@ def plot(rec: Reconstruction, path: str, title: str = "") -> None:
     ax.set_title(title or "contour reconstructed from the base wrench")
     if rec.truth and len(rec.truth) == len(rec.estimates):
         err = [math.dist(np.array(e.contact) * L, t) for e, t in zip(rec.estimates, rec.truth)]
-        ax_err.semilogy([e.pose.x * L for e in rec.estimates], np.maximum(err, 1e-17), ".", ms=2, gid="error")
+        ax_err.semilogy(
+            [e.pose.x * L for e in rec.estimates], np.maximum(err, 1e-17), ".", ms=2, gid="error"
+        )
         ax_err.set_ylabel(f"|estimate - true contact| [{rec.unit}]")
     else:
-        ax_err.plot([e.pose.x * L for e in rec.estimates], [e.alpha for e in rec.estimates], ".", ms=2, gid="alpha")
+        ax_err.plot(
+            [e.pose.x * L for e in rec.estimates],
+            [e.alpha for e in rec.estimates],
+            ".",
+            ms=2,
+            gid="alpha",
+        )
         ax_err.set_ylabel("profile slope alpha [rad]")
     ax_err.set_xlabel(f"foot position x0 [{rec.unit}]")
     ax_err.grid(True, lw=0.3)
@@ -150,4 +197,10 @@ def reconstruct_input(path: str, min_force: float = 0.0) -> Reconstruction:
     return from_log(path, min_force) if path.endswith(".mcap") else from_scan_csv(path, min_force)
 
 
-__all__: Sequence[str] = ["Reconstruction", "reconstruct_input", "write_csv", "plot", "estimate_from_wrench"]
+__all__: Sequence[str] = [
+    "Reconstruction",
+    "reconstruct_input",
+    "write_csv",
+    "plot",
+    "estimate_from_wrench",
+]

@@ -1,8 +1,9 @@
-"""The scan CSV and events JSON contract (adapter: files; the core never writes files).
+"""
+The scan CSV and events JSON contract (adapter: files; the core never writes files).
 
 CSV columns, exactly: x0,phase,alpha,s1,tip_slope,f,fx,fy,m0,contact_x,contact_y (dimensionless,
-the paper's frame); a scan driven by foot poses starts with x,y,heading instead of x0. A free row has phase 0, f = fx = fy = m0 = 0 and empty alpha, s1, contact_x,
-contact_y. Numbers are written with 17 significant digits (round-trip exact).
+the paper's frame); a scan driven by foot poses starts with x,y,heading instead of x0. A free
+row has phase 0, f = fx = fy = m0 = 0 and empty alpha, s1, contact_x, contact_y. Numbers are written with 17 significant digits (round-trip exact).
 """
 
 from __future__ import annotations
@@ -14,7 +15,19 @@ from typing import IO, Iterable, List
 from .core.errors import ParameterError
 from .core.state import Event, FootPose, WhiskerState
 
-CSV_COLUMNS = ("x0", "phase", "alpha", "s1", "tip_slope", "f", "fx", "fy", "m0", "contact_x", "contact_y")
+CSV_COLUMNS = (
+    "x0",
+    "phase",
+    "alpha",
+    "s1",
+    "tip_slope",
+    "f",
+    "fx",
+    "fy",
+    "m0",
+    "contact_x",
+    "contact_y",
+)
 #: columns of a scan driven by foot poses (``vibrissa scan --poses``)
 POSE_CSV_COLUMNS = ("x", "y", "heading") + CSV_COLUMNS[1:]
 
@@ -77,7 +90,9 @@ def read_poses_csv(path: str) -> List[FootPose]:
             reader = csv.DictReader(stream)
             missing = [c for c in ("x", "y", "heading") if c not in (reader.fieldnames or [])]
             if missing:
-                raise ParameterError(f"--poses {path}: missing column(s) {', '.join(missing)}; need x,y,heading")
+                raise ParameterError(
+                    f"--poses {path}: missing column(s) {', '.join(missing)}; need x,y,heading"
+                )
             poses = []
             for line, row in enumerate(reader, start=2):
                 try:

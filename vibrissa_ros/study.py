@@ -52,8 +52,15 @@ WHISKER_KEYS = ("model", "spring_stiffness")
 OBSTACLE_KEYS = ("profile", "params", "samples")
 PLACEMENT_KEYS = ("x", "y", "rotation_deg", "samples")
 MOTION_KEYS = ("from", "to", "step", "back")
-NOISE_KEYS = ("force_stddev", "torque_stddev", "force_bias_x", "force_bias_y", "torque_bias", "force_step",
-              "torque_step")
+NOISE_KEYS = (
+    "force_stddev",
+    "torque_stddev",
+    "force_bias_x",
+    "force_bias_y",
+    "torque_bias",
+    "force_step",
+    "torque_step",
+)
 RANDOM_KINDS = ("uniform", "loguniform")
 #: at most this many tasks in one study (a study file that would expand further is refused)
 MAX_TASKS = 10_000_000
@@ -101,14 +108,18 @@ class Task:
     noise_seed: Optional[int] = None
 
     def obstacle(self) -> ConvexProfile:
-        return place_obstacle(make_profile(self.profile, dict(self.params)), self.x, self.y, self.rotation_deg)
+        return place_obstacle(
+            make_profile(self.profile, dict(self.params)), self.x, self.y, self.rotation_deg
+        )
 
     def grid(self) -> np.ndarray:
         return scan_grid(self.sweep_from, self.sweep_to, self.sweep_step, self.back)
 
     def whisker_model(self):
         if self.model == "rigid":
-            return make_model("rigid", stiffness=1.0 if self.spring_stiffness is None else self.spring_stiffness)
+            return make_model(
+                "rigid", stiffness=1.0 if self.spring_stiffness is None else self.spring_stiffness
+            )
         return make_model(self.model)
 
     def scan_command(self) -> str:
@@ -121,13 +132,19 @@ class Task:
             words += ["--spring-stiffness", repr(self.spring_stiffness)]
         if (self.x, self.y, self.rotation_deg) != (0.0, 0.0, 0.0):
             words += [f"--place={self.x!r},{self.y!r},{self.rotation_deg!r}"]
-        words += [f"--from={self.sweep_from!r}", f"--to={self.sweep_to!r}", f"--step={self.sweep_step!r}"]
+        words += [
+            f"--from={self.sweep_from!r}",
+            f"--to={self.sweep_to!r}",
+            f"--step={self.sweep_step!r}",
+        ]
         if self.back:
             words.append("--back")
         return " ".join(words + ["--csv", f"task-{self.index}.csv"])
 
 
-def place_obstacle(profile: ConvexProfile, x: float = 0.0, y: float = 0.0, rotation_deg: float = 0.0) -> ConvexProfile:
+def place_obstacle(
+    profile: ConvexProfile, x: float = 0.0, y: float = 0.0, rotation_deg: float = 0.0
+) -> ConvexProfile:
     """The obstacle turned by ``rotation_deg`` [deg] counter-clockwise about its apex (0, p0), then
     moved by (``x``, ``y``) [L]: its apex ends at (x, p0 + y)."""
     if (x, y, rotation_deg) == (0.0, 0.0, 0.0):
@@ -162,6 +179,7 @@ class Study:
 
 
 # -- reading ---------------------------------------------------------------------------------------
+
 
 def load_study(path: str) -> Study:
     """Read and validate a study file; raises :class:`StudyError` (one line) when it is not valid."""
@@ -199,7 +217,9 @@ def parse_study(text: str) -> Study:
     noises = _noises(doc.get("noise"))
 
     tasks: List[Task] = []
-    place_axes = {k: _axis(f"placement.{k}", placement.get(k, 0.0)) for k in ("x", "y", "rotation_deg")}
+    place_axes = {
+        k: _axis(f"placement.{k}", placement.get(k, 0.0)) for k in ("x", "y", "rotation_deg")
+    }
     place_samples = _integer("placement.samples", placement.get("samples", 1), minimum=1)
     place_random = any(isinstance(v, _Random) for axis in place_axes.values() for v in axis)
     if place_samples > 1 and not place_random:
@@ -214,15 +234,33 @@ def parse_study(text: str) -> Study:
         placements.append(rows)
     count = len(whiskers) * sum(len(p) for p in placements) * len(motions) * len(noises)
     if count > MAX_TASKS:
-        raise StudyError(f"the study expands to {count:,} tasks; at most {MAX_TASKS:,} are allowed")
+        raise StudyError(
+            f"the study expands to {count:,} tasks; at most {MAX_TASKS:,} are allowed"
+        )
     for model, stiffness in whiskers:
         for ob_index, (name, params) in enumerate(obstacles):
             for x, y, rot in placements[ob_index]:
                 for sweep_from, sweep_to, step, back in motions:
                     for noise in noises:
                         index = len(tasks)
-                        tasks.append(Task(index, model, stiffness, name, params, x, y, rot, sweep_from, sweep_to,
-                                          step, back, noise, None if noise is None else _noise_seed(seed, index)))
+                        tasks.append(
+                            Task(
+                                index,
+                                model,
+                                stiffness,
+                                name,
+                                params,
+                                x,
+                                y,
+                                rot,
+                                sweep_from,
+                                sweep_to,
+                                step,
+                                back,
+                                noise,
+                                None if noise is None else _noise_seed(seed, index),
+                            )
+                        )
     if not tasks:
         raise StudyError("the study has no task")
     names: List[str] = []
@@ -235,23 +273,30 @@ def parse_study(text: str) -> Study:
 
 def _noise_seed(seed: int, index: int) -> int:
     """The task's own noise seed: independent streams per task, reproducible from (seed, index)."""
-    return int(np.random.SeedSequence([seed, 3, index]).generate_state(1, np.uint64)[0] >> np.uint64(1))
+    return int(
+        np.random.SeedSequence([seed, 3, index]).generate_state(1, np.uint64)[0] >> np.uint64(1)
+    )
 
 
 # -- blocks ----------------------------------------------------------------------------------------
+
 
 def _whiskers(block) -> List[Tuple[str, Optional[float]]]:
     block = _block("whisker", block, WHISKER_KEYS)
     models = _values("whisker.model", block.get("model", "elastica"), kind=str)
     for name in models:
         if name not in MODELS:
-            raise StudyError(f"whisker.model = {name!r} is not allowed; allowed: {', '.join(MODELS)}")
+            raise StudyError(
+                f"whisker.model = {name!r} is not allowed; allowed: {', '.join(MODELS)}"
+            )
     if len(set(models)) != len(models):
         raise StudyError("whisker.model lists a model twice")
     stiffnesses: List[Optional[float]] = [None]
     if "spring_stiffness" in block:
         if "rigid" not in models:
-            raise StudyError("whisker.spring_stiffness applies to the rigid model; whisker.model has no 'rigid'")
+            raise StudyError(
+                "whisker.spring_stiffness applies to the rigid model; whisker.model has no 'rigid'"
+            )
         stiffnesses = _values("whisker.spring_stiffness", block["spring_stiffness"], positive=True)
     out: List[Tuple[str, Optional[float]]] = []
     for name in models:
@@ -270,15 +315,27 @@ def _obstacles(block, seed: int) -> List[Tuple[str, Tuple[Tuple[str, float], ...
         entry = _block(where, entry, OBSTACLE_KEYS, required=("profile",))
         name = entry["profile"]
         if name not in PROFILE_PARAMETERS:
-            raise StudyError(f"{where}.profile = {name!r} is not allowed; allowed: {', '.join(PROFILE_PARAMETERS)}")
+            raise StudyError(
+                f"{where}.profile = {name!r} is not allowed; allowed: {', '.join(PROFILE_PARAMETERS)}"
+            )
         allowed = PROFILE_PARAMETERS[name]
-        params = _block(f"{where}.params", entry.get("params", {}), tuple(allowed),
-                        required=tuple(k for k, d in allowed.items() if d is None))
-        axes = {k: _axis(f"{where}.params.{k}", params[k], positive=(k != "p0")) for k in allowed if k in params}
+        params = _block(
+            f"{where}.params",
+            entry.get("params", {}),
+            tuple(allowed),
+            required=tuple(k for k, d in allowed.items() if d is None),
+        )
+        axes = {
+            k: _axis(f"{where}.params.{k}", params[k], positive=(k != "p0"))
+            for k in allowed
+            if k in params
+        }
         samples = _integer(f"{where}.samples", entry.get("samples", 1), minimum=1)
         random = any(isinstance(v, _Random) for axis in axes.values() for v in axis)
         if samples > 1 and not random:
-            raise StudyError(f"{where}.samples > 1 needs a random parameter ({{uniform: [lo, hi]}})")
+            raise StudyError(
+                f"{where}.samples > 1 needs a random parameter ({{uniform: [lo, hi]}})"
+            )
         for combo_index, combo in enumerate(_grid(f"{where}.params", axes)):
             for sample in range(samples):
                 rng = np.random.default_rng([seed, 1, i, combo_index, sample])
@@ -295,12 +352,17 @@ def _obstacles(block, seed: int) -> List[Tuple[str, Tuple[Tuple[str, float], ...
 def _motions(block) -> List[Tuple[float, float, float, bool]]:
     blocks = block if isinstance(block, list) else [block]
     if not blocks:
-        raise StudyError("motion must be a {from, to, step, back} block or a non-empty list of them")
+        raise StudyError(
+            "motion must be a {from, to, step, back} block or a non-empty list of them"
+        )
     out = []
     for i, entry in enumerate(blocks):
         where = "motion" if not isinstance(block, list) else f"motion[{i}]"
         entry = _block(where, entry, MOTION_KEYS, required=("from", "to", "step"))
-        axes = {k: _values(f"{where}.{k}", entry[k], positive=(k == "step")) for k in ("from", "to", "step")}
+        axes = {
+            k: _values(f"{where}.{k}", entry[k], positive=(k == "step"))
+            for k in ("from", "to", "step")
+        }
         axes["back"] = _values(f"{where}.back", entry.get("back", False), kind=bool)
         for combo in _grid(where, axes):
             motion = (combo["from"], combo["to"], combo["step"], combo["back"])
@@ -326,6 +388,7 @@ def _noises(block) -> List[Optional[Noise]]:
 
 # -- values ----------------------------------------------------------------------------------------
 
+
 @dataclass(frozen=True)
 class _Random:
     kind: str
@@ -341,7 +404,9 @@ def _draw(value, rng: np.random.Generator) -> float:
     return float(math.exp(rng.uniform(math.log(value.lo), math.log(value.hi))))
 
 
-def _keys(where: str, block: Mapping, allowed: Sequence[str], required: Sequence[str] = ()) -> None:
+def _keys(
+    where: str, block: Mapping, allowed: Sequence[str], required: Sequence[str] = ()
+) -> None:
     for key in block:
         if key not in allowed:
             raise StudyError(f"{where}: unknown key {key!r}; allowed: {', '.join(allowed)}")
@@ -350,9 +415,13 @@ def _keys(where: str, block: Mapping, allowed: Sequence[str], required: Sequence
             raise StudyError(f"{where}: key {key!r} is required")
 
 
-def _block(where: str, block, allowed: Sequence[str], required: Sequence[str] = ()) -> Dict[str, Any]:
+def _block(
+    where: str, block, allowed: Sequence[str], required: Sequence[str] = ()
+) -> Dict[str, Any]:
     if not isinstance(block, dict):
-        raise StudyError(f"{where} must be a mapping with the keys {', '.join(allowed)}, not {_show(block)}")
+        raise StudyError(
+            f"{where} must be a mapping with the keys {', '.join(allowed)}, not {_show(block)}"
+        )
     _keys(where, block, allowed, required)
     return block
 
@@ -409,15 +478,19 @@ def _axis(where: str, value, positive=False) -> list:
     """A number, a list of numbers or a random draw ``{uniform: [lo, hi]}`` / ``{loguniform: [lo, hi]}``."""
     if isinstance(value, dict):
         if len(value) != 1 or next(iter(value)) not in RANDOM_KINDS:
-            raise StudyError(f"{where} = {_show(value)}: a random value is one of "
-                             + ", ".join(f"{{{k}: [lo, hi]}}" for k in RANDOM_KINDS))
+            raise StudyError(
+                f"{where} = {_show(value)}: a random value is one of "
+                + ", ".join(f"{{{k}: [lo, hi]}}" for k in RANDOM_KINDS)
+            )
         kind, bounds = next(iter(value.items()))
         if not isinstance(bounds, list) or len(bounds) != 2:
             raise StudyError(f"{where}.{kind} must be [lo, hi], not {_show(bounds)}")
         lo = _number(f"{where}.{kind}", bounds[0], positive=positive or kind == "loguniform")
         hi = _number(f"{where}.{kind}", bounds[1], positive=positive)
         if not lo < hi:
-            raise StudyError(f"{where}.{kind} = [{lo!r}, {hi!r}] is an empty range; lo < hi is required")
+            raise StudyError(
+                f"{where}.{kind} = [{lo!r}, {hi!r}] is an empty range; lo < hi is required"
+            )
         return [_Random(kind, lo, hi)]
     return _values(where, value, positive=positive)
 

@@ -1,0 +1,119 @@
+"""The node's pose path without ROS: checks in order, drop reasons, state kept, reset, counting."""
+
+import math
+
+import pytest
+
+from vibrissa_ros.core import ConvergenceError, InvalidPoseError, ModelAssumptionError, run_scan
+from vibrissa_ros.edge import BadInput, sensor_reading, yaw_quaternion
+from vibrissa_ros.node_config import build_config
+from vibrissa_ros.pipeline import DROP_REASONS, PosePipeline, PoseStats, drop_reason
+
+HALF_PI = math.pi / 2
+CATENARY = {"obstacle.type": "catenary", "obstacle.c": 0.06, "obstacle.apex_y": 0.05}
+Q = yaw_quaternion(HALF_PI)
+
+
+def _pipeline(**values):
+    return PosePipeline(build_config(dict(CATENARY, **values)))
+
+
+def test_a_sweep_through_the_pipeline_equals_the_core_scan():
+    pipe = _pipeline()
+    xs = [0.15 - 0.005 * i for i in range(61)]
+    states = [pipe.handle("world", i, (x, 0.0, 0.0), Q)[0] for i, x in enumerate(xs)]
+    scan = run_scan(pipe.config.profile, [x / 0.1 for x in xs]).states
+    assert [s.m0 for s in states] == pytest.approx([s.m0 for s in scan], rel=1e-12, abs=1e-15)
+    assert {int(s.phase) for s in states} == {0, 1, 2}
+    reading, sensed = pipe.reading(states[30])
+    assert reading == sensor_reading(states[30], pipe.config.units)
+    assert sensed == (reading.force_base[0], reading.force_base[1], reading.torque_z)
+
+
+@pytest.mark.parametrize(
+    "frame, stamp, position, quaternion, reason",
+    [
+        ("map", 10, (0.1, 0.0, 0.0), Q, "wrong_frame_id"),
+        ("world", 4, (0.1, 0.0, 0.0), Q, "stamp_backwards"),
+        ("world", 10, (math.nan, 0.0, 0.0), Q, "not_finite"),
+        ("world", 10, (0.1, 0.0, 0.0), (0.0, 0.0, 0.0, 2.0), "quaternion_not_unit"),
+        ("world", 10, (0.1, 0.0, 0.5), Q, "out_of_plane"),
+        ("world", 10, (1e308, 0.0, 0.0), Q, "not_finite"),  # overflows in whisker lengths
+        ("world", 10, (0.0, -1e6, 0.0), Q, "out_of_range"),  # absurd for the model
+    ],
+)
+def test_bad_poses_are_dropped_with_their_reason_and_the_state_is_kept(frame, stamp, position,
+                                                                        quaternion, reason):
+    pipe = _pipeline()
+    pipe.handle("world", 5, (0.15, 0.0, 0.0), Q)
+    before = pipe.state
+    with pytest.raises(BadInput) as info:
+        pipe.handle(frame, stamp, position, quaternion)
+    assert drop_reason(info.value) == reason and pipe.state is before
+    assert pipe.last_stamp_ns == 5
+
+
+def test_the_frame_check_comes_first_then_the_stamp():
+    pipe = _pipeline()
+    pipe.handle("world", 5, (0.15, 0.0, 0.0), Q)
+    with pytest.raises(BadInput, match="frame"):
+        pipe.handle("map", 1, (math.nan, 0.0, 0.0), Q)
+    with pytest.raises(BadInput, match="older"):
+        pipe.handle("world", 1, (math.nan, 0.0, 0.0), Q)
+
+
+def test_a_first_pose_inside_the_obstacle_is_dropped_and_the_next_free_one_places_it():
+    pipe = _pipeline()
+    with pytest.raises(InvalidPoseError) as info:
+        pipe.handle("world", 1, (0.0, 0.0, 0.0), Q)  # the straight whisker would cut the catenary
+    assert drop_reason(info.value) == "inside_obstacle" and pipe.state is None
+    state, events = pipe.handle("world", 2, (0.2, 0.0, 0.0), Q)
+    assert int(state.phase) == 0 and events == ()
+
+
+def test_reconfigure_resets_only_when_asked():
+    pipe = _pipeline()
+    pipe.handle("world", 1, (0.15, 0.0, 0.0), Q)
+    pipe.handle("world", 2, (0.0, 0.0, 0.0), Q)
+    assert int(pipe.state.phase) > 0
+    pipe.reconfigure(build_config(dict(CATENARY, **{"centerline.points": 5})), reset=False)
+    assert int(pipe.state.phase) > 0
+    pipe.reconfigure(build_config(CATENARY), reset=True)
+    assert pipe.state is None
+
+
+@pytest.mark.parametrize(
+    "exc, reason",
+    [
+        (BadInput("out_of_plane", "z"), "out_of_plane"),
+        (InvalidPoseError("inside"), "inside_obstacle"),
+        (ConvergenceError("no"), "not_converged"),
+        (ModelAssumptionError("WH1"), "model_assumption"),
+        (OverflowError("math range error"), "internal_error"),
+        (ZeroDivisionError(), "internal_error"),
+    ],
+)
+def test_drop_reasons(exc, reason):
+    assert drop_reason(exc) == reason and reason in DROP_REASONS
+
+
+def test_stats_count_and_summarize_a_period():
+    stats = PoseStats(slow_step_s=0.01)
+    stats.received = 4
+    stats.accepted(2_000, ())
+    stats.accepted(50_000_000, ())
+    assert stats.drop("not_finite", "nan") == 1 and stats.drop("not_finite", "inf") == 2
+    stats.waiting(3)
+    stats.waiting(1)
+    period = stats.period()
+    assert period["solves_in_period"] == 2 and period["backlog_in_period"] == 3
+    assert float(period["solve_time_max_us"]) == 50_000.0
+    assert stats.slow_steps == 1 and stats.slowest_step_s == 0.05 and stats.backlog_max == 3
+    assert stats.last_error == "not_finite: inf" and stats.processed == 2
+    empty = stats.period()
+    assert empty["solves_in_period"] == 0 and empty["solve_time_median_us"] == ""
+    assert empty["backlog_in_period"] == 0 and stats.backlog_max == 3
+    values = stats.values()
+    assert values["poses_received"] == 4 and values["poses_dropped"] == 2
+    assert values["dropped_not_finite"] == 2 and values["slowest_step_ms"] == "50.0"
+    assert {f"dropped_{r}" for r in DROP_REASONS} <= set(values)

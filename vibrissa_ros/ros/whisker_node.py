@@ -1,0 +1,266 @@
+"""
+ROS 2 virtual whisker: foot poses in, the follicle sensor's wrench and the contact state out.
+
+In: ``~/foot_pose`` (geometry_msgs/PoseStamped in ``world_frame``). Out: ``~/wrench`` (base frame),
+``~/phase``, ``~/contact_force``, ``~/contact_force_magnitude``, ``~/contact_point``,
+``~/arc_length``, ``~/events``, ``~/centerline``, ``~/obstacle`` (latched) and ``/diagnostics``;
+the README's topic table says what each carries. Every message with a header carries the stamp
+of the pose that produced it; the wrench and events are always published, the other per-pose
+topics only while somebody subscribes (or the node records). This module only wires: checks and
+steps are :mod:`vibrissa_ros.pipeline`'s, conversions :mod:`vibrissa_ros.edge`'s, messages
+:mod:`.messages`', recording :mod:`.recorder`'s and queueing :mod:`.backlog`'s.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from typing import Dict, Optional
+
+from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import PoseStamped, WrenchStamped
+from rclpy.node import Node
+
+from ..edge import event_record, header_ns
+from ..mcap_log import LogError
+from ..node_config import PARAMETERS, WhiskerConfig, build_config
+from ..pipeline import PosePipeline, PoseStats, drop_reason
+from . import messages as m
+from .backlog import PoseBacklog
+from .params import NodeParameters
+from .recorder import Recorder
+from .run import RCLError, run_node
+from .topics import OPTIONAL, OUTPUTS, POSES
+
+LOG_THROTTLE_S = 1.0  # seconds between two log lines of the same drop reason
+BATCH = 100  # poses processed per executor callback at most (timers and services get a turn)
+TAKE_EVERY = 10  # poses processed between two takes of what DDS holds
+
+
+class WhiskerNode(Node):
+    """A virtual whisker: each foot pose is a quasistatic step from the previous one."""
+
+    def __init__(self, node_name: str = "whisker_node", **kwargs):
+        super().__init__(node_name, **kwargs)
+        self._params = NodeParameters(self, PARAMETERS, build_config, self._apply_parameters)
+        self._pipeline = PosePipeline(self.config)
+        self._stats = PoseStats()
+        self._recorder: Optional[Recorder] = None
+        self._record_error = ""
+        self._last_log: Dict[str, float] = {}
+        self._last_centerline = -math.inf
+        self._listened: Dict[str, bool] = {}
+        self._listened_at = -math.inf
+        self._wrench = WrenchStamped()  # reused: building a message costs more than the solve
+        self._pub = {key: self.create_publisher(kind, f"~/{key}", qos)
+                     for key, (kind, qos) in OUTPUTS.items()}
+        self._pub["diagnostics"] = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
+        self._sub = self.create_subscription(PoseStamped, "~/foot_pose", self._on_pose, POSES)
+        self._backlog = PoseBacklog(self._sub)
+        self._more = self.create_guard_condition(self._work)
+        period = float(self.config.values["diagnostics.period"])
+        self.create_timer(period, self._publish_diagnostics)
+        self.create_timer(0.25, self._watch_recording)
+        self._start_recording(self.config.values["record.path"])
+        self._publish_obstacle()
+        self.get_logger().info(f"ready: {self.config.describe()}; poses on {self._sub.topic_name}")
+
+    @property
+    def config(self) -> WhiskerConfig:
+        return self._params.config
+
+    def _now_ns(self) -> int:
+        """Log times: the node's clock, like every header the node stamps (sim time too)."""
+        return self.get_clock().now().nanoseconds
+
+    def _apply_parameters(self, config: WhiskerConfig, names) -> None:
+        if "record.path" in names:
+            self._stop_recording()
+            self._start_recording(config.values["record.path"])
+        resets = self._params.resets(names)
+        if self._recorder is not None:
+            self._recorder.configuration(config.values, self._now_ns(), resets)
+        self._pipeline.reconfigure(config, resets)
+        if resets:
+            self.get_logger().info(
+                f"parameters changed ({', '.join(sorted(names))}): the whisker is reset to free; "
+                f"the next pose places it. Now: {config.describe()}")
+            self._publish_obstacle()
+
+    # -- recording ------------------------------------------------------------------------------
+    def _start_recording(self, path: str) -> None:
+        if not path:
+            return
+        endpoints = {**self._pub, "foot_pose": self._sub}
+        try:
+            self._recorder = Recorder(path, endpoints, self.config.values,
+                                      self.get_fully_qualified_name(), self._recording_failed)
+        except LogError as exc:
+            self._recording_failed(str(exc))
+            return
+        self._record_error = ""
+        self.get_logger().info(f"recording to {path}")
+
+    def _recording_failed(self, reason: str) -> None:
+        """Report a failed recording, once (from the recorder's thread, possibly)."""
+        self._record_error = reason
+        if self.context.ok():
+            self.get_logger().error(f"recording stopped: {reason}; the whisker keeps running "
+                                    "without recording")
+
+    def _watch_recording(self) -> None:
+        """Let go of a recorder that failed (its error stays on /diagnostics)."""
+        if self._recorder is not None and self._recorder.error is not None:
+            self._recorder = None
+
+    def _stop_recording(self) -> None:
+        recorder, self._recorder = self._recorder, None
+        if recorder is None:
+            return
+        recorder.close()
+        if recorder.error is None and self.context.ok():  # /rosout is gone while shutting down
+            self.get_logger().info(f"recording finished: {recorder.path} "
+                                   f"({recorder.written} messages)")
+
+    def _record(self, key: str, msg, log_time: int) -> None:
+        if self._recorder is not None:
+            self._recorder.write(key, msg, log_time)
+
+    def _send(self, key: str, msg, log_time: int) -> None:
+        """Record, then publish: all the node published is in its log, even after a signal."""
+        self._record(key, msg, log_time)
+        try:
+            self._pub[key].publish(msg)
+        except RCLError:
+            if self.context.ok():
+                raise
+
+    def destroy_node(self):
+        self._stop_recording()
+        return super().destroy_node()
+
+    # -- input ----------------------------------------------------------------------------------
+    def _on_pose(self, msg: PoseStamped) -> None:
+        if self._backlog:  # older poses are still waiting: this one goes behind them (and
+            self._backlog.append(msg)  # before those still in DDS, which are newer)
+        else:
+            self._process_pose(msg)
+        self._work()
+
+    def _work(self) -> None:
+        """Process up to BATCH waiting poses; if more wait, come back after the executor's turn."""
+        self._backlog.take_available()
+        for i in range(BATCH):
+            if not self._backlog:
+                return
+            self._stats.waiting(len(self._backlog))
+            self._process_pose(self._backlog.pop())
+            if i % TAKE_EVERY == TAKE_EVERY - 1:
+                self._backlog.take_available()
+        if self._backlog:
+            self._more.trigger()
+
+    def _process_pose(self, msg: PoseStamped) -> None:
+        self._stats.received += 1
+        now = self._now_ns()
+        self._record("foot_pose", msg, now)
+        p, q = msg.pose.position, msg.pose.orientation
+        t0 = time.perf_counter_ns()
+        try:
+            state, events = self._pipeline.handle(msg.header.frame_id, header_ns(msg),
+                                                  (p.x, p.y, p.z), (q.x, q.y, q.z, q.w))
+        except Exception as exc:  # noqa: BLE001 - nothing from the core may kill the node
+            self._drop(drop_reason(exc), f"{type(exc).__name__}: {exc}")
+            return
+        self._stats.accepted(time.perf_counter_ns() - t0, events)
+        self._publish_state(msg.header.stamp, state, events, now)
+
+    def _drop(self, reason: str, message: str) -> None:
+        count = self._stats.drop(reason, message)
+        now = time.monotonic()
+        if now - self._last_log.get(reason, -math.inf) >= LOG_THROTTLE_S:
+            self._last_log[reason] = now
+            self.get_logger().warning(
+                f"dropped a foot pose ({reason}, {count} so far): {message}; state kept")
+
+    # -- output ---------------------------------------------------------------------------------
+    def _listening(self) -> Dict[str, bool]:
+        """Return which optional topics have subscribers (a graph query, made every 0.1 s)."""
+        now = time.monotonic()
+        if now - self._listened_at > 0.1:
+            self._listened_at = now
+            self._listened = {k: self._pub[k].get_subscription_count() > 0 for k in OPTIONAL}
+        return self._listened
+
+    def _emit(self, key: str, make, now: int, listening: Dict[str, bool]) -> None:
+        """Publish (and record) an optional topic only when someone takes it."""
+        if listening[key] or self._recorder is not None:
+            self._send(key, make(), now)
+
+    def _publish_state(self, stamp, state, events, now: int) -> None:
+        cfg = self.config
+        reading, (sx, sy, sz) = self._pipeline.reading(state)
+        wrench = m.fill_wrench(self._wrench, stamp, cfg.base_frame, (sx, sy), sz)
+        self._send("wrench", wrench, now)
+        listening = self._listening()
+        world = cfg.world_frame
+        self._emit("phase", lambda: m.phase_msg(reading.phase), now, listening)
+        self._emit("contact_force", lambda: m.vector_stamped(stamp, world, reading.force_world),
+                   now, listening)
+        self._emit("contact_force_magnitude", lambda: m.float_msg(reading.force_magnitude), now,
+                   listening)
+        if reading.contact_world is not None:
+            self._emit("contact_point",
+                       lambda: m.point_stamped(stamp, world, reading.contact_world), now,
+                       listening)
+            self._emit("arc_length", lambda: m.float_msg(reading.s1), now, listening)
+        for event in events:
+            record = event_record(event, cfg.units)
+            msg = m.event_msg(record)
+            self._send("events", msg, now)
+            self.get_logger().info(f"event: {msg.data}")
+        max_rate = cfg.values["centerline.max_rate"]
+        tick = time.monotonic()
+        if max_rate <= 0.0 or tick - self._last_centerline >= 1.0 / max_rate:
+            n = int(cfg.values["centerline.points"])
+            self._last_centerline = tick
+            self._emit("centerline",
+                       lambda: m.centerline_path(stamp, world,
+                                                 state.centerline(n) * cfg.units.length),
+                       now, listening)
+
+    def _publish_obstacle(self) -> None:
+        cfg = self.config
+        marker = m.obstacle_marker(cfg.profile, cfg.units.length, cfg.world_frame,
+                                   self.get_clock().now().to_msg())
+        self._send("obstacle", marker, self._now_ns())
+
+    def _publish_diagnostics(self) -> None:
+        stats, recorder = self._stats, self._recorder
+        if recorder is not None and recorder.error is not None:
+            recorder = None
+        state = self._pipeline.state
+        phase = None if state is None else int(state.phase)
+        values = {
+            "phase": "none" if phase is None else str(phase),
+            **stats.values(),
+            "configuration": self.config.describe(),
+            "recording": recorder.path if recorder is not None else "",
+            "recorded_messages": recorder.written if recorder is not None else 0,
+            "recording_error": self._record_error,
+        }
+        status = m.whisker_status(self.get_fully_qualified_name(), phase, values["poses_dropped"],
+                                  stats.last_error, self._record_error, values)
+        array = m.diagnostic_array(self.get_clock().now().to_msg(), [status])
+        self._send("diagnostics", array, self._now_ns())
+
+
+def main(args=None) -> int:
+    """Entry point of ``ros2 run vibrissa_ros whisker_node``."""
+    return run_node(WhiskerNode, "whisker_node", args)
+
+
+if __name__ == "__main__":  # pragma: no cover
+    import sys
+
+    sys.exit(main())
