@@ -367,6 +367,7 @@ class ContourConfig:
 
     values: Mapping[str, Any]
     units: Units
+    shape: WhiskerShape = WhiskerShape()
 
     @property
     def world_frame(self) -> str:
@@ -383,17 +384,20 @@ class ContourConfig:
     def describe(self) -> str:
         """One line: the whisker and the frames."""
         v = self.values
+        ei = self.units.moment * self.units.length
         return (
-            f"elastica whisker L={v['whisker.length']!r} m, EI={v['whisker.bending_stiffness']!r}"
-            f" N m^2; poses in '{v['world_frame']}', wrenches in '{v['base_frame']}'"
+            f"elastica whisker L={v['whisker.length']!r} m, EI={ei!r}"
+            f" N m^2, taper={v['whisker.taper']!r}, k0={v['whisker.curvature_k0']!r} 1/m, "
+            f"k1={v['whisker.curvature_k1']!r} 1/m^2; poses in '{v['world_frame']}', wrenches in "
+            f"'{v['base_frame']}'"
         )
 
 
 def build_contour_config(values: Mapping[str, Any]) -> ContourConfig:
     """Validate contour_node's parameter values; raises :class:`ParameterError` with the reason."""
     values = validate(CONTOUR_PARAMETERS, values)
-    whisker_shape(values)  # refuses a curvature the model cannot take, with the reason
-    return ContourConfig(values, Units.elastica(values["whisker.length"], base_stiffness(values)))
+    return ContourConfig(values, Units.elastica(values["whisker.length"], base_stiffness(values)),
+                         whisker_shape(values))
 
 
 __all__ = ["PARAMETERS", "SPECS", "CONTOUR_PARAMETERS", "CONTOUR_SPECS", "WhiskerConfig",
