@@ -79,6 +79,9 @@ def parameter_fields(layout: Layout) -> List[pa.Field]:
     fields = [
         pa.field("model", pa.string(), nullable=False),
         pa.field("spring_stiffness", pa.float64()),
+        pa.field("taper", pa.float64(), nullable=False),
+        pa.field("curvature_k0", pa.float64(), nullable=False),
+        pa.field("curvature_k1", pa.float64(), nullable=False),
         pa.field("profile", pa.string(), nullable=False),
     ]
     fields += [pa.field(name, pa.float64()) for name in layout.param_names]
@@ -141,6 +144,9 @@ def task_parameters(task: Task, study_params: Sequence[str]) -> Dict[str, object
     row: Dict[str, object] = {
         "model": task.model,
         "spring_stiffness": task.spring_stiffness,
+        "taper": task.taper,
+        "curvature_k0": task.curvature_k0,
+        "curvature_k1": task.curvature_k1,
         "profile": task.profile,
     }
     row.update({name: params.get(name) for name in study_params})

@@ -6,6 +6,7 @@ grid axis: the study takes every value) or a random draw ``{uniform: [lo, hi]}``
 
     seed: 7                          # random draws and sensor noise (default 0)
     whisker:   {model: [elastica, rigid], spring_stiffness: 3}
+               # or a real whisker: {taper: [1, 0.2, 0.0667], curvature_k0: [0, 0.5], curvature_k1: 0}
     obstacles:                       # a list of obstacle families
       - profile: parabola
         params: {p0: [0.2, 0.35], k: [0.5, 1, 2]}
@@ -37,6 +38,7 @@ from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple
 import numpy as np
 
 from .core.errors import ParameterError, VibrissaError
+from .core.general import GeneralWhiskerModel, WhiskerShape
 from .core.models import MODELS, make_model
 from .core.profiles import PROFILE_PARAMETERS as _ALL_PROFILE_PARAMETERS
 from .core.profiles import ConvexProfile, make_profile
@@ -48,7 +50,7 @@ from .core.scan import scan_grid
 
 #: the keys each block allows (a new axis of the study is a new key here, with the code that computes it)
 TOP_KEYS = ("description", "seed", "whisker", "obstacles", "placement", "motion", "noise")
-WHISKER_KEYS = ("model", "spring_stiffness")
+WHISKER_KEYS = ("model", "spring_stiffness", "taper", "curvature_k0", "curvature_k1")
 OBSTACLE_KEYS = ("profile", "params", "samples")
 PLACEMENT_KEYS = ("x", "y", "rotation_deg", "samples")
 MOTION_KEYS = ("from", "to", "step", "back")
@@ -106,6 +108,11 @@ class Task:
     back: bool
     noise: Optional[Noise] = None
     noise_seed: Optional[int] = None
+    #: the whisker's shape (issue 12's general whisker): taper rho = tip / base radius, intrinsic
+    #: curvature k0 + k1 s [1/L]; (1, 0, 0) is the paper's uniform straight whisker
+    taper: float = 1.0
+    curvature_k0: float = 0.0
+    curvature_k1: float = 0.0
 
     def obstacle(self) -> ConvexProfile:
         return place_obstacle(
@@ -116,6 +123,11 @@ class Task:
         return scan_grid(self.sweep_from, self.sweep_to, self.sweep_step, self.back)
 
     def whisker_model(self):
+        """The model ``vibrissa scan --solver auto`` picks: the exact elastica for the paper's
+        whisker, the general solver for a tapered or curved one."""
+        shape = WhiskerShape(self.taper, self.curvature_k0, self.curvature_k1)
+        if self.model == "elastica" and not shape.is_paper:
+            return GeneralWhiskerModel(shape)
         if self.model == "rigid":
             return make_model(
                 "rigid", stiffness=1.0 if self.spring_stiffness is None else self.spring_stiffness
@@ -130,6 +142,10 @@ class Task:
         words += ["--model", self.model]
         if self.spring_stiffness is not None:
             words += ["--spring-stiffness", repr(self.spring_stiffness)]
+        if self.taper != 1.0:
+            words += [f"--taper={self.taper!r}"]
+        if (self.curvature_k0, self.curvature_k1) != (0.0, 0.0):
+            words += [f"--curvature={self.curvature_k0!r},{self.curvature_k1!r}"]
         if (self.x, self.y, self.rotation_deg) != (0.0, 0.0, 0.0):
             words += [f"--place={self.x!r},{self.y!r},{self.rotation_deg!r}"]
         words += [
@@ -237,7 +253,7 @@ def parse_study(text: str) -> Study:
         raise StudyError(
             f"the study expands to {count:,} tasks; at most {MAX_TASKS:,} are allowed"
         )
-    for model, stiffness in whiskers:
+    for model, stiffness, shape in whiskers:
         for ob_index, (name, params) in enumerate(obstacles):
             for x, y, rot in placements[ob_index]:
                 for sweep_from, sweep_to, step, back in motions:
@@ -259,6 +275,7 @@ def parse_study(text: str) -> Study:
                                 back,
                                 noise,
                                 None if noise is None else _noise_seed(seed, index),
+                                *shape,
                             )
                         )
     if not tasks:
@@ -281,7 +298,8 @@ def _noise_seed(seed: int, index: int) -> int:
 # -- blocks ----------------------------------------------------------------------------------------
 
 
-def _whiskers(block) -> List[Tuple[str, Optional[float]]]:
+def _whiskers(block) -> List[Tuple[str, Optional[float], Tuple[float, float, float]]]:
+    """(model, spring stiffness, (taper, k0, k1)) for every whisker of the study."""
     block = _block("whisker", block, WHISKER_KEYS)
     models = _values("whisker.model", block.get("model", "elastica"), kind=str)
     for name in models:
@@ -298,9 +316,29 @@ def _whiskers(block) -> List[Tuple[str, Optional[float]]]:
                 "whisker.spring_stiffness applies to the rigid model; whisker.model has no 'rigid'"
             )
         stiffnesses = _values("whisker.spring_stiffness", block["spring_stiffness"], positive=True)
-    out: List[Tuple[str, Optional[float]]] = []
+    tapers = _values("whisker.taper", block.get("taper", 1.0), positive=True)
+    for rho in tapers:
+        if not rho <= 1.0:
+            raise StudyError(f"whisker.taper = {rho!r} is not allowed; the taper lies in (0, 1]")
+    k0s = _values("whisker.curvature_k0", block.get("curvature_k0", 0.0))
+    k1s = _values("whisker.curvature_k1", block.get("curvature_k1", 0.0))
+    shapes = list(itertools.product(tapers, k0s, k1s))
+    for shape in shapes:
+        try:
+            WhiskerShape(*shape)
+        except VibrissaError as exc:
+            raise StudyError(f"whisker: {exc}") from None
+    out: List[Tuple[str, Optional[float], Tuple[float, float, float]]] = []
     for name in models:
-        out += [(name, k) for k in stiffnesses] if name == "rigid" else [(name, None)]
+        if name == "rigid":
+            if shapes != [(1.0, 0.0, 0.0)]:
+                raise StudyError(
+                    "whisker.taper and whisker.curvature_k0/k1 apply to the elastica; the rigid "
+                    "model is a straight rod"
+                )
+            out += [(name, k, shapes[0]) for k in stiffnesses]
+        else:
+            out += [(name, None, shape) for shape in shapes]
     return out
 
 
