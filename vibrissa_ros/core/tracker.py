@@ -103,13 +103,16 @@ class _Contact:
     """Mutable bookkeeping of a contact branch during one step.
 
     ``jac`` optionally holds dR/dz (a00, a01, a10, a11) at (z, pose(t)), from the last Newton
-    iteration; it is path independent and seeds the next step's predictor.
+    iteration; it is path independent and seeds the next step's predictor. ``carried``: the
+    contact was carried over from the previous step and not yet moved (an event may sit exactly
+    at its start).
     """
 
-    __slots__ = ("phase", "side", "z", "t", "jac")
+    __slots__ = ("phase", "side", "z", "t", "jac", "carried")
 
-    def __init__(self, phase, side, z, t, jac=None):
+    def __init__(self, phase, side, z, t, jac=None, carried=False):
         self.phase, self.side, self.z, self.t, self.jac = phase, side, z, t, jac
+        self.carried = carried
 
 
 class QuasistaticTracker:
@@ -182,7 +185,7 @@ class QuasistaticTracker:
         contact = None
         if self._contact is not None:
             c = self._contact
-            contact = _Contact(c.phase, c.side, c.z, 0.0, c.jac)
+            contact = _Contact(c.phase, c.side, c.z, 0.0, c.jac, carried=True)
         events: List[Event] = []
         substeps = 0
         t = 0.0
@@ -854,6 +857,13 @@ class QuasistaticTracker:
             Tn = self._tangent(Jn, T)
             zn = (Yn[0], Yn[1])
             ev_b = self._events_of(phase, zn, side)
+            if contact.carried:
+                # the previous step ended on an event to rounding (its function is <= 0 at the
+                # start): it fires here if the branch moves on through it, not if it turns back
+                contact.carried = False
+                for k, v in ev_a.items():
+                    if v <= 0.0 and ev_b[k] < v:
+                        return "phase", k, steps
             found = []  # (kind, name)
             fold = T[2] > 0.0 >= Tn[2]
             if fold:
@@ -959,6 +969,8 @@ class QuasistaticTracker:
         if det_a * det_b <= 0.0:
             return False
         ev_a = self._events_of(phase, (z0, z1), side)
+        if any(value <= 0.0 for value in ev_a.values()):
+            return False  # an event sits at the start: the careful path decides whether it fires
         ev_b = self._events_of(phase, z, side)
         for key, value in ev_b.items():
             if value <= 0.0 < ev_a[key]:
