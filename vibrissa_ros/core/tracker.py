@@ -1,4 +1,5 @@
-"""Quasistatic tracking: follow the whisker's equilibrium while the foot moves.
+"""
+Quasistatic tracking: follow the whisker's equilibrium while the foot moves.
 
 A :class:`QuasistaticTracker` holds the current equilibrium. :meth:`QuasistaticTracker.step`
 moves the foot along the straight path (position and heading interpolated linearly) from the
@@ -100,7 +101,8 @@ class _Path:
 
 
 class _Contact:
-    """Mutable bookkeeping of a contact branch during one step.
+    """
+    Mutable bookkeeping of a contact branch during one step.
 
     ``jac`` optionally holds dR/dz (a00, a01, a10, a11) at (z, pose(t)), from the last Newton
     iteration; it is path independent and seeds the next step's predictor.
@@ -113,7 +115,8 @@ class _Contact:
 
 
 class QuasistaticTracker:
-    """Follows the quasistatic equilibrium of a whisker scanning a convex obstacle.
+    """
+    Follows the quasistatic equilibrium of a whisker scanning a convex obstacle.
 
     Parameters
     ----------
@@ -124,6 +127,7 @@ class QuasistaticTracker:
         heading pi/2). Raises :class:`InvalidPoseError` if the straight whisker cuts the obstacle.
     model : str or model instance
         ``"elastica"`` (paper §2).
+
     """
 
     def __init__(self, profile: ConvexProfile, pose=2.0, model="elastica", options=None):
@@ -161,7 +165,8 @@ class QuasistaticTracker:
         return self._pose
 
     def step(self, pose) -> StepResult:
-        """Move the foot along the straight path to ``pose`` and follow the equilibrium.
+        """
+        Move the foot along the straight path to ``pose`` and follow the equilibrium.
 
         Returns the new state and the events crossed. On any error (always a
         :class:`~.errors.VibrissaError`) the tracker keeps its state.
@@ -271,10 +276,12 @@ class QuasistaticTracker:
         return prof, x, y
 
     def _gap(self, x: float, y: float) -> float:
-        """Signed height of the point below the profile, in the profile's own frame (> 0 outside).
+        """
+        Signed height of the point below the profile, in the profile's own frame (> 0 outside).
 
         The obstacle is the region above its lower boundary curve (for closed shapes: the strip
-        above the lower arc)."""
+        above the lower arc).
+        """
         self._spend()
         signed_distance = getattr(self.profile, "signed_distance", None)
         if signed_distance is not None:
@@ -356,7 +363,8 @@ class QuasistaticTracker:
             )
 
     def _find_touch(self, path: _Path, t: float, exiting: bool = False) -> Optional[float]:
-        """First t in [t, 1] where the straight whisker's tip reaches the profile (None: no touch).
+        """
+        First t in [t, 1] where the straight whisker's tip reaches the profile (None: no touch).
 
         Conservative advancement: the tip moves at most ``path.length`` per unit t, so it cannot
         reach the obstacle before t + distance / length; near contact the sign change of the
@@ -428,16 +436,20 @@ class QuasistaticTracker:
         return None
 
     def _starts_leaving(self, path: _Path) -> bool:
-        """A free whisker whose tip lies on the profile (released at the previous pose) and moves
-        out of the obstacle: its touch search must start beyond the profile, not touch at t = 0."""
+        """
+        A free whisker whose tip lies on the profile (released at the previous pose) and moves
+        out of the obstacle: its touch search must start beyond the profile, not touch at t = 0.
+        """
         g0 = self._tip_gap(path, 0.0)
         if not -1e-12 <= g0 <= 1e-12:
             return False
         return self._tip_gap(path, min(1.0, 1e-8 / path.length)) > g0
 
     def _leave_profile(self, path: _Path, t: float) -> Optional[float]:
-        """The first t' > t (by doubling offsets from 1e-12 of the path) where the tip is outside the
-        obstacle again; None if the path ends with the tip on the profile."""
+        """
+        The first t' > t (by doubling offsets from 1e-12 of the path) where the tip is outside the
+        obstacle again; None if the path ends with the tip on the profile.
+        """
         delta = 1e-12
         for _ in range(45):  # 1e-12 * 2**44 > 1
             t_out = min(1.0, t + delta)
@@ -516,9 +528,11 @@ class QuasistaticTracker:
         return self._gap(pose.x + c * fx - s * fy, pose.y + s * fx + c * fy)
 
     def _free_clearance(self, pose: FootPose, coarse: bool = False) -> Tuple[float, float]:
-        """(smallest gap along the unloaded whisker, its arc length). For a peg the gap is the
+        """
+        (smallest gap along the unloaded whisker, its arc length). For a peg the gap is the
         Euclidean distance to the peg; for a curved whisker against a convex profile the vertical gap.
-        ``coarse`` (pegs): far from the peg, a lower bound from the samples is enough."""
+        ``coarse`` (pegs): far from the peg, a lower bound from the samples is enough.
+        """
         s, pts = self._free_sample()
         beta = pose.heading - HALF_PI
         c, sn = math.cos(beta), math.sin(beta)
@@ -553,8 +567,10 @@ class QuasistaticTracker:
         return best, s_best
 
     def _peg_nearest(self, pose: FootPose, s: float, lo: float, hi: float) -> Optional[float]:
-        """Arc length in (lo, hi) of the unloaded whisker's point nearest to the peg's centre, by
-        Newton on (p(s) - c) . t(s) = 0 (derivative 1 + kappa0 (p - c) . n); None if it fails."""
+        """
+        Arc length in (lo, hi) of the unloaded whisker's point nearest to the peg's centre, by
+        Newton on (p(s) - c) . t(s) = 0 (derivative 1 + kappa0 (p - c) . n); None if it fails.
+        """
         beta = pose.heading - HALF_PI
         cb, sb = math.cos(beta), math.sin(beta)
         # the peg's centre in the foot frame
@@ -594,7 +610,8 @@ class QuasistaticTracker:
         return 1 if cross > 0.0 else -1
 
     def _find_touch_shape(self, path: _Path, t: float) -> Optional[float]:
-        """First t in [t, 1] where the unloaded whisker meets the obstacle anywhere along it.
+        """
+        First t in [t, 1] where the unloaded whisker meets the obstacle anywhere along it.
 
         Against a peg the clearance is a distance and every whisker point moves at most
         ``path.length`` per unit t: conservative advancement, then brentq. Against a convex profile
@@ -783,9 +800,11 @@ class QuasistaticTracker:
 
     @staticmethod
     def _tangent(J: np.ndarray, previous=None) -> np.ndarray:
-        """Unit tangent of the branch: the kernel of the 2x3 Jacobian (cross product of its rows),
+        """
+        Unit tangent of the branch: the kernel of the 2x3 Jacobian (cross product of its rows),
         oriented along increasing tau or along ``previous``. Scalar arithmetic: numpy's cross and
-        norm cost more than the model evaluation on 3-vectors."""
+        norm cost more than the model evaluation on 3-vectors.
+        """
         (a0, a1, a2), (b0, b1, b2) = J[0], J[1]
         t0, t1, t2 = a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
         norm = math.sqrt(t0 * t0 + t1 * t1 + t2 * t2)
@@ -803,13 +822,16 @@ class QuasistaticTracker:
         return self._side_model(side).events(phase, z)
 
     def _side_model(self, side: int):
-        """The model in the contact frame of ``side`` (models whose whisker is not mirror-symmetric,
-        e.g. an intrinsically curved one, give a mirrored copy for side -1)."""
+        """
+        The model in the contact frame of ``side`` (models whose whisker is not mirror-symmetric,
+        e.g. an intrinsically curved one, give a mirrored copy for side -1).
+        """
         for_side = getattr(self.model, "for_side", None)
         return self.model if for_side is None else for_side(side)
 
     def _follow(self, path: _Path, contact: _Contact):
-        """Follow the contact branch from contact.t towards t = 1.
+        """
+        Follow the contact branch from contact.t towards t = 1.
 
         Returns (kind, detail, substeps) with kind 'target', 'phase' (detail: event name),
         'fold' or 'release' (detail: t); ``contact`` is updated in place to the located point.
@@ -913,9 +935,11 @@ class QuasistaticTracker:
         )
 
     def _follow_rest(self, path: _Path, contact: _Contact):
-        """:meth:`_follow` on the rest of the path from contact.t, so that the continuation's tau
+        """
+        :meth:`_follow` on the rest of the path from contact.t, so that the continuation's tau
         starts at 0 wherever the branch begins (a branch met after a long jump is followed with
-        small numbers); results are mapped back to the whole path's t."""
+        small numbers); results are mapped back to the whole path's t.
+        """
         t0 = contact.t
         if t0 <= 0.0:
             return self._follow(path, contact)
@@ -930,9 +954,11 @@ class QuasistaticTracker:
         return kind, detail, steps
 
     def _fast_step(self, path: _Path, contact: _Contact) -> bool:
-        """One tangent predictor to t = 1 and Newton there, accepted only when nothing can have
+        """
+        One tangent predictor to t = 1 and Newton there, accepted only when nothing can have
         happened in between: a small change, no event function changed sign and the branch did
-        not turn (det dR/dz keeps its sign). Pure Python floats: this is the hot path."""
+        not turn (det dR/dz keeps its sign). Pure Python floats: this is the hot path.
+        """
         if contact.t != 0.0:
             return False
         phase, side, (z0, z1) = contact.phase, contact.side, contact.z
@@ -1012,7 +1038,8 @@ class QuasistaticTracker:
         raise ConvergenceError("event location did not converge on the branch")
 
     def _locate(self, path, phase, side, Ya, Yb, Ta, Tb, found, tau_end):
-        """Locate the earliest of the events found between branch points Ya and Yb.
+        """
+        Locate the earliest of the events found between branch points Ya and Yb.
 
         The branch between them is parametrized by the component of the chord that changes most
         (never tau when the branch folds in between), and each event function is solved for with
@@ -1177,9 +1204,11 @@ class QuasistaticTracker:
 
 
 def _solve3(m, b) -> Optional[np.ndarray]:
-    """Solve the 3x3 system m x = b by Gaussian elimination with partial pivoting (scalar
+    """
+    Solve the 3x3 system m x = b by Gaussian elimination with partial pivoting (scalar
     arithmetic: for 3x3 systems in the continuation's inner loop this is several times faster
-    than LAPACK through numpy). None when singular or not finite."""
+    than LAPACK through numpy). None when singular or not finite.
+    """
     m = [row[:] + [bi] for row, bi in zip(m, b)]
     for col in range(3):
         piv = max(range(col, 3), key=lambda r: abs(m[r][col]))
