@@ -1,4 +1,5 @@
-"""A study: a grid and/or a seeded random sample of scans, read from a YAML file (one task = one scan).
+"""
+A study: a grid and/or a seeded random sample of scans read from a YAML file (one task = one scan).
 
 A study file names, block by block, the axes of the study. Every number may be a scalar, a list (a
 grid axis: the study takes every value) or a random draw ``{uniform: [lo, hi]}`` /
@@ -42,13 +43,14 @@ from .core.general import GeneralWhiskerModel, WhiskerShape
 from .core.models import MODELS, make_model
 from .core.profiles import PROFILE_PARAMETERS as _ALL_PROFILE_PARAMETERS
 from .core.profiles import ConvexProfile, make_profile
+from .core.scan import scan_grid
 
 #: obstacles a study can scan: the convex profiles (a peg needs the general whisker model, which
 #: studies do not offer yet)
 PROFILE_PARAMETERS = {k: v for k, v in _ALL_PROFILE_PARAMETERS.items() if k != "peg"}
-from .core.scan import scan_grid
 
-#: the keys each block allows (a new axis of the study is a new key here, with the code that computes it)
+#: the keys each block allows (a new axis of the study is a new key here, with the code that
+#: computes it)
 TOP_KEYS = ("description", "seed", "whisker", "obstacles", "placement", "motion", "noise")
 WHISKER_KEYS = ("model", "spring_stiffness", "taper", "curvature_k0", "curvature_k1")
 OBSTACLE_KEYS = ("profile", "params", "samples")
@@ -74,7 +76,11 @@ class StudyError(VibrissaError, ValueError):
 
 @dataclass(frozen=True)
 class Noise:
-    """Sensor-noise levels of a task, in the scan's dimensionless units (force EI/L^2, moment EI/L)."""
+    """
+    Sensor-noise levels of a task, in the scan's dimensionless units.
+
+    Force in EI/L^2, moment in EI/L.
+    """
 
     force_stddev: float = 0.0
     torque_stddev: float = 0.0
@@ -87,11 +93,12 @@ class Noise:
 
 @dataclass(frozen=True)
 class Task:
-    """One scan of a study: everything needed to compute it, and nothing else.
+    """
+    One scan of a study: everything needed to compute it, and nothing else.
 
-    ``params`` are the profile's parameters as (name, value) pairs in contract order; ``rotation_deg``
-    turns the obstacle about its apex (counter-clockwise), then (``x``, ``y``) moves it. Lengths in
-    whisker lengths L.
+    ``params`` are the profile's parameters as (name, value) pairs in contract order;
+    ``rotation_deg`` turns the obstacle about its apex (counter-clockwise), then (``x``, ``y``)
+    moves it. Lengths in whisker lengths L.
     """
 
     index: int
@@ -135,7 +142,11 @@ class Task:
         return make_model(self.model)
 
     def scan_command(self) -> str:
-        """The ``vibrissa scan`` command that computes this task's poses and events (without noise)."""
+        """
+        Return the ``vibrissa scan`` command that computes this task's poses and events.
+
+        The command computes them without noise.
+        """
         words = ["vibrissa", "scan", "--profile", self.profile]
         for key, value in self.params:
             words += ["--param", f"{key}={value!r}"]
@@ -161,8 +172,12 @@ class Task:
 def place_obstacle(
     profile: ConvexProfile, x: float = 0.0, y: float = 0.0, rotation_deg: float = 0.0
 ) -> ConvexProfile:
-    """The obstacle turned by ``rotation_deg`` [deg] counter-clockwise about its apex (0, p0), then
-    moved by (``x``, ``y``) [L]: its apex ends at (x, p0 + y)."""
+    """
+    Place the obstacle: turn it, then move it.
+
+    The obstacle is turned by ``rotation_deg`` [deg] counter-clockwise about its apex (0, p0),
+    then moved by (``x``, ``y``) [L]: its apex ends at (x, p0 + y).
+    """
     if (x, y, rotation_deg) == (0.0, 0.0, 0.0):
         return profile
     if "p0" not in profile.params:
@@ -184,7 +199,8 @@ class Study:
     digest: str
     seed: int
     tasks: Tuple[Task, ...]
-    #: the profile parameter names the study uses, in a stable order (the dataset's parameter columns)
+    #: the profile parameter names the study uses, in a stable order (the dataset's parameter
+    #: columns)
     param_names: Tuple[str, ...]
     has_noise: bool
 
@@ -194,11 +210,11 @@ class Study:
         return sum(len(t.grid()) for t in self.tasks)
 
 
-# -- reading ---------------------------------------------------------------------------------------
+# -- reading --------------------------------------------------------------------------------------
 
 
 def load_study(path: str) -> Study:
-    """Read and validate a study file; raises :class:`StudyError` (one line) when it is not valid."""
+    """Read and validate a study file; raise :class:`StudyError` (one line) if it is invalid."""
     try:
         with open(path, encoding="utf-8") as stream:
             text = stream.read()
@@ -289,13 +305,13 @@ def parse_study(text: str) -> Study:
 
 
 def _noise_seed(seed: int, index: int) -> int:
-    """The task's own noise seed: independent streams per task, reproducible from (seed, index)."""
+    """Return the task's own noise seed: independent per task, reproducible from (seed, index)."""
     return int(
         np.random.SeedSequence([seed, 3, index]).generate_state(1, np.uint64)[0] >> np.uint64(1)
     )
 
 
-# -- blocks ----------------------------------------------------------------------------------------
+# -- blocks ---------------------------------------------------------------------------------------
 
 
 def _whiskers(block) -> List[Tuple[str, Optional[float], Tuple[float, float, float]]]:
@@ -354,7 +370,8 @@ def _obstacles(block, seed: int) -> List[Tuple[str, Tuple[Tuple[str, float], ...
         name = entry["profile"]
         if name not in PROFILE_PARAMETERS:
             raise StudyError(
-                f"{where}.profile = {name!r} is not allowed; allowed: {', '.join(PROFILE_PARAMETERS)}"
+                f"{where}.profile = {name!r} is not allowed; "
+                f"allowed: {', '.join(PROFILE_PARAMETERS)}"
             )
         allowed = PROFILE_PARAMETERS[name]
         params = _block(
@@ -424,7 +441,7 @@ def _noises(block) -> List[Optional[Noise]]:
     return [Noise(**combo) for combo in _grid("noise", axes)]
 
 
-# -- values ----------------------------------------------------------------------------------------
+# -- values ---------------------------------------------------------------------------------------
 
 
 @dataclass(frozen=True)
@@ -491,7 +508,7 @@ def _number(where: str, value, positive=False, nonnegative=False) -> float:
 
 
 def _values(where: str, value, kind=float, positive=False, nonnegative=False) -> list:
-    """A scalar or a non-empty list of them (a grid axis), checked."""
+    """Check and return a scalar or a non-empty list of them (a grid axis)."""
     items = value if isinstance(value, list) else [value]
     if not items:
         raise StudyError(f"{where} is an empty list (an empty range); give at least one value")
@@ -513,7 +530,11 @@ def _values(where: str, value, kind=float, positive=False, nonnegative=False) ->
 
 
 def _axis(where: str, value, positive=False) -> list:
-    """A number, a list of numbers or a random draw ``{uniform: [lo, hi]}`` / ``{loguniform: [lo, hi]}``."""
+    """
+    Check and return a number, a list of numbers or a random draw.
+
+    The draw is ``{uniform: [lo, hi]}`` or ``{loguniform: [lo, hi]}``.
+    """
     if isinstance(value, dict):
         if len(value) != 1 or next(iter(value)) not in RANDOM_KINDS:
             raise StudyError(
