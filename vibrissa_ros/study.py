@@ -7,7 +7,7 @@ grid axis: the study takes every value) or a random draw ``{uniform: [lo, hi]}``
 
     seed: 7                          # random draws and sensor noise (default 0)
     whisker:   {model: [elastica, rigid], spring_stiffness: 3}
-               # or a real whisker: {taper: [1, 0.2, 0.0667], curvature_k0: [0, 0.5], curvature_k1: 0}
+               # a real whisker: {taper: [1, 0.2, 0.0667], curvature_k0: [0, 0.5]}
     obstacles:                       # a list of obstacle families
       - profile: parabola
         params: {p0: [0.2, 0.35], k: [0.5, 1, 2]}
@@ -130,8 +130,12 @@ class Task:
         return scan_grid(self.sweep_from, self.sweep_to, self.sweep_step, self.back)
 
     def whisker_model(self):
-        """The model ``vibrissa scan --solver auto`` picks: the exact elastica for the paper's
-        whisker, the general solver for a tapered or curved one."""
+        """
+        Return the model ``vibrissa scan --solver auto`` picks for this task.
+
+        The exact elastica for the paper's whisker, the general solver for a tapered or curved
+        one, the rigid model with its stiffness.
+        """
         shape = WhiskerShape(self.taper, self.curvature_k0, self.curvature_k1)
         if self.model == "elastica" and not shape.is_paper:
             return GeneralWhiskerModel(shape)
