@@ -138,6 +138,7 @@ class QuasistaticTracker:
             raise ParameterError(f"profile must be a ConvexProfile, got {type(profile).__name__}")
         self.profile = profile
         self.model = make_model(model) if isinstance(model, str) else model
+        self._for_side = getattr(self.model, "for_side", None)
         self.options = options or TrackerOptions()
         # pegs and curved whiskers: contact may start on the whisker's side (see _find_touch_shape)
         self._shape_mode = (hasattr(profile, "signed_distance")
@@ -862,8 +863,9 @@ class QuasistaticTracker:
         Models whose whisker is not mirror-symmetric, e.g. an intrinsically curved one, give a
         mirrored copy for side -1.
         """
-        for_side = getattr(self.model, "for_side", None)
-        return self.model if for_side is None else for_side(side)
+        if side >= 0 or self._for_side is None:
+            return self.model
+        return self._for_side(side)
 
     def _follow(self, path: _Path, contact: _Contact):
         """
@@ -1294,6 +1296,8 @@ def _as_pose(pose) -> FootPose:
         pose = FootPose(float(pose), 0.0, HALF_PI)
     if not isinstance(pose, FootPose):
         raise InvalidPoseError(f"a foot pose must be a FootPose or the paper's x0, got {pose!r}")
+    if max(abs(pose.x), abs(pose.y), abs(pose.heading)) <= MAX_POSE_MAGNITUDE:
+        return pose
     for key in ("x", "y", "heading"):
         value = getattr(pose, key)
         if abs(value) > MAX_POSE_MAGNITUDE:
