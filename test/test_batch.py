@@ -88,11 +88,33 @@ def _float(text):
 
 def test_every_task_equals_vibrissa_scan_of_it_value_for_value(reference, study, tmp_path, capsys):
     ds = dataset.open(str(reference))
+    assert ds.complete and ds.version and ds.study_text == STUDY
+    _assert_equals_vibrissa_scan(ds, study[1], tmp_path, capsys)
+
+
+def test_a_study_of_tapered_and_curved_whiskers_equals_vibrissa_scan(client, tmp_path, capsys):
+    """Whisker geometry as study axes: the general solver, picked as vibrissa scan --solver auto
+    picks it; every task equals ``vibrissa scan --taper --curvature`` value for value."""
+    text = """
+whisker: {taper: [1, 0.3], curvature_k0: [0, 0.5]}
+obstacles: [{profile: parabola, params: {p0: 0.35}}]
+motion: {from: 1.6, to: -1.6, step: 0.1}
+"""
+    sub = parse_study(text)
+    assert {(t.taper, t.curvature_k0) for t in sub.tasks} == {(1.0, 0.0), (1.0, 0.5), (0.3, 0.0), (0.3, 0.5)}
+    out = tmp_path / "ds"
+    report = run_study(sub, str(out), client=client, progress=None)
+    assert report.complete and report.computed == 4 and report.failed == 0
+    ds = dataset.open(str(out))
+    assert set(ds.poses.taper) == {1.0, 0.3} and set(ds.tasks.curvature_k0) == {0.0, 0.5}
+    _assert_equals_vibrissa_scan(ds, sub, tmp_path, capsys)
+
+
+def _assert_equals_vibrissa_scan(ds, study, tmp_path, capsys):
     poses = ds.poses
     events = ds.events
     failures = ds.failures.set_index("task")
-    assert ds.complete and ds.version and ds.study_text == STUDY
-    for task in study[1].tasks:
+    for task in study.tasks:
         args = task.scan_command().split()[1:]
         csv_path, ev_path = tmp_path / f"{task.index}.csv", tmp_path / f"{task.index}.json"
         args[args.index("--csv") + 1] = str(csv_path)

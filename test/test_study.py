@@ -1,6 +1,7 @@
 """Study files: expansion into tasks, seeded draws, and bad files refused with one line before anything runs."""
 
 import math
+import re
 from pathlib import Path
 
 import pytest
@@ -155,3 +156,27 @@ def test_out_must_be_a_new_or_a_study_directory(tmp_path, capsys):
         assert main(["batch", str(study), "--out", str(tmp_path / out), "--quiet"]) == 2
         assert expected in capsys.readouterr().err
     assert (tmp_path / "full" / "notes.txt").read_text() == "mine" and len(list((tmp_path / "full").iterdir())) == 1
+
+
+def test_whisker_geometry_axes_pick_the_general_solver_and_are_refused_for_the_rigid_model():
+    from vibrissa_ros.core.general import GeneralWhiskerModel
+    from vibrissa_ros.core.models import ElasticaModel
+
+    study = parse_study(
+        "whisker: {taper: [1, 0.0667], curvature_k0: 0.5, curvature_k1: -0.2}\n"
+        "obstacles: [{profile: parabola, params: {p0: 0.3}}]\nmotion: {from: 2, to: -2, step: 0.5}\n"
+    )
+    shapes = [(t.taper, t.curvature_k0, t.curvature_k1) for t in study.tasks]
+    assert shapes == [(1.0, 0.5, -0.2), (0.0667, 0.5, -0.2)]
+    assert all(isinstance(t.whisker_model(), GeneralWhiskerModel) for t in study.tasks)
+    assert "--taper=0.0667 --curvature=0.5,-0.2" in study.tasks[1].scan_command()
+    paper = parse_study("obstacles: [{profile: parabola, params: {p0: 0.3}}]\nmotion: {from: 2, to: -2, step: 0.5}\n")
+    assert isinstance(paper.tasks[0].whisker_model(), ElasticaModel)
+    assert "--taper" not in paper.tasks[0].scan_command()
+    for bad, words in [
+        ("whisker: {model: rigid, taper: 0.5}", "rigid model is a straight rod"),
+        ("whisker: {taper: 1.5}", "(0, 1]"),
+        ("whisker: {taper: 0}", "must be > 0"),
+    ]:
+        with pytest.raises(StudyError, match=re.escape(words)):
+            parse_study(bad + "\nobstacles: [{profile: parabola, params: {p0: 0.3}}]\nmotion: {from: 2, to: -2, step: 0.5}\n")

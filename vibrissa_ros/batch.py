@@ -1,4 +1,5 @@
-"""Studies at scale: run every task of a study on a Dask cluster and write the results as a dataset.
+"""
+Studies at scale: run every task of a study on a Dask cluster and write the results as a dataset.
 
 One task is one scan, computed by the very function ``vibrissa scan`` calls
 (:func:`vibrissa_ros.core.scan.run_scan`), so every row equals that command's output value for
@@ -36,11 +37,12 @@ WINDOW = 20_000
 
 @dataclass(frozen=True)
 class BatchReport:
-    """What one ``vibrissa batch`` run did.
+    """
+    What one ``vibrissa batch`` run did.
 
-    ``errors`` are tasks that could not be computed in this run (an unexpected exception after Dask's
-    retries, or a task that kept killing its workers): they are not written, so running the same
-    command again tries them again.
+    ``errors`` are tasks that could not be computed in this run (an unexpected exception after
+    Dask's retries, or a task that kept killing its workers): they are not written, so running the
+    same command again tries them again.
     """
 
     tasks: int
@@ -57,13 +59,16 @@ class BatchReport:
 
 
 def run_task(task: Task, layout: Layout) -> TaskFiles:
-    """Compute one task (on a worker): its scan's tables, or its failure when the scan raises a
-    :class:`VibrissaError` (a model assumption left, a pose that cannot be placed, ...), as Parquet files.
+    """
+    Compute one task (on a worker) and write it as Parquet files.
+
+    The files hold its scan's tables, or its failure when the scan raises a
+    :class:`VibrissaError` (a model assumption left, a pose that cannot be placed, ...).
     """
     try:
         with warnings.catch_warnings():
-            # scipy's bounded minimizer of the rod's clearance meets infinite gaps (no profile point
-            # above); the result is right, the warning would only scramble the progress bar
+            # scipy's bounded minimizer of the rod's clearance meets infinite gaps (no profile
+            # point above); the result is right, the warning would only scramble the progress bar
             warnings.filterwarnings("ignore", category=RuntimeWarning, module="scipy.optimize")
             result = run_scan(task.obstacle(), task.grid(), model=task.whisker_model())
     except VibrissaError as exc:
@@ -72,7 +77,7 @@ def run_task(task: Task, layout: Layout) -> TaskFiles:
 
 
 def _client(workers: Optional[int], scheduler: Optional[str]):
-    """A Dask client: of the cluster at ``scheduler``, or of a new embedded LocalCluster."""
+    """Connect a Dask client to the cluster at ``scheduler``, or to a new embedded LocalCluster."""
     from distributed import Client, LocalCluster
 
     if scheduler:
@@ -98,7 +103,8 @@ def run_study(
     retries: int = RETRIES,
     window: int = WINDOW,
 ) -> BatchReport:
-    """Run the study's missing tasks on Dask and write their results into ``out``.
+    """
+    Run the study's missing tasks on Dask and write their results into ``out``.
 
     Parameters
     ----------
@@ -109,8 +115,8 @@ def run_study(
     workers : int, optional
         Worker processes of the embedded cluster (default: the machine's cores).
     scheduler : str, optional
-        Address of an existing Dask scheduler (``tcp://host:8786``); its workers need this version of
-        vibrissa_ros installed (``pip install vibrissa_ros[batch]``).
+        Address of an existing Dask scheduler (``tcp://host:8786``); its workers need this version
+        of vibrissa_ros installed (``pip install vibrissa_ros[batch]``).
     client : distributed.Client, optional
         An existing client to use instead (it is left open).
     progress : text stream or None
@@ -119,6 +125,7 @@ def run_study(
         How often Dask re-runs a task that raised an unexpected exception.
     window : int
         At most this many tasks are submitted at a time (more as they complete).
+
     """
     from distributed import as_completed
     from tqdm import tqdm
@@ -162,8 +169,8 @@ def run_study(
     try:
         n_workers = len(client.scheduler_info().get("workers", {}))
         bar.set_postfix(failed=earlier_failures, workers=n_workers)
-        # at most `window` tasks in the graph at a time (a 240k-task study would weigh on the scheduler's
-        # memory); Dask schedules, balances and retries them
+        # at most `window` tasks in the graph at a time (a 240k-task study would weigh on the
+        # scheduler's memory); Dask schedules, balances and retries them
         running = as_completed(submit(window))
         since_refill = 0
         for future in running:

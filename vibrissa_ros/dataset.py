@@ -1,11 +1,12 @@
-"""A study's results as a Parquet dataset: the layout, its tables, atomic writes and :func:`open`.
+"""
+A study's results as a Parquet dataset: the layout, its tables, atomic writes and :func:`open`.
 
 Layout of a study directory (every ``*.parquet`` folder is a Parquet dataset that pandas, polars,
 pyarrow and dask.dataframe read as one table)::
 
     DIR/study.yaml            the study file, verbatim
     DIR/manifest.json         format, vibrissa_ros version, the study's sha256, task count, columns
-    DIR/tasks.parquet         one row per task: its index and parameters, and its reproducing command
+    DIR/tasks.parquet         one row per task: its index and parameters, its reproducing command
     DIR/poses/task-*.parquet  one row per pose: task, step, the scan contract's columns, parameters
     DIR/events/task-*.parquet one row per event: task, step (the pose whose step crossed it), x0,
                               kind, from_phase, to_phase
@@ -58,9 +59,11 @@ class DatasetError(VibrissaError):
 
 @dataclass(frozen=True)
 class Layout:
-    """What decides a study's columns: its profile parameter names (in order) and whether it has noise.
+    """
+    What decides a study's columns: its profile parameter names (in order), whether it has noise.
 
-    Small, so that it travels with every task to the workers; the schemas are built there, once."""
+    Small, so that it travels with every task to the workers; the schemas are built there, once.
+    """
 
     param_names: Tuple[str, ...]
     noise: bool
@@ -75,10 +78,17 @@ class Layout:
 
 
 def parameter_fields(layout: Layout) -> List[pa.Field]:
-    """The task-parameter columns, in order (profile parameters: the union of the study's profiles')."""
+    """
+    Return the task-parameter columns, in order.
+
+    The profile parameters are the union of the study's profiles'.
+    """
     fields = [
         pa.field("model", pa.string(), nullable=False),
         pa.field("spring_stiffness", pa.float64()),
+        pa.field("taper", pa.float64(), nullable=False),
+        pa.field("curvature_k0", pa.float64(), nullable=False),
+        pa.field("curvature_k1", pa.float64(), nullable=False),
         pa.field("profile", pa.string(), nullable=False),
     ]
     fields += [pa.field(name, pa.float64()) for name in layout.param_names]
@@ -94,7 +104,7 @@ def parameter_fields(layout: Layout) -> List[pa.Field]:
 
 
 def schemas(study: Study) -> Dict[str, pa.Schema]:
-    """The schema of each table of this study's dataset."""
+    """Return the schema of each table of this study's dataset."""
     return _schemas(Layout.of(study))
 
 
@@ -136,11 +146,14 @@ def _schemas(layout: Layout) -> Dict[str, pa.Schema]:
 
 
 def task_parameters(task: Task, study_params: Sequence[str]) -> Dict[str, object]:
-    """The task's parameter columns (a value for each of :func:`parameter_fields`)."""
+    """Return the task's parameter columns (a value for each of :func:`parameter_fields`)."""
     params = dict(task.params)
     row: Dict[str, object] = {
         "model": task.model,
         "spring_stiffness": task.spring_stiffness,
+        "taper": task.taper,
+        "curvature_k0": task.curvature_k0,
+        "curvature_k1": task.curvature_k1,
         "profile": task.profile,
     }
     row.update({name: params.get(name) for name in study_params})
@@ -159,7 +172,7 @@ def task_parameters(task: Task, study_params: Sequence[str]) -> Dict[str, object
     return row
 
 
-# -- one task's tables ------------------------------------------------------------------------------
+# -- one task's tables ----------------------------------------------------------------------------
 
 
 @dataclass(frozen=True)
@@ -175,8 +188,11 @@ class TaskTables:
 
 @dataclass(frozen=True)
 class TaskFiles:
-    """One task's result as the Parquet files to write, ``{table: file bytes}``: encoded on the worker,
-    so that the driver, which writes every task's files, only moves bytes."""
+    """
+    One task's result as the Parquet files to write, ``{table: file bytes}``.
+
+    Encoded on the worker, so that the driver, which writes every task's files, only moves bytes.
+    """
 
     task: int
     files: Dict[str, bytes]
@@ -188,7 +204,7 @@ class TaskFiles:
 
 
 def encode(tables: TaskTables) -> TaskFiles:
-    """A task's tables as Parquet files (zstd)."""
+    """Encode a task's tables as Parquet files (zstd)."""
     files = {}
     for name, table in (
         ("events", tables.events),
@@ -207,7 +223,7 @@ def _repeat(schema: pa.Schema, columns: Dict[str, object], n: int) -> Dict[str, 
 
 
 def result_tables(task: Task, result: ScanResult, layout: Layout) -> TaskTables:
-    """The poses and events tables of a task's scan (columns exactly as the scan contract's)."""
+    """Return the poses and events tables of a task's scan (columns as the scan contract's)."""
     schema, study_params = layout.schemas, layout.param_names
     states = result.states
     n = len(states)
@@ -258,7 +274,7 @@ def result_tables(task: Task, result: ScanResult, layout: Layout) -> TaskTables:
 
 
 def failure_tables(task: Task, exc: BaseException, layout: Layout) -> TaskTables:
-    """The failures row of a task whose scan raised ``exc``."""
+    """Return the failures row of a task whose scan raised ``exc``."""
     schema, study_params = layout.schemas, layout.param_names
     cols = {
         "task": pa.array([task.index], pa.int64()),
@@ -271,7 +287,7 @@ def failure_tables(task: Task, exc: BaseException, layout: Layout) -> TaskTables
     )
 
 
-# -- the directory ------------------------------------------------------------------------------------
+# -- the directory --------------------------------------------------------------------------------
 
 
 def _task_file(study_dir: str, table: str, index: int, width: int) -> str:
@@ -279,7 +295,7 @@ def _task_file(study_dir: str, table: str, index: int, width: int) -> str:
 
 
 def _task_files(study_dir: str, table: str) -> List[str]:
-    """The table's task files, sorted (= in task order: the names are zero-padded)."""
+    """Return the table's task files, sorted (= in task order: the names are zero-padded)."""
     folder = os.path.join(study_dir, table)
     return sorted(
         os.path.join(folder, f)
@@ -362,7 +378,8 @@ class StudyWriter:
 
     @classmethod
     def create(cls, study_dir: str, study: Study) -> "StudyWriter":
-        """Start the study's directory, or check that it holds this very study (then it is resumed).
+        """
+        Start the study's directory, or check that it holds this very study (then it is resumed).
 
         Raises :class:`DatasetError` when the directory holds another study, another version's
         results, or something else.
@@ -385,8 +402,8 @@ class StudyWriter:
                 )
             if found.get("vibrissa_ros") != __version__:
                 raise DatasetError(
-                    f"{study_dir} was computed by vibrissa_ros {found.get('vibrissa_ros')}, this is "
-                    f"{__version__}: finish it with that version or give a new --out"
+                    f"{study_dir} was computed by vibrissa_ros {found.get('vibrissa_ros')}, "
+                    f"this is {__version__}: finish it with that version or give a new --out"
                 )
             if found != expected:
                 raise DatasetError(
@@ -412,7 +429,7 @@ class StudyWriter:
         return writer
 
     def done(self) -> Set[int]:
-        """Indices of the tasks whose result (poses or failure) is on disk."""
+        """Return the indices of the tasks whose result (poses or failure) is on disk."""
         return _done(self.dir)
 
     def failures(self) -> int:
@@ -433,14 +450,15 @@ class StudyWriter:
                 )
 
 
-# -- reading ---------------------------------------------------------------------------------------------
+# -- reading --------------------------------------------------------------------------------------
 
 
 class StudyDataset:
-    """A study directory opened for reading (see :func:`open`).
+    """
+    A study directory opened for reading (see :func:`open`).
 
-    ``table(name)`` gives a pyarrow Table of ``poses``, ``events``, ``failures`` or ``tasks`` (rows in
-    task order); the properties of the same names give pandas DataFrames.
+    ``table(name)`` gives a pyarrow Table of ``poses``, ``events``, ``failures`` or ``tasks``
+    (rows in task order); the properties of the same names give pandas DataFrames.
     """
 
     def __init__(self, path: str):
@@ -457,7 +475,7 @@ class StudyDataset:
 
     @property
     def version(self) -> str:
-        """The vibrissa_ros version that computed the dataset."""
+        """Return the vibrissa_ros version that computed the dataset."""
         return self.manifest["vibrissa_ros"]
 
     @property
@@ -465,7 +483,7 @@ class StudyDataset:
         return int(self.manifest["tasks"])
 
     def schemas(self) -> Dict[str, pa.Schema]:
-        """The tables' schemas (from the stored study)."""
+        """Return the tables' schemas, built from the stored study."""
         from .study import parse_study
 
         return schemas(parse_study(self.study_text))
@@ -510,11 +528,11 @@ class StudyDataset:
         return self.table("tasks").to_pandas()
 
     def done(self) -> Set[int]:
-        """Indices of the tasks computed (with poses, or failed)."""
+        """Return the indices of the tasks computed (with poses, or failed)."""
         return _done(self.path)
 
     def missing(self) -> List[int]:
-        """Tasks not computed yet (run the same ``vibrissa batch`` command again to compute them)."""
+        """Return the tasks not computed yet (the same ``vibrissa batch`` run computes them)."""
         done = self.done()
         return [i for i in range(self.n_tasks) if i not in done]
 

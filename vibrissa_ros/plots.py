@@ -154,8 +154,12 @@ def plot_runs(
     sketch_count: int = 15,
     abscissa: str = "x0",
 ) -> Figure:
-    """Draw the figure for one or two models' runs (the first drives the sketch). ``abscissa``:
-    draw the observables against the foot's ``x0`` (a scan) or its ``heading`` (whisking)."""
+    """
+    Draw the figure for one or two models' runs (the first drives the sketch).
+
+    ``abscissa``: draw the observables against the foot's ``x0`` (a scan) or its ``heading``
+    (whisking).
+    """
     coord = ABSCISSAE[abscissa]
     scale_key = units.scale_length if abscissa == "x0" else 1.0
     xlabel = f"foot position x0 [{units.length}]" if abscissa == "x0" else "foot heading [rad]"
@@ -174,7 +178,7 @@ def plot_runs(
 
     # -- configuration sketch ----------------------------------------------------------------
     first = direction_segments(main.states, coord)[0]
-    states = main.states[first[0] : first[1]]
+    states = main.states[first[0]:first[1]]
     if main.event_steps:
         first_events = [
             e for e, i in zip(main.events, main.event_steps) if first[0] < i < first[1]

@@ -3,7 +3,8 @@ The scan CSV and events JSON contract (adapter: files; the core never writes fil
 
 CSV columns, exactly: x0,phase,alpha,s1,tip_slope,f,fx,fy,m0,contact_x,contact_y (dimensionless,
 the paper's frame); a scan driven by foot poses starts with x,y,heading instead of x0. A free
-row has phase 0, f = fx = fy = m0 = 0 and empty alpha, s1, contact_x, contact_y. Numbers are written with 17 significant digits (round-trip exact).
+row has phase 0, f = fx = fy = m0 = 0 and empty alpha, s1, contact_x, contact_y. Numbers are
+written with 17 significant digits (round-trip exact).
 """
 
 from __future__ import annotations
@@ -57,7 +58,7 @@ def state_row(state: WhiskerState, by_pose: bool = False) -> list:
 
 
 def write_scan_csv(states: Iterable[WhiskerState], stream: IO[str], by_pose: bool = False) -> None:
-    """The scan CSV; ``by_pose``: the row starts with the foot pose x,y,heading instead of x0."""
+    """Write the scan CSV; ``by_pose``: a row starts with the foot pose x,y,heading, not x0."""
     writer = csv.writer(stream, lineterminator="\n")
     writer.writerow(POSE_CSV_COLUMNS if by_pose else CSV_COLUMNS)
     for state in states:
@@ -84,7 +85,7 @@ def write_events_json(events: Iterable[Event], stream: IO[str], by_pose: bool = 
 
 
 def read_poses_csv(path: str) -> List[FootPose]:
-    """Foot poses from a CSV with (at least) the columns x, y, heading [L, L, rad], in file order."""
+    """Read foot poses from a CSV with (at least) columns x, y, heading [L, L, rad], in order."""
     try:
         with open(path, newline="") as stream:
             reader = csv.DictReader(stream)

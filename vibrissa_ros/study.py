@@ -1,4 +1,5 @@
-"""A study: a grid and/or a seeded random sample of scans, read from a YAML file (one task = one scan).
+"""
+A study: a grid and/or a seeded random sample of scans read from a YAML file (one task = one scan).
 
 A study file names, block by block, the axes of the study. Every number may be a scalar, a list (a
 grid axis: the study takes every value) or a random draw ``{uniform: [lo, hi]}`` /
@@ -6,6 +7,7 @@ grid axis: the study takes every value) or a random draw ``{uniform: [lo, hi]}``
 
     seed: 7                          # random draws and sensor noise (default 0)
     whisker:   {model: [elastica, rigid], spring_stiffness: 3}
+               # a real whisker: {taper: [1, 0.2, 0.0667], curvature_k0: [0, 0.5]}
     obstacles:                       # a list of obstacle families
       - profile: parabola
         params: {p0: [0.2, 0.35], k: [0.5, 1, 2]}
@@ -37,18 +39,20 @@ from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple
 import numpy as np
 
 from .core.errors import ParameterError, VibrissaError
+from .core.general import GeneralWhiskerModel, WhiskerShape
 from .core.models import MODELS, make_model
 from .core.profiles import PROFILE_PARAMETERS as _ALL_PROFILE_PARAMETERS
 from .core.profiles import ConvexProfile, make_profile
+from .core.scan import scan_grid
 
 #: obstacles a study can scan: the convex profiles (a peg needs the general whisker model, which
 #: studies do not offer yet)
 PROFILE_PARAMETERS = {k: v for k, v in _ALL_PROFILE_PARAMETERS.items() if k != "peg"}
-from .core.scan import scan_grid
 
-#: the keys each block allows (a new axis of the study is a new key here, with the code that computes it)
+#: the keys each block allows (a new axis of the study is a new key here, with the code that
+#: computes it)
 TOP_KEYS = ("description", "seed", "whisker", "obstacles", "placement", "motion", "noise")
-WHISKER_KEYS = ("model", "spring_stiffness")
+WHISKER_KEYS = ("model", "spring_stiffness", "taper", "curvature_k0", "curvature_k1")
 OBSTACLE_KEYS = ("profile", "params", "samples")
 PLACEMENT_KEYS = ("x", "y", "rotation_deg", "samples")
 MOTION_KEYS = ("from", "to", "step", "back")
@@ -72,7 +76,11 @@ class StudyError(VibrissaError, ValueError):
 
 @dataclass(frozen=True)
 class Noise:
-    """Sensor-noise levels of a task, in the scan's dimensionless units (force EI/L^2, moment EI/L)."""
+    """
+    Sensor-noise levels of a task, in the scan's dimensionless units.
+
+    Force in EI/L^2, moment in EI/L.
+    """
 
     force_stddev: float = 0.0
     torque_stddev: float = 0.0
@@ -85,11 +93,12 @@ class Noise:
 
 @dataclass(frozen=True)
 class Task:
-    """One scan of a study: everything needed to compute it, and nothing else.
+    """
+    One scan of a study: everything needed to compute it, and nothing else.
 
-    ``params`` are the profile's parameters as (name, value) pairs in contract order; ``rotation_deg``
-    turns the obstacle about its apex (counter-clockwise), then (``x``, ``y``) moves it. Lengths in
-    whisker lengths L.
+    ``params`` are the profile's parameters as (name, value) pairs in contract order;
+    ``rotation_deg`` turns the obstacle about its apex (counter-clockwise), then (``x``, ``y``)
+    moves it. Lengths in whisker lengths L.
     """
 
     index: int
@@ -106,6 +115,11 @@ class Task:
     back: bool
     noise: Optional[Noise] = None
     noise_seed: Optional[int] = None
+    #: the whisker's shape (issue 12's general whisker): taper rho = tip / base radius, intrinsic
+    #: curvature k0 + k1 s [1/L]; (1, 0, 0) is the paper's uniform straight whisker
+    taper: float = 1.0
+    curvature_k0: float = 0.0
+    curvature_k1: float = 0.0
 
     def obstacle(self) -> ConvexProfile:
         return place_obstacle(
@@ -116,6 +130,15 @@ class Task:
         return scan_grid(self.sweep_from, self.sweep_to, self.sweep_step, self.back)
 
     def whisker_model(self):
+        """
+        Return the model ``vibrissa scan --solver auto`` picks for this task.
+
+        The exact elastica for the paper's whisker, the general solver for a tapered or curved
+        one, the rigid model with its stiffness.
+        """
+        shape = WhiskerShape(self.taper, self.curvature_k0, self.curvature_k1)
+        if self.model == "elastica" and not shape.is_paper:
+            return GeneralWhiskerModel(shape)
         if self.model == "rigid":
             return make_model(
                 "rigid", stiffness=1.0 if self.spring_stiffness is None else self.spring_stiffness
@@ -123,13 +146,21 @@ class Task:
         return make_model(self.model)
 
     def scan_command(self) -> str:
-        """The ``vibrissa scan`` command that computes this task's poses and events (without noise)."""
+        """
+        Return the ``vibrissa scan`` command that computes this task's poses and events.
+
+        The command computes them without noise.
+        """
         words = ["vibrissa", "scan", "--profile", self.profile]
         for key, value in self.params:
             words += ["--param", f"{key}={value!r}"]
         words += ["--model", self.model]
         if self.spring_stiffness is not None:
             words += ["--spring-stiffness", repr(self.spring_stiffness)]
+        if self.taper != 1.0:
+            words += [f"--taper={self.taper!r}"]
+        if (self.curvature_k0, self.curvature_k1) != (0.0, 0.0):
+            words += [f"--curvature={self.curvature_k0!r},{self.curvature_k1!r}"]
         if (self.x, self.y, self.rotation_deg) != (0.0, 0.0, 0.0):
             words += [f"--place={self.x!r},{self.y!r},{self.rotation_deg!r}"]
         words += [
@@ -145,8 +176,12 @@ class Task:
 def place_obstacle(
     profile: ConvexProfile, x: float = 0.0, y: float = 0.0, rotation_deg: float = 0.0
 ) -> ConvexProfile:
-    """The obstacle turned by ``rotation_deg`` [deg] counter-clockwise about its apex (0, p0), then
-    moved by (``x``, ``y``) [L]: its apex ends at (x, p0 + y)."""
+    """
+    Place the obstacle: turn it, then move it.
+
+    The obstacle is turned by ``rotation_deg`` [deg] counter-clockwise about its apex (0, p0),
+    then moved by (``x``, ``y``) [L]: its apex ends at (x, p0 + y).
+    """
     if (x, y, rotation_deg) == (0.0, 0.0, 0.0):
         return profile
     if "p0" not in profile.params:
@@ -168,7 +203,8 @@ class Study:
     digest: str
     seed: int
     tasks: Tuple[Task, ...]
-    #: the profile parameter names the study uses, in a stable order (the dataset's parameter columns)
+    #: the profile parameter names the study uses, in a stable order (the dataset's parameter
+    #: columns)
     param_names: Tuple[str, ...]
     has_noise: bool
 
@@ -178,11 +214,11 @@ class Study:
         return sum(len(t.grid()) for t in self.tasks)
 
 
-# -- reading ---------------------------------------------------------------------------------------
+# -- reading --------------------------------------------------------------------------------------
 
 
 def load_study(path: str) -> Study:
-    """Read and validate a study file; raises :class:`StudyError` (one line) when it is not valid."""
+    """Read and validate a study file; raise :class:`StudyError` (one line) if it is invalid."""
     try:
         with open(path, encoding="utf-8") as stream:
             text = stream.read()
@@ -237,7 +273,7 @@ def parse_study(text: str) -> Study:
         raise StudyError(
             f"the study expands to {count:,} tasks; at most {MAX_TASKS:,} are allowed"
         )
-    for model, stiffness in whiskers:
+    for model, stiffness, shape in whiskers:
         for ob_index, (name, params) in enumerate(obstacles):
             for x, y, rot in placements[ob_index]:
                 for sweep_from, sweep_to, step, back in motions:
@@ -259,6 +295,7 @@ def parse_study(text: str) -> Study:
                                 back,
                                 noise,
                                 None if noise is None else _noise_seed(seed, index),
+                                *shape,
                             )
                         )
     if not tasks:
@@ -272,16 +309,17 @@ def parse_study(text: str) -> Study:
 
 
 def _noise_seed(seed: int, index: int) -> int:
-    """The task's own noise seed: independent streams per task, reproducible from (seed, index)."""
+    """Return the task's own noise seed: independent per task, reproducible from (seed, index)."""
     return int(
         np.random.SeedSequence([seed, 3, index]).generate_state(1, np.uint64)[0] >> np.uint64(1)
     )
 
 
-# -- blocks ----------------------------------------------------------------------------------------
+# -- blocks ---------------------------------------------------------------------------------------
 
 
-def _whiskers(block) -> List[Tuple[str, Optional[float]]]:
+def _whiskers(block) -> List[Tuple[str, Optional[float], Tuple[float, float, float]]]:
+    """(model, spring stiffness, (taper, k0, k1)) for every whisker of the study."""
     block = _block("whisker", block, WHISKER_KEYS)
     models = _values("whisker.model", block.get("model", "elastica"), kind=str)
     for name in models:
@@ -298,9 +336,29 @@ def _whiskers(block) -> List[Tuple[str, Optional[float]]]:
                 "whisker.spring_stiffness applies to the rigid model; whisker.model has no 'rigid'"
             )
         stiffnesses = _values("whisker.spring_stiffness", block["spring_stiffness"], positive=True)
-    out: List[Tuple[str, Optional[float]]] = []
+    tapers = _values("whisker.taper", block.get("taper", 1.0), positive=True)
+    for rho in tapers:
+        if not rho <= 1.0:
+            raise StudyError(f"whisker.taper = {rho!r} is not allowed; the taper lies in (0, 1]")
+    k0s = _values("whisker.curvature_k0", block.get("curvature_k0", 0.0))
+    k1s = _values("whisker.curvature_k1", block.get("curvature_k1", 0.0))
+    shapes = list(itertools.product(tapers, k0s, k1s))
+    for shape in shapes:
+        try:
+            WhiskerShape(*shape)
+        except VibrissaError as exc:
+            raise StudyError(f"whisker: {exc}") from None
+    out: List[Tuple[str, Optional[float], Tuple[float, float, float]]] = []
     for name in models:
-        out += [(name, k) for k in stiffnesses] if name == "rigid" else [(name, None)]
+        if name == "rigid":
+            if shapes != [(1.0, 0.0, 0.0)]:
+                raise StudyError(
+                    "whisker.taper and whisker.curvature_k0/k1 apply to the elastica; the rigid "
+                    "model is a straight rod"
+                )
+            out += [(name, k, shapes[0]) for k in stiffnesses]
+        else:
+            out += [(name, None, shape) for shape in shapes]
     return out
 
 
@@ -316,7 +374,8 @@ def _obstacles(block, seed: int) -> List[Tuple[str, Tuple[Tuple[str, float], ...
         name = entry["profile"]
         if name not in PROFILE_PARAMETERS:
             raise StudyError(
-                f"{where}.profile = {name!r} is not allowed; allowed: {', '.join(PROFILE_PARAMETERS)}"
+                f"{where}.profile = {name!r} is not allowed; "
+                f"allowed: {', '.join(PROFILE_PARAMETERS)}"
             )
         allowed = PROFILE_PARAMETERS[name]
         params = _block(
@@ -386,7 +445,7 @@ def _noises(block) -> List[Optional[Noise]]:
     return [Noise(**combo) for combo in _grid("noise", axes)]
 
 
-# -- values ----------------------------------------------------------------------------------------
+# -- values ---------------------------------------------------------------------------------------
 
 
 @dataclass(frozen=True)
@@ -453,7 +512,7 @@ def _number(where: str, value, positive=False, nonnegative=False) -> float:
 
 
 def _values(where: str, value, kind=float, positive=False, nonnegative=False) -> list:
-    """A scalar or a non-empty list of them (a grid axis), checked."""
+    """Check and return a scalar or a non-empty list of them (a grid axis)."""
     items = value if isinstance(value, list) else [value]
     if not items:
         raise StudyError(f"{where} is an empty list (an empty range); give at least one value")
@@ -475,7 +534,11 @@ def _values(where: str, value, kind=float, positive=False, nonnegative=False) ->
 
 
 def _axis(where: str, value, positive=False) -> list:
-    """A number, a list of numbers or a random draw ``{uniform: [lo, hi]}`` / ``{loguniform: [lo, hi]}``."""
+    """
+    Check and return a number, a list of numbers or a random draw.
+
+    The draw is ``{uniform: [lo, hi]}`` or ``{loguniform: [lo, hi]}``.
+    """
     if isinstance(value, dict):
         if len(value) != 1 or next(iter(value)) not in RANDOM_KINDS:
             raise StudyError(

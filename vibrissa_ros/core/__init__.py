@@ -1,4 +1,5 @@
-"""The mechanics core of vibrissa_ros: no ROS import anywhere below this package.
+"""
+The mechanics core of vibrissa_ros: no ROS import anywhere below this package.
 
 Dimensionless units of the paper: length L (whisker length), force EI/L^2, moment EI/L.
 """

@@ -1,12 +1,14 @@
-"""Closed forms of the elastica clamped at the foot and loaded by one force (paper §2).
+"""
+Closed forms of the elastica clamped at the foot and loaded by one force (paper §2).
 
-Frame ("contact frame"): foot at the origin, slope phi(0) = pi/2 (the undeformed rod along +y), the
-rod bent clockwise (kappa <= 0, the paper's WH1). A force of magnitude f acts at arc length s1 in the
-direction of the obstacle's outward normal (sin alpha, -cos alpha); no moment acts there
+Frame ("contact frame"): foot at the origin, slope phi(0) = pi/2 (the undeformed rod along +y),
+the rod bent clockwise (kappa <= 0, the paper's WH1). A force of magnitude f acts at arc length s1
+in the direction of the obstacle's outward normal (sin alpha, -cos alpha); no moment acts there
 (kappa(s1) = 0). Units: length L, force EI/L^2, moment EI/L.
 
 With theta = phi - alpha and delta = theta(s1), the first integral (paper eq. 15) is
-kappa^2 = 2 f (sin theta - sin delta). The paper's substitution (eq. 19) with the Jacobi amplitude psi,
+kappa^2 = 2 f (sin theta - sin delta). The paper's substitution (eq. 19) with the Jacobi amplitude
+psi,
 
     sin(pi/4 - theta/2) = k sin(psi),   k = sin(pi/4 - delta/2),   m = k^2,
 
@@ -43,7 +45,8 @@ HALF_PI = 0.5 * math.pi
 
 
 class Family(NamedTuple):
-    """One member of the loaded-elastica family and its partial derivatives (internal, hot path).
+    """
+    One member of the loaded-elastica family and its partial derivatives (internal, hot path).
 
     The load point is at (A a + N n) / sqrt(f) and sqrt(f) s1 = S; m0 = kappa(0) = -A sqrt(f).
     Suffixes ``_a`` and ``_g`` are partial derivatives with respect to alpha and gamma.
@@ -61,10 +64,12 @@ class Family(NamedTuple):
 
 
 def family(alpha: float, gamma: float, derivatives: bool = True) -> Family:
-    """Closed-form shape numbers of the loaded elastica for slope ``alpha`` and tip rotation ``gamma``.
+    """
+    Compute the closed-form shape numbers of the loaded elastica.
 
-    Valid for gamma > 0, gamma/2 + alpha > 0 (kappa(0) < 0: WH1) and alpha + gamma < pi (k < 1).
-    Returns NaN outside; callers check :func:`family_domain_ok` first.
+    ``alpha`` is the slope and ``gamma`` the tip rotation [rad]. Valid for gamma > 0,
+    gamma/2 + alpha > 0 (kappa(0) < 0: WH1) and alpha + gamma < pi (k < 1). Returns NaN
+    outside; callers check :func:`family_domain_ok` first.
     """
     h = 0.5 * gamma
     b = h + alpha
@@ -114,12 +119,13 @@ _NO_DERIVATIVES = (math.nan,) * 6
 
 
 def family_domain_ok(alpha: float, gamma: float) -> bool:
-    """True where :func:`family` is defined: gamma > 0, WH1 (gamma/2 + alpha > 0), k < 1."""
+    """Tell where :func:`family` is defined: gamma > 0, WH1 (gamma/2 + alpha > 0), k < 1."""
     return gamma > 0.0 and 0.5 * gamma + alpha > 0.0 and alpha + gamma < math.pi
 
 
 def amplitude(u, m):
-    """Jacobi amplitude am(u | m): the exact inverse of F(., m) (paper footnote 2's H1^-1).
+    """
+    Jacobi amplitude am(u | m): the exact inverse of F(., m) (paper footnote 2's H1^-1).
 
     scipy's ``ellipj`` phase, polished by one Newton step on F(phi, m) = u.
     """
@@ -147,7 +153,8 @@ def family_centerline(alpha: float, gamma: float, sqrt_f: float, s) -> np.ndarra
 
 @dataclass(frozen=True)
 class TipLoadedElastica:
-    """The elastica clamped at the origin along +y with a force at its tip (no tip moment).
+    """
+    The elastica clamped at the origin along +y with a force at its tip (no tip moment).
 
     Attributes
     ----------
@@ -161,6 +168,7 @@ class TipLoadedElastica:
         phi(1) [rad].
     m0 : float
         Bending moment at the clamp kappa(0) [EI/L], counter-clockwise positive.
+
     """
 
     f: float
@@ -182,7 +190,8 @@ class TipLoadedElastica:
 
 
 def tip_loaded_elastica(f: float, alpha: float = HALF_PI) -> TipLoadedElastica:
-    """Solve the constant-force elastica: unit rod clamped along +y, tip force f (sin a, -cos a).
+    """
+    Solve the constant-force elastica: unit rod clamped along +y, tip force f (sin a, -cos a).
 
     The rod bends clockwise; ``alpha`` in (0, pi) covers every force direction with a component
     along +x. Solved exactly: the tip rotation gamma is the root of S(alpha, gamma) = sqrt(f)
@@ -199,7 +208,8 @@ def tip_loaded_elastica(f: float, alpha: float = HALF_PI) -> TipLoadedElastica:
     g_hi = math.pi - alpha
     eps = 1e-15
     gamma = brentq(
-        lambda g: family(alpha, g, False).S - sqrt_f, g_lo + eps, g_hi - eps, xtol=1e-16, rtol=1e-15, maxiter=200
+        lambda g: family(alpha, g, False).S - sqrt_f, g_lo + eps, g_hi - eps, xtol=1e-16,
+        rtol=1e-15, maxiter=200
     )
     fam = family(alpha, gamma)
     ca, sa = math.cos(alpha), math.sin(alpha)

@@ -1,4 +1,5 @@
-"""Exceptions raised by the mechanics core.
+"""
+Exceptions raised by the mechanics core.
 
 Every error the core raises derives from :class:`VibrissaError`, so an adapter (the ROS node, the
 command-line tool) can catch one class, report the message and keep its state.
@@ -14,11 +15,12 @@ class ParameterError(VibrissaError, ValueError):
 
 
 class InvalidPoseError(VibrissaError, ValueError):
-    """A foot pose is not finite or cannot be placed (e.g. the straight whisker cuts the obstacle)."""
+    """A foot pose is not finite or not placeable (e.g. the straight whisker cuts the obstacle)."""
 
 
 class ModelAssumptionError(VibrissaError):
-    """A step would leave the assumptions of the model (graph profile, WH1, reach of the profile).
+    """
+    A step would leave the assumptions of the model (graph profile, WH1, reach of the profile).
 
     The tracker keeps the state it had before the step.
     """

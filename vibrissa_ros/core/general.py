@@ -1,4 +1,5 @@
-"""The general whisker: tapered, intrinsically curved, solved by Chebyshev spectral collocation.
+"""
+The general whisker: tapered, intrinsically curved, solved by Chebyshev spectral collocation.
 
 Model (dimensionless: L = 1, EI_b = bending stiffness at the base): bending stiffness
 B(s) = (1 - (1 - taper) s)^4 (a solid cone, taper = tip radius / base radius), intrinsic curvature
@@ -9,12 +10,14 @@ unloaded and keeps its intrinsic shape.
 
 Because the force is constant on [0, s1] its moment is known in closed form from the positions:
 
-    M(s) = f [cos(alpha) (x(s) - x(s1)) + sin(alpha) (y(s) - y(s1))]      (M(s1) = 0, M' = f cos(theta - alpha))
+    M(s) = f [cos(alpha) (x(s) - x(s1)) + sin(alpha) (y(s) - y(s1))]
+                                                       (M(s1) = 0, M' = f cos(theta - alpha))
 
 so the whole equilibrium is one integral equation for the slope theta on [0, s1]
 (foot frame: foot at the origin, unloaded whisker leaving along +y, theta(0) = pi/2):
 
-    theta(s) = pi/2 + int_0^s [kappa0(u) + M(u) / B(u)] du,   x = int cos(theta), y = int sin(theta).
+    theta(s) = pi/2 + int_0^s [kappa0(u) + M(u) / B(u)] du,
+    x = int cos(theta), y = int sin(theta).
 
 It is discretized on n Chebyshev points of [0, s1] with the spectral integration matrix S
 (Clenshaw-Curtis weights in its last row): theta = pi/2 + h S kappa0 + f h^2 A cos(theta - alpha)
@@ -50,7 +53,8 @@ DEFAULT_POINTS = 32
 
 @dataclass(frozen=True)
 class WhiskerShape:
-    """Taper and intrinsic curvature of a whisker (dimensionless).
+    """
+    Taper and intrinsic curvature of a whisker (dimensionless).
 
     Attributes
     ----------
@@ -58,6 +62,7 @@ class WhiskerShape:
         rho = tip radius / base radius in (0, 1]; B(s) = (1 - (1 - rho) s)^4 [EI_b].
     k0, k1 : float
         Intrinsic curvature kappa0(s) = k0 + k1 s [1/L], counter-clockwise positive.
+
     """
 
     taper: float = 1.0
@@ -76,17 +81,18 @@ class WhiskerShape:
             object.__setattr__(self, key, value)
         if not 0.0 < self.taper <= 1.0:
             raise ParameterError(
-                f"whisker taper = {self.taper!r} is not allowed; taper (tip radius / base radius) must be in (0, 1]"
+                f"whisker taper = {self.taper!r} is not allowed; taper (tip radius / base radius) "
+                "must be in (0, 1]"
             )
         if abs(self.k0) + abs(self.k1) > 20.0:
             raise ParameterError(
-                f"intrinsic curvature k0 = {self.k0!r}, k1 = {self.k1!r}: |k0| + |k1| must be <= 20 "
-                "(the whisker would curl more than about three turns)"
+                f"intrinsic curvature k0 = {self.k0!r}, k1 = {self.k1!r}: |k0| + |k1| must be "
+                "<= 20 (the whisker would curl more than about three turns)"
             )
 
     @property
     def is_paper(self) -> bool:
-        """True for the paper's whisker (uniform and straight): the closed forms apply."""
+        """Tell whether this is the paper's whisker (uniform, straight): the closed forms apply."""
         return self.taper == 1.0 and self.k0 == 0.0 and self.k1 == 0.0
 
     def stiffness(self, s):
@@ -99,7 +105,11 @@ class WhiskerShape:
         return self.k0 * s + 0.5 * self.k1 * s * s
 
     def linear_compliance(self, d: float = 1.0) -> float:
-        """int_0^d (d - s)^2 / B(s) ds: the small-deflection compliance at s = d (units L^3/EI_b)."""
+        """
+        Return the small-deflection compliance at s = d (units L^3/EI_b).
+
+        That is int_0^d (d - s)^2 / B(s) ds.
+        """
         x, w = np.polynomial.legendre.leggauss(64)
         s = 0.5 * d * (x + 1.0)
         return float(0.5 * d * np.sum(w * (d - s) ** 2 / self.stiffness(s)))
@@ -107,8 +117,12 @@ class WhiskerShape:
 
 @lru_cache(maxsize=16)
 def chebyshev_operators(n: int):
-    """Chebyshev points on [-1, 1] (ascending), the cumulative integration matrix S (from -1),
-    and the matrix taking nodal values to Chebyshev coefficients."""
+    """
+    Build the Chebyshev collocation operators for ``n`` points.
+
+    They are the Chebyshev points on [-1, 1] (ascending), the cumulative integration matrix S
+    (from -1), and the matrix taking nodal values to Chebyshev coefficients.
+    """
     if n < 4:
         raise ParameterError(f"collocation points n = {n}: need at least 4")
     k = np.arange(n)
@@ -128,7 +142,11 @@ def chebyshev_operators(n: int):
 
 
 def _intrinsic_offset(shape: WhiskerShape, s_a: float, theta_a: float, s_b: float = 1.0):
-    """Displacement from s_a to s_b along the unloaded part, starting at slope theta_a (Gauss-Legendre)."""
+    """
+    Return the displacement from s_a to s_b along the unloaded part, from slope theta_a.
+
+    By Gauss-Legendre quadrature.
+    """
     if s_b <= s_a:
         return 0.0, 0.0
     x, w = _gauss()
@@ -144,7 +162,11 @@ def _gauss():
 
 
 def free_centerline(shape: WhiskerShape, s) -> np.ndarray:
-    """Points of the unloaded whisker in the foot frame (foot at the origin, heading +y), shape (m, 2)."""
+    """
+    Return points of the unloaded whisker in the foot frame, shape (m, 2).
+
+    The foot frame has the foot at the origin and the heading along +y.
+    """
     s = np.atleast_1d(np.asarray(s, dtype=float))
     out = np.empty((s.size, 2))
     if shape.k0 == 0.0 and shape.k1 == 0.0:
@@ -157,7 +179,8 @@ def free_centerline(shape: WhiskerShape, s) -> np.ndarray:
 
 
 class _Ops:
-    """Collocation operators on [0, s1] for one s1 (internal).
+    """
+    Collocation operators on [0, s1] for one s1 (internal).
 
     Nodes t in [0, 1] (Chebyshev) are mapped to arc length by s(t): linearly (s = s1 t) for a
     cylinder, and for a cone by s_p - s = s_p r^t with s_p = 1/(1 - taper) (where B would vanish)
@@ -199,14 +222,16 @@ class _Ops:
 
 
 class _Solution:
-    """A converged collocation solution and its sensitivities (internal).
+    """
+    A converged collocation solution and its sensitivities (internal).
 
     ``mu`` is the second branch unknown (s1 in phase 1, the tip rotation gamma in phase 2) and
     ``extra`` the scalar unknown of the inner system, f; ``*_a`` and ``*_m`` are derivatives with
     respect to alpha and mu.
     """
 
-    __slots__ = ("phase", "alpha", "mu", "theta", "extra", "th_a", "th_m", "ex_a", "ex_m", "P", "dP", "ops")
+    __slots__ = ("phase", "alpha", "mu", "theta", "extra", "th_a", "th_m", "ex_a", "ex_m", "P",
+                 "dP", "ops")
 
     def __init__(self, phase, alpha, mu, theta, extra, th_a, th_m, ex_a, ex_m, P, dP, ops):
         self.phase, self.alpha, self.mu = phase, alpha, mu
@@ -227,7 +252,11 @@ class _Solution:
         return self.mu if self.tangential else 1.0
 
     def base_moment(self) -> float:
-        """M(0) = f [cos(alpha) (0 - x(s1)) + sin(alpha) (0 - y(s1))]: the contact force's moment."""
+        """
+        Return the contact force's moment at the foot.
+
+        M(0) = f [cos(alpha) (0 - x(s1)) + sin(alpha) (0 - y(s1))].
+        """
         return -self.f * (self.P[0] * math.cos(self.alpha) + self.P[1] * math.sin(self.alpha))
 
     def operators(self, model: "GeneralWhiskerModel") -> "_Ops":
@@ -242,7 +271,8 @@ class _Solution:
 
 
 class GeneralWhiskerModel:
-    """The tapered, intrinsically curved elastica behind the tracker's model interface.
+    """
+    The tapered, intrinsically curved elastica behind the tracker's model interface.
 
     Parameters
     ----------
@@ -252,6 +282,7 @@ class GeneralWhiskerModel:
 
     Unknowns (contact frame): phase 1 (tangential, theta(s1) = alpha, s1 < 1) ``z = (alpha, s1)``;
     phase 2 (tip, s1 = 1, theta(1) >= alpha) ``z = (alpha, gamma)``, gamma = theta0(1) - theta(1).
+
     """
 
     name = "general"
@@ -280,7 +311,7 @@ class GeneralWhiskerModel:
         self._reported: Dict[tuple, _Solution] = {}
 
     def for_side(self, side: int) -> "GeneralWhiskerModel":
-        """The model in the contact frame of ``side``: mirrored (curvature -kappa0) for side -1."""
+        """Return the model in the contact frame of ``side``: mirrored (-kappa0) for side -1."""
         if side >= 0 or self.is_straight:
             return self
         if self._mirror is None:
@@ -311,7 +342,7 @@ class GeneralWhiskerModel:
         return HALF_PI + self.shape.intrinsic_slope(_Ops(self, s1).s), 0.0
 
     def solve(self, phase: Phase, alpha: float, mu: float, guess=None) -> _Solution:
-        """The collocation solution for the branch unknowns (alpha, mu) (raises ConvergenceError)."""
+        """Solve the collocation for the branch unknowns (alpha, mu); raise ConvergenceError."""
         key = (int(phase), alpha, mu)
         sol = self._memo.get(key)
         if sol is not None:
@@ -327,7 +358,8 @@ class GeneralWhiskerModel:
                     last.theta + last.th_a * da + last.th_m * dm,
                     last.extra + last.ex_a * da + last.ex_m * dm,
                     last.th_a, last.th_m, last.ex_a, last.ex_m,
-                    (last.P[0] + last.dP[0] * da + last.dP[1] * dm, last.P[1] + last.dP[2] * da + last.dP[3] * dm),
+                    (last.P[0] + last.dP[0] * da + last.dP[1] * dm,
+                     last.P[1] + last.dP[2] * da + last.dP[3] * dm),
                     last.dP, last.ops if (phase == Phase.TIP or dm == 0.0) else None,
                 )
                 self._remember(key, sol)
@@ -346,7 +378,8 @@ class GeneralWhiskerModel:
         if sol is None:
             raise ConvergenceError(
                 f"general whisker: no equilibrium found for alpha = {alpha!r}, "
-                f"{'s1' if phase == Phase.TANGENTIAL else 'tip rotation'} = {mu!r} (phase {int(phase)})"
+                f"{'s1' if phase == Phase.TANGENTIAL else 'tip rotation'} = {mu!r} "
+                f"(phase {int(phase)})"
             )
         self._remember(key, sol)
         self._base = sol
@@ -376,7 +409,8 @@ class GeneralWhiskerModel:
         return sol
 
     def _newton(self, phase, alpha, mu, theta, f) -> Optional[_Solution]:
-        """Newton on the bordered collocation system in the unknowns (theta at the nodes, f).
+        """
+        Newton on the bordered collocation system in the unknowns (theta at the nodes, f).
 
         phase 1: s1 = mu, closed by theta(s1) = alpha (tangency);
         phase 2: s1 = 1, closed by theta(1) = theta0(1) - gamma (gamma = mu, the tip rotation).
@@ -456,7 +490,11 @@ class GeneralWhiskerModel:
 
     # -- the tracker's model interface -------------------------------------------------------
     def load_point(self, phase: Phase, z):
-        """Contact point on the whisker (foot frame) and its Jacobian (Px, Py, dPx/dz0, dPx/dz1, dPy/dz0, dPy/dz1)."""
+        """
+        Return the contact point on the whisker (foot frame) and its Jacobian.
+
+        As (Px, Py, dPx/dz0, dPx/dz1, dPy/dz0, dPy/dz1).
+        """
         try:
             sol = self.solve(phase, float(z[0]), float(z[1]))
         except ConvergenceError as exc:
@@ -476,8 +514,12 @@ class GeneralWhiskerModel:
         return phase == Phase.TIP or 0.0 < f <= self._s1_max
 
     def events(self, phase: Phase, z) -> Dict[str, float]:
-        """phase 1: ``tip`` = 1 - s1, ``release`` = f; phase 2: ``tangential`` = theta(1) - alpha
-        (the tip becomes tangent to the obstacle), ``release`` = f."""
+        """
+        Return the event functions of ``phase`` at ``z``.
+
+        Phase 1: ``tip`` = 1 - s1, ``release`` = f; phase 2: ``tangential`` = theta(1) - alpha
+        (the tip becomes tangent to the obstacle), ``release`` = f.
+        """
         alpha, mu = float(z[0]), float(z[1])
         sol = self.solve(phase, alpha, mu)
         if phase == Phase.TANGENTIAL:
@@ -500,8 +542,12 @@ class GeneralWhiskerModel:
         raise AssertionError(f"no transition for event {event!r} in phase {phase!r}")
 
     def touch_start(self, alpha0: float, penetration: float):
-        """Tip-contact guess after a tip-first touch (linear theory of the straightened whisker):
-        a normal tip force F deflects the tip by F c2 and turns it by F c1."""
+        """
+        Guess the tip contact after a tip-first touch.
+
+        By the linear theory of the straightened whisker: a normal tip force F deflects the tip by
+        F c2 and turns it by F c1.
+        """
         sa = math.sin(alpha0)
         c2 = self.shape.linear_compliance()
         x, w = np.polynomial.legendre.leggauss(32)
@@ -518,7 +564,7 @@ class GeneralWhiskerModel:
         self.solve(phase, alpha, mu, guess=(theta, float(f)))
 
     def side_touch_start(self, s_touch: float, alpha: float):
-        """The branch point of a side-first touch at arc length ``s_touch``: zero force."""
+        """Return the branch point of a side-first touch at arc length ``s_touch``: zero force."""
         theta = HALF_PI + self.shape.intrinsic_slope(_Ops(self, s_touch).s)
         self._last = self._base = None
         self._memo.clear()
@@ -536,7 +582,8 @@ class GeneralWhiskerModel:
     def tip_rotation(self, phase: Phase, z) -> float:
         if phase == Phase.TIP:
             return float(z[1])
-        return HALF_PI + float(self.shape.intrinsic_slope(1.0)) - float(self.contact_quantities(phase, z)[3])
+        return HALF_PI + float(self.shape.intrinsic_slope(1.0)) - float(
+            self.contact_quantities(phase, z)[3])
 
     def free_tip(self) -> Tuple[float, float, float]:
         """Tip of the unloaded whisker in the foot frame and its slope relative to the heading."""
@@ -557,7 +604,8 @@ class GeneralWhiskerModel:
         m0 = sol.base_moment()
         if phase == Phase.TANGENTIAL:
             s1 = sol.s1
-            tip_slope = alpha + float(self.shape.intrinsic_slope(1.0) - self.shape.intrinsic_slope(s1))
+            tip_slope = alpha + float(self.shape.intrinsic_slope(1.0)
+                                      - self.shape.intrinsic_slope(s1))
             return sol.f, m0, s1, tip_slope, _intrinsic_offset(self.shape, s1, alpha, 1.0)
         return sol.f, m0, 1.0, float(sol.theta[-1]), (0.0, 0.0)
 
@@ -590,7 +638,7 @@ class GeneralWhiskerModel:
         return pts
 
     def free_point(self, s: float) -> Tuple[float, float]:
-        """Point of the unloaded whisker at arc length s, foot frame (a Chebyshev series, ~1e-15)."""
+        """Return the unloaded whisker's point at arc length s, foot frame (Chebyshev, ~1e-15)."""
         if self._free_series is None:
             x, S, Vinv = chebyshev_operators(48)
             th = HALF_PI + self.shape.intrinsic_slope(0.5 * (x + 1.0))

@@ -1,4 +1,5 @@
-"""A second, independent solver for the general whisker: shooting on the 4th-order system.
+"""
+A second, independent solver for the general whisker: shooting on the 4th-order system.
 
 It shares nothing with the Chebyshev collocation of :mod:`.general` or with the tracker: in the
 world frame it integrates
@@ -53,19 +54,23 @@ def _integrate(shape: WhiskerShape, pose: FootPose, m0: float, f: float, alpha: 
     def rhs(s, u):
         x, y, th, m = u
         b = (1.0 - c * s) ** 4
-        return [math.cos(th), math.sin(th), k0 + k1 * s + m / b, f * (math.cos(th) * ca + math.sin(th) * sa)]
+        return [math.cos(th), math.sin(th), k0 + k1 * s + m / b,
+                f * (math.cos(th) * ca + math.sin(th) * sa)]
 
-    sol = solve_ivp(rhs, (0.0, s1), [pose.x, pose.y, pose.heading, m0], method="DOP853", rtol=_RTOL, atol=_ATOL)
+    sol = solve_ivp(rhs, (0.0, s1), [pose.x, pose.y, pose.heading, m0], method="DOP853",
+                    rtol=_RTOL, atol=_ATOL)
     if not sol.success:
         raise ConvergenceError(f"shooting: the integration failed ({sol.message})")
     return sol.y[:, -1]
 
 
-def shoot(shape: WhiskerShape, profile: ConvexProfile, pose: FootPose, phase: Phase, guess: ShotState,
-          right: bool = False, tol: float = 1e-13) -> ShotState:
-    """Solve the equilibrium of ``phase`` at ``pose`` by shooting from ``guess``.
+def shoot(shape: WhiskerShape, profile: ConvexProfile, pose: FootPose, phase: Phase,
+          guess: ShotState, right: bool = False, tol: float = 1e-13) -> ShotState:
+    """
+    Solve the equilibrium of ``phase`` at ``pose`` by shooting from ``guess``.
 
-    ``right``: the obstacle lies on the whisker's right at a tangential contact (theta = alpha + pi).
+    ``right``: the obstacle lies on the whisker's right at a tangential contact
+    (theta = alpha + pi).
     Raises :class:`ConvergenceError` when the root finder does not converge.
     """
     turn = math.pi if right else 0.0
@@ -87,7 +92,8 @@ def shoot(shape: WhiskerShape, profile: ConvexProfile, pose: FootPose, phase: Ph
     if not res.success or max(abs(r) for r in res.fun) > 1e-10:
         raise ConvergenceError(f"shooting did not converge: {res.message}")
     v = res.x
-    return ShotState(phase, float(v[0]), float(v[1]), float(v[2]), float(v[3]) if phase == Phase.TANGENTIAL else 1.0)
+    return ShotState(phase, float(v[0]), float(v[1]), float(v[2]),
+                     float(v[3]) if phase == Phase.TANGENTIAL else 1.0)
 
 
 def shoot_state(shape: WhiskerShape, profile: ConvexProfile, state, perturbation: float = 1e-3,
@@ -95,7 +101,8 @@ def shoot_state(shape: WhiskerShape, profile: ConvexProfile, state, perturbation
     """Re-solve a tracker state independently, from a guess perturbed by ``perturbation``."""
     rng = np.random.default_rng(seed)
     p = 1.0 + perturbation * rng.uniform(-1.0, 1.0, 4)
-    guess = ShotState(state.phase, state.m0 * p[0], state.f * p[1], state.alpha + perturbation * (p[2] - 1.0),
+    guess = ShotState(state.phase, state.m0 * p[0], state.f * p[1],
+                      state.alpha + perturbation * (p[2] - 1.0),
                       min(state.s1 * p[3], 0.999) if state.phase == Phase.TANGENTIAL else 1.0)
     # which side of the whisker the obstacle lies on: the force pushes towards the whisker's right
     # when the obstacle is on its left (theta(s1) = alpha), and to its left otherwise

@@ -1,5 +1,8 @@
-"""The inverse problem (the paper's closing question): where is the contact, from what a sensor
-measures? Only the foot pose and the base wrench are used, never the simulator's internal state.
+"""
+The inverse problem (the paper's closing question).
+
+Where is the contact, from what a sensor measures? Only the foot pose and the base wrench are
+used, never the simulator's internal state.
 
 With one frictionless contact the measured force is the contact force: its direction gives the
 profile's slope at the contact, alpha (force = f (sin alpha, -cos alpha)), its length f. The
@@ -32,7 +35,8 @@ TIP_TOLERANCE = 1e-9
 
 @dataclass(frozen=True)
 class ContactEstimate:
-    """A contact point estimated from one sensor reading (dimensionless, world frame).
+    """
+    A contact point estimated from one sensor reading (dimensionless, world frame).
 
     Attributes
     ----------
@@ -48,7 +52,9 @@ class ContactEstimate:
     side : int
         +1 bent clockwise, -1 counter-clockwise (from the sign of m0).
     delta : float
-        phi - alpha at the zero-moment point (0 for a tangential contact; clamped at 0 for noisy data).
+        phi - alpha at the zero-moment point (0 for a tangential contact; clamped at 0 for noisy
+        data).
+
     """
 
     pose: FootPose
@@ -60,11 +66,16 @@ class ContactEstimate:
     delta: float
 
 
-def estimate_contact(pose: FootPose, fx: float, fy: float, m0: float, min_force: float = 0.0) -> Optional[ContactEstimate]:
-    """The contact point from one reading: the force (fx, fy) of the obstacle on the whisker (world
-    frame) and the base moment m0 (ccw positive), in the paper's units. None when there is no usable
-    contact: f <= ``min_force``, m0 = 0 (a force through the foot), or a reading no single
-    frictionless contact can produce."""
+def estimate_contact(pose: FootPose, fx: float, fy: float, m0: float,
+                     min_force: float = 0.0) -> Optional[ContactEstimate]:
+    """
+    Estimate the contact point from one reading.
+
+    The reading is the force (fx, fy) of the obstacle on the whisker (world frame) and the base
+    moment m0 (ccw positive), in the paper's units. None when there is no usable contact:
+    f <= ``min_force``, m0 = 0 (a force through the foot), or a reading no single frictionless
+    contact can produce.
+    """
     f = math.hypot(fx, fy)
     if not (math.isfinite(f) and math.isfinite(m0)) or f <= min_force or f == 0.0 or m0 == 0.0:
         return None
@@ -92,8 +103,9 @@ def estimate_contact(pose: FootPose, fx: float, fy: float, m0: float, min_force:
     return ContactEstimate(pose, phase, contact, alpha_w, s1, side, delta)
 
 
-def reconstruct(readings: Iterable[Tuple[FootPose, float, float, float]], min_force: float = 0.0) -> List[ContactEstimate]:
-    """Contact estimates along a sweep: one per reading with a usable contact."""
+def reconstruct(readings: Iterable[Tuple[FootPose, float, float, float]],
+                min_force: float = 0.0) -> List[ContactEstimate]:
+    """Estimate the contacts along a sweep: one per reading with a usable contact."""
     out = []
     for pose, fx, fy, m0 in readings:
         est = estimate_contact(pose, fx, fy, m0, min_force)
@@ -103,7 +115,7 @@ def reconstruct(readings: Iterable[Tuple[FootPose, float, float, float]], min_fo
 
 
 def covered_intervals(values: Sequence[float], gap: float) -> List[Tuple[float, float]]:
-    """Merge sorted sample positions into intervals, breaking where neighbours are farther than ``gap``."""
+    """Merge sorted positions into intervals, broken where neighbours are over ``gap`` apart."""
     xs = sorted(values)
     if not xs:
         return []
@@ -116,4 +128,5 @@ def covered_intervals(values: Sequence[float], gap: float) -> List[Tuple[float, 
     return [(a, b) for a, b in out]
 
 
-__all__ = ["ContactEstimate", "estimate_contact", "reconstruct", "covered_intervals", "TIP_TOLERANCE"]
+__all__ = ["ContactEstimate", "estimate_contact", "reconstruct", "covered_intervals",
+           "TIP_TOLERANCE"]

@@ -1,9 +1,10 @@
-"""The inverse problem for the general (tapered, intrinsically curved) whisker.
+"""
+The inverse problem for the general (tapered, intrinsically curved) whisker.
 
-From the foot pose and the base wrench alone, with the whisker's known taper and curvature: with one
-frictionless contact the measured force is the contact force (its direction gives the obstacle's
-slope alpha at the contact, f (sin alpha, -cos alpha)), and it is constant between the foot and the
-contact. So the whisker there solves an initial value problem from the foot,
+From the foot pose and the base wrench alone, with the whisker's known taper and curvature: with
+one frictionless contact the measured force is the contact force (its direction gives the
+obstacle's slope alpha at the contact, f (sin alpha, -cos alpha)), and it is constant between the
+foot and the contact. So the whisker there solves an initial value problem from the foot,
 
     x' = cos(theta), y' = sin(theta), theta' = kappa0(s) + M / B(s), M' = f cos(theta - alpha),
     x(0), y(0) = foot, theta(0) = heading, M(0) = m0 (measured),
@@ -31,7 +32,8 @@ HALF_PI = 0.5 * math.pi
 
 def estimate_contact_general(pose: FootPose, fx: float, fy: float, m0: float, shape: WhiskerShape,
                              min_force: float = 0.0) -> Optional[ContactEstimate]:
-    """The contact point from one reading of a general whisker (units EI_b, L; world frame).
+    """
+    Estimate the contact point from one reading of a general whisker (units EI_b, L; world frame).
 
     None when there is no usable contact: f <= ``min_force``, m0 = 0, or a moment that does not
     vanish along the whisker (no single frictionless contact produces that reading).
@@ -46,14 +48,15 @@ def estimate_contact_general(pose: FootPose, fx: float, fy: float, m0: float, sh
     def rhs(s, u):
         _, _, th, m = u
         b = (1.0 - c * s) ** 4
-        return [math.cos(th), math.sin(th), k0 + k1 * s + m / b, f * (math.cos(th) * ca + math.sin(th) * sa)]
+        return [math.cos(th), math.sin(th), k0 + k1 * s + m / b,
+                f * (math.cos(th) * ca + math.sin(th) * sa)]
 
     def moment(s, u):
         return u[3]
 
     moment.terminal = True
-    sol = solve_ivp(rhs, (0.0, 1.0), [pose.x, pose.y, pose.heading, m0], method="DOP853", rtol=1e-13,
-                    atol=1e-14, events=moment)
+    sol = solve_ivp(rhs, (0.0, 1.0), [pose.x, pose.y, pose.heading, m0], method="DOP853",
+                    rtol=1e-13, atol=1e-14, events=moment)
     if not sol.success:
         return None
     if sol.t_events[0].size and sol.t_events[0][0] < 1.0 - TIP_TOLERANCE:

@@ -1,4 +1,5 @@
-"""Whisker models behind one interface: the equations of a contact branch in the contact frame.
+"""
+Whisker models behind one interface: the equations of a contact branch in the contact frame.
 
 The tracker (:mod:`.tracker`) follows equilibria of a model against a profile. It works in the
 *contact frame*: foot at the origin, undeformed whisker along +y, and mirrored (x -> -x) when the
@@ -27,7 +28,8 @@ HALF_PI = 0.5 * math.pi
 
 
 class ElasticaModel:
-    """The inextensible Euler-Bernoulli elastica clamped at the foot (paper §2).
+    """
+    The inextensible Euler-Bernoulli elastica clamped at the foot (paper §2).
 
     Unknowns: phase 1 (tangential) ``z = (alpha, lam)`` with lam = 1/sqrt(f); phase 2 (tip)
     ``z = (alpha, gamma)`` with gamma = pi/2 - phi(1), the tip's rotation.
@@ -42,7 +44,7 @@ class ElasticaModel:
         self._memo = None
 
     def _values(self, alpha: float, gamma: float):
-        """Value-only family, remembered for the last arguments (events and results of one state)."""
+        """Return the value-only family, remembered for the last arguments (one state's values)."""
         key = (alpha, gamma)
         if key != self._memo_key:
             self._memo = family(alpha, gamma, False)
@@ -51,7 +53,11 @@ class ElasticaModel:
 
     # -- branch equations ------------------------------------------------------------------
     def load_point(self, phase: Phase, z) -> Tuple[float, float, float, float, float, float]:
-        """Contact point on the whisker and its Jacobian: (Px, Py, dPx/dz0, dPx/dz1, dPy/dz0, dPy/dz1)."""
+        """
+        Return the contact point on the whisker and its Jacobian.
+
+        As (Px, Py, dPx/dz0, dPx/dz1, dPy/dz0, dPy/dz1).
+        """
         alpha, mu = z
         ca, sa = math.cos(alpha), math.sin(alpha)
         if phase == Phase.TANGENTIAL:
@@ -99,7 +105,8 @@ class ElasticaModel:
         return family_domain_ok(alpha, mu)
 
     def events(self, phase: Phase, z) -> Dict[str, float]:
-        """Functions that are positive inside the phase; a zero is an event.
+        """
+        Functions that are positive inside the phase; a zero is an event.
 
         phase 1: ``tip`` = 1 - s1 (the contact reaches the tip, paper eq. 13);
         phase 2: ``tangential`` = delta = phi(1) - alpha (the tip becomes tangent to the profile),
@@ -112,7 +119,7 @@ class ElasticaModel:
         return {"tangential": HALF_PI - alpha - mu, "wh1": 0.5 * mu + alpha}
 
     def transition(self, phase: Phase, event: str, z) -> Tuple[Phase, Tuple[float, float]]:
-        """The phase and unknowns on the other side of ``event``."""
+        """Return the phase and unknowns on the other side of ``event``."""
         alpha, mu = z
         if phase == Phase.TANGENTIAL and event == "tip":
             return Phase.TIP, (alpha, HALF_PI - alpha)
@@ -121,13 +128,15 @@ class ElasticaModel:
             return Phase.TANGENTIAL, (alpha, 1.0 / fam.S)
         if event == "wh1":
             raise ModelAssumptionError(
-                "the base moment would change sign (an inflection point would appear): the whisker "
-                "leaves the model's working hypothesis WH1 here; this branch is not modelled"
+                "the base moment would change sign (an inflection point would appear): the "
+                "whisker leaves the model's working hypothesis WH1 here; this branch is not "
+                "modelled"
             )
         raise AssertionError(f"no transition for event {event!r} in phase {phase!r}")
 
     def touch_start(self, alpha0: float, penetration: float) -> Tuple[Phase, Tuple[float, float]]:
-        """Guess of the tip-contact branch just after first touch.
+        """
+        Guess of the tip-contact branch just after first touch.
 
         Linear beam theory: a tip force f along (sin a, -cos a) deflects the tip by f sin(a)/3
         along x and rotates it by f sin(a)/2; the tip must take up the straight whisker's
@@ -138,18 +147,25 @@ class ElasticaModel:
         return Phase.TIP, (alpha0, max(0.5 * f * sa, 1e-300))
 
     def tip_rotation(self, phase: Phase, z) -> float:
-        """gamma = pi/2 - phi(1) (contact frame); small values mean the force is nearly zero."""
+        """Return gamma = pi/2 - phi(1) (contact frame); small values mean a nearly zero force."""
         return HALF_PI - z[0] if phase == Phase.TANGENTIAL else z[1]
 
     def step_scale(self, phase: Phase, z) -> float:
-        """Scale of the continuation's steps: lam = 1/sqrt(f) grows without bound as a tangential
-        contact runs to a point of the profile parallel to the whisker (f -> 0), and is followed
-        in steps proportional to it."""
+        """
+        Return the scale of the continuation's steps.
+
+        lam = 1/sqrt(f) grows without bound as a tangential contact runs to a point of the profile
+        parallel to the whisker (f -> 0), and is followed in steps proportional to it.
+        """
         return max(1.0, z[1]) if phase == Phase.TANGENTIAL else 1.0
 
     def released(self, phase: Phase, z) -> bool:
-        """A tangential contact whose force has vanished (f < 1e-12: the whisker is straight to
-        ~1e-12, touching the profile where its tangent turns parallel to the whisker)."""
+        """
+        Tell whether a tangential contact's force has vanished.
+
+        That is f < 1e-12: the whisker is straight to ~1e-12, touching the profile where its
+        tangent turns parallel to the whisker.
+        """
         return phase == Phase.TANGENTIAL and z[1] > 1e6
 
     # -- results ---------------------------------------------------------------------------
@@ -160,7 +176,8 @@ class ElasticaModel:
             fam = self._values(alpha, HALF_PI - alpha)
             s1 = mu * fam.S
             free = 1.0 - s1
-            return 1.0 / (mu * mu), -fam.A / mu, s1, alpha, (free * math.cos(alpha), free * math.sin(alpha))
+            return 1.0 / (mu * mu), -fam.A / mu, s1, alpha, (free * math.cos(alpha),
+                                                             free * math.sin(alpha))
         fam = self._values(alpha, mu)
         return fam.S * fam.S, -fam.A * fam.S, 1.0, HALF_PI - mu, (0.0, 0.0)
 
@@ -187,7 +204,8 @@ class ElasticaModel:
 
 
 class RigidModel:
-    """The rigid one-link whisker on a torsional spring at the foot (paper §3).
+    """
+    The rigid one-link whisker on a torsional spring at the foot (paper §3).
 
     Units of the paper's §3: length L, moment c (the spring's stiffness), force c/L. With
     ``stiffness`` = k the reported f, fx, fy and m0 are multiplied by k, i.e. expressed in units of
@@ -195,8 +213,8 @@ class RigidModel:
 
     Unknowns: mode 1 (tangential, rod slope phi = alpha) ``z = (alpha, s1)``; mode 2 (tip)
     ``z = (alpha, gamma)`` with gamma = pi/2 - phi, the rod's rotation from upright. Geometry
-    (paper §3): s1 (cos phi, sin phi) is the contact point relative to the foot. Statics: the spring
-    moment pi/2 - phi balances the contact force's moment f s1 cos(phi - alpha), so
+    (paper §3): s1 (cos phi, sin phi) is the contact point relative to the foot. Statics: the
+    spring moment pi/2 - phi balances the contact force's moment f s1 cos(phi - alpha), so
     f = (pi/2 - alpha)/s1 in mode 1 and f = gamma / cos(phi - alpha) in mode 2. The branch folds
     exactly where the rod becomes orthogonal to the profile (phi = alpha + pi/2, where f -> inf):
     d x0 / d alpha = rho cos(phi - alpha) / cos(phi) vanishes there, so the tracker snaps there
@@ -231,8 +249,12 @@ class RigidModel:
         return -HALF_PI < mu < math.pi
 
     def events(self, phase: Phase, z) -> Dict[str, float]:
-        """mode 1: ``tip`` = 1 - s1; mode 2: ``tangential`` = phi - alpha, ``release`` = gamma
-        (the spring unloads: f = 0)."""
+        """
+        Return the event functions of ``phase`` at ``z``.
+
+        Mode 1: ``tip`` = 1 - s1; mode 2: ``tangential`` = phi - alpha, ``release`` = gamma
+        (the spring unloads: f = 0).
+        """
         alpha, mu = z
         if phase == Phase.TANGENTIAL:
             return {"tip": 1.0 - mu}
@@ -249,7 +271,7 @@ class RigidModel:
         raise AssertionError(f"no transition for event {event!r} in phase {phase!r}")
 
     def touch_start(self, alpha0: float, penetration: float):
-        """Turning the rod clockwise by gamma moves its tip by gamma along +x."""
+        """Start a touch: turning the rod clockwise by gamma moves its tip by gamma along +x."""
         return Phase.TIP, (alpha0, penetration / math.sin(alpha0))
 
     def tip_rotation(self, phase: Phase, z) -> float:
@@ -288,7 +310,7 @@ MODELS = {"elastica": ElasticaModel, "rigid": RigidModel}
 
 
 def make_model(name: str, **options):
-    """A model by name: ``elastica`` or ``rigid`` (option ``stiffness``)."""
+    """Make a model by name: ``elastica`` or ``rigid`` (option ``stiffness``)."""
     from .errors import ParameterError
 
     if name not in MODELS:

@@ -1,4 +1,5 @@
-"""Smooth strictly convex obstacle profiles in the paper's slope parametrization.
+"""
+Smooth strictly convex obstacle profiles in the paper's slope parametrization.
 
 A profile is the lower boundary of a convex obstacle that lies *above* it. Every point of the
 boundary is named by the slope angle ``alpha`` of its tangent (paper §2, "Supposition"):
@@ -6,9 +7,9 @@ boundary is named by the slope angle ``alpha`` of its tangent (paper §2, "Suppo
     x = xi(alpha),  y = eta(alpha),  xi(0) = 0, eta(0) = p0,  curvature > 0.
 
 Convexity means xi'(alpha) = rho(alpha) cos(alpha), eta'(alpha) = rho(alpha) sin(alpha) with the
-radius of curvature rho > 0, so a profile is fully described by its point and rho. The outward normal
-of the obstacle at ``alpha`` is (sin alpha, -cos alpha): the contact force on the whisker points
-along it.
+radius of curvature rho > 0, so a profile is fully described by its point and rho. The outward
+normal of the obstacle at ``alpha`` is (sin alpha, -cos alpha): the contact force on the whisker
+points along it.
 
 All lengths are in units of the whisker length L (the paper's units). A new profile is one small
 subclass of :class:`ConvexProfile` giving ``point`` and ``radius_of_curvature`` (see README).
@@ -29,7 +30,8 @@ HALF_PI = 0.5 * math.pi
 
 
 class ConvexProfile:
-    """Base class: a smooth strictly convex curve parametrized by its tangent slope alpha [rad].
+    """
+    Base class: a smooth strictly convex curve parametrized by its tangent slope alpha [rad].
 
     Subclasses implement :meth:`point` and :meth:`radius_of_curvature` for scalar alpha in the open
     interval (``alpha_min``, ``alpha_max``); everything else is derived. Closed forms of
@@ -43,7 +45,7 @@ class ConvexProfile:
 
     # -- what a subclass provides -------------------------------------------------------------
     def point(self, alpha: float) -> Tuple[float, float]:
-        """The profile point (xi(alpha), eta(alpha)) for a scalar slope alpha."""
+        """Return the profile's point of scalar slope alpha, (xi(alpha), eta(alpha))."""
         raise NotImplementedError
 
     def radius_of_curvature(self, alpha: float) -> float:
@@ -52,24 +54,24 @@ class ConvexProfile:
 
     @property
     def params(self) -> Dict[str, float]:
-        """The shape parameters by their contract names."""
+        """Return the shape parameters by their contract names."""
         raise NotImplementedError
 
     # -- derived ------------------------------------------------------------------------------
     def xi(self, alpha):
-        """x coordinate of the profile point of slope ``alpha`` (scalar or array)."""
+        """Return the x coordinate of the profile point of slope ``alpha`` (scalar or array)."""
         return self._vectorized(lambda a: self.point(a)[0], alpha)
 
     def eta(self, alpha):
-        """y coordinate of the profile point of slope ``alpha`` (scalar or array)."""
+        """Return the y coordinate of the profile point of slope ``alpha`` (scalar or array)."""
         return self._vectorized(lambda a: self.point(a)[1], alpha)
 
     def dxi(self, alpha):
-        """d xi / d alpha = rho cos(alpha)."""
+        """Return d xi / d alpha = rho cos(alpha)."""
         return self._vectorized(lambda a: self.radius_of_curvature(a) * math.cos(a), alpha)
 
     def deta(self, alpha):
-        """d eta / d alpha = rho sin(alpha)."""
+        """Return d eta / d alpha = rho sin(alpha)."""
         return self._vectorized(lambda a: self.radius_of_curvature(a) * math.sin(a), alpha)
 
     @staticmethod
@@ -82,7 +84,8 @@ class ConvexProfile:
         return self.alpha_min < alpha < self.alpha_max
 
     def alpha_at_x(self, x: float) -> float:
-        """The slope alpha with xi(alpha) = x (xi is increasing: the profile is a graph over x).
+        """
+        Return the slope alpha with xi(alpha) = x (xi increases: the profile is a graph over x).
 
         Raises :class:`ParameterError` when no point of the profile has that abscissa.
         """
@@ -92,18 +95,19 @@ class ConvexProfile:
         return brentq(lambda a: self.point(a)[0] - x, lo, hi, xtol=1e-15, rtol=1e-15)
 
     def height_at_x(self, x: float) -> float:
-        """eta at abscissa x (the profile as a graph y(x)); ParameterError where it has no point."""
+        """Return eta at abscissa x (the profile as a graph y(x)); ParameterError if no point."""
         return self.point(self.alpha_at_x(x))[1]
 
     def alpha_at_height(self, y: float, side: int) -> float:
-        """The slope alpha on the right (side=+1) or left (side=-1) flank where eta(alpha) = y."""
+        """Return the slope alpha on the right (side=+1) or left (side=-1) flank at eta = y."""
         lo, hi = self._open_bracket()
         a_min = self.lowest_alpha()
         a0, a1 = (a_min, hi) if side > 0 else (lo, a_min)
         g = lambda a: self.point(a)[1] - y  # noqa: E731
         if not (g(a0) <= 0.0 <= g(a1) or g(a1) <= 0.0 <= g(a0)):
             raise ParameterError(
-                f"{self.name}: the {'right' if side > 0 else 'left'} flank does not reach height {y!r}"
+                f"{self.name}: the {'right' if side > 0 else 'left'} flank does not reach "
+                f"height {y!r}"
             )
         return brentq(g, a0, a1, xtol=1e-15, rtol=1e-15)
 
@@ -116,8 +120,11 @@ class ConvexProfile:
         return self.alpha_min + eps, self.alpha_max - eps
 
     def placed(self, x: float = 0.0, y: float = 0.0, rotation: float = 0.0) -> "ConvexProfile":
-        """This profile moved rigidly: rotated by ``rotation`` [rad] about its own origin, then
-        translated by (x, y)."""
+        """
+        Return this profile moved rigidly.
+
+        It is rotated by ``rotation`` [rad] about its own origin, then translated by (x, y).
+        """
         if x == 0.0 and y == 0.0 and rotation == 0.0:
             return self
         return PlacedProfile(self, x, y, rotation)
@@ -133,7 +140,7 @@ SIZE_RANGE = (1e-6, 1e6)
 
 
 def _positive(profile: str, name: str, value: float, inverse: bool = False) -> float:
-    """A shape size within SIZE_RANGE (``inverse``: a curvature-like parameter, 1/value in range)."""
+    """Check a shape size within SIZE_RANGE (``inverse``: curvature-like, 1/value in range)."""
     value = float(value)
     lo, hi = SIZE_RANGE
     if inverse:
@@ -163,8 +170,8 @@ def _p0(profile: str, value: float, scan: bool = True) -> float:
 def _reaches_height_one(profile: str, what: str, height: float, scan: bool = True) -> None:
     if scan and not height > 1.0:
         raise ParameterError(
-            f"{profile}: {what} = {height!r} must exceed 1 (the whisker's length): the model assumes "
-            "the profile reaches height 1 on both sides"
+            f"{profile}: {what} = {height!r} must exceed 1 (the whisker's length): the model "
+            "assumes the profile reaches height 1 on both sides"
         )
 
 
@@ -218,7 +225,8 @@ class Catenary(ConvexProfile):
         return {"p0": self.p0, "c": self.c}
 
     def point(self, alpha):
-        return self.c * math.asinh(math.tan(alpha)), self.p0 + self.c * (1.0 / math.cos(alpha) - 1.0)
+        return (self.c * math.asinh(math.tan(alpha)),
+                self.p0 + self.c * (1.0 / math.cos(alpha) - 1.0))
 
     def radius_of_curvature(self, alpha):
         c = math.cos(alpha)
@@ -238,7 +246,7 @@ class Catenary(ConvexProfile):
 
 @dataclass(frozen=True)
 class Circle(ConvexProfile):
-    """Lower arc of the circle of radius R centred at (0, p0 + R): (R sin a, p0 + R (1 - cos a))."""
+    """Lower arc of the circle of radius R centred at (0, p0 + R): (R sin a, p0 + R(1 - cos a))."""
 
     p0: float
     R: float
@@ -268,8 +276,11 @@ class Circle(ConvexProfile):
 
 @dataclass(frozen=True)
 class TwoCircles(ConvexProfile):
-    """Left arc (radius R_left) for x < 0, right arc (radius R_right) for x >= 0, both tangent to
-    y = p0 at x = 0 (the paper's asymmetric example, Fig. 2.4)."""
+    """
+    Two circular arcs tangent to y = p0 at x = 0 (the paper's asymmetric example, Fig. 2.4).
+
+    The left arc (radius R_left) for x < 0, the right arc (radius R_right) for x >= 0.
+    """
 
     p0: float
     R_left: float
@@ -304,7 +315,8 @@ class TwoCircles(ConvexProfile):
 
 @dataclass(frozen=True)
 class Ellipse(ConvexProfile):
-    """Lower arc of the ellipse with semi-axes a (x) and b (y) centred at (0, p0 + b).
+    """
+    Lower arc of the ellipse with semi-axes a (x) and b (y) centred at (0, p0 + b).
 
     The point of outward normal (sin a, -cos a) is (a^2 sin, p0 + b - b^2 cos) / D with
     D = sqrt(a^2 sin^2 + b^2 cos^2); rho = (a b)^2 / D^3.
@@ -347,8 +359,12 @@ class Ellipse(ConvexProfile):
 
 @dataclass(frozen=True)
 class PlacedProfile(ConvexProfile):
-    """A profile moved by a planar rigid motion: rotated by ``rotation`` about its own origin, then
-    translated by (x, y). The slope of every point shifts by ``rotation``."""
+    """
+    A profile moved by a planar rigid motion.
+
+    It is rotated by ``rotation`` about its own origin, then translated by (x, y). The slope of
+    every point shifts by ``rotation``.
+    """
 
     base: ConvexProfile
     x: float = 0.0
@@ -394,16 +410,19 @@ class PlacedProfile(ConvexProfile):
     def placed(self, x=0.0, y=0.0, rotation=0.0):
         c, s = math.cos(rotation), math.sin(rotation)
         return PlacedProfile(
-            self.base, x + c * self.x - s * self.y, y + s * self.x + c * self.y, self.rotation + rotation
+            self.base, x + c * self.x - s * self.y, y + s * self.x + c * self.y,
+            self.rotation + rotation
         )
 
     def describe(self):
-        return f"{self.base.describe()} placed at ({self.x!r}, {self.y!r}) rotated {self.rotation!r} rad"
+        return (f"{self.base.describe()} placed at ({self.x!r}, {self.y!r}) "
+                f"rotated {self.rotation!r} rad")
 
 
 @dataclass(frozen=True)
 class Peg(ConvexProfile):
-    """A peg (pole): the disk of radius r >= 0 centred at (x, y); r = 0 is a point.
+    """
+    A peg (pole): the disk of radius r >= 0 centred at (x, y); r = 0 is a point.
 
     Every slope occurs on a disk: the point of outward normal (sin a, -cos a) is
     (x + r sin a, y - r cos a), rho = r; a whisker may touch it anywhere, side first or tip first.
@@ -425,7 +444,8 @@ class Peg(ConvexProfile):
                 raise ParameterError(f"{self.name}: {key} = {value!r} must be finite")
             object.__setattr__(self, key, value)
         if self.r < 0.0:
-            raise ParameterError(f"{self.name}: r = {self.r!r} is not allowed; the radius r must be >= 0")
+            raise ParameterError(
+                f"{self.name}: r = {self.r!r} is not allowed; the radius r must be >= 0")
 
     @property
     def params(self):
@@ -446,7 +466,7 @@ class Peg(ConvexProfile):
         return np.hypot(np.asarray(px) - self.x, np.asarray(py) - self.y) - self.r
 
     def normal_slope(self, px: float, py: float) -> float:
-        """The slope alpha of the boundary point nearest to (px, py) (outward normal towards it)."""
+        """Return the slope alpha of the boundary point nearest to (px, py) (normal towards it)."""
         return math.atan2(px - self.x, -(py - self.y))
 
     def alpha_at_x(self, x):
@@ -454,7 +474,8 @@ class Peg(ConvexProfile):
 
     def placed(self, x=0.0, y=0.0, rotation=0.0):
         c, s = math.cos(rotation), math.sin(rotation)
-        return Peg(x + c * self.x - s * self.y, y + s * self.x + c * self.y, self.r, self.scan_checks)
+        return Peg(x + c * self.x - s * self.y, y + s * self.x + c * self.y, self.r,
+                   self.scan_checks)
 
 
 #: profile classes by their contract names
@@ -473,12 +494,15 @@ PROFILE_PARAMETERS: Dict[str, Dict[str, float | None]] = {
 }
 
 
-def make_profile(name: str, params: Mapping[str, float], scan_checks: bool = True) -> ConvexProfile:
-    """Build a profile from its contract name and parameters, with errors that say what is allowed.
+def make_profile(name: str, params: Mapping[str, float],
+                 scan_checks: bool = True) -> ConvexProfile:
+    """
+    Build a profile from its contract name and parameters, with errors that say what is allowed.
 
-    ``scan_checks`` enforces the paper's scan set-up (p0 in (0, 1), the profile reaching height 1 on
-    both sides, relative to a foot on the x-axis); without it only the shape is validated and p0
-    is simply the apex height (used where the foot moves freely in the plane, e.g. the ROS node).
+    ``scan_checks`` enforces the paper's scan set-up (p0 in (0, 1), the profile reaching height 1
+    on both sides, relative to a foot on the x-axis); without it only the shape is validated and
+    p0 is simply the apex height (used where the foot moves freely in the plane, e.g. the ROS
+    node).
     """
     if name not in PROFILES:
         raise ParameterError(f"unknown profile {name!r}; allowed: {', '.join(PROFILES)}")

@@ -16,8 +16,11 @@ from .tracker import QuasistaticTracker
 
 @dataclass(frozen=True)
 class ScanResult:
-    """States in scan order (one per grid point) and the events crossed between them;
-    ``event_steps[k]`` is the index of the state whose step crossed ``events[k]``."""
+    """
+    States in scan order (one per grid point) and the events crossed between them.
+
+    ``event_steps[k]`` is the index of the state whose step crossed ``events[k]``.
+    """
 
     states: Tuple[WhiskerState, ...]
     events: Tuple[Event, ...]
@@ -25,7 +28,8 @@ class ScanResult:
 
 
 def scan_grid(x_from: float, x_to: float, step: float, back: bool = False) -> np.ndarray:
-    """Foot positions from ``x_from`` to ``x_to`` inclusive, spaced by ``step`` (> 0).
+    """
+    Foot positions from ``x_from`` to ``x_to`` inclusive, spaced by ``step`` (> 0).
 
     Points are computed as x_from +- i*step (no accumulated rounding); ``x_to`` ends the grid even
     when the span is not a multiple of the step. ``back`` appends the way back to ``x_from``.
@@ -38,7 +42,8 @@ def scan_grid(x_from: float, x_to: float, step: float, back: bool = False) -> np
     span = abs(x_to - x_from)
     n = int(math.floor(span / step * (1.0 + 1e-12)))
     if n > 50_000_000:
-        raise ParameterError(f"--step = {step!r} gives {n} grid points; at most 50,000,000 are allowed")
+        raise ParameterError(
+            f"--step = {step!r} gives {n} grid points; at most 50,000,000 are allowed")
     sign = 1.0 if x_to >= x_from else -1.0
     grid = x_from + sign * step * np.arange(n + 1)
     if abs(grid[-1] - x_to) > 1e-12 * max(1.0, span):
@@ -65,8 +70,11 @@ def run_scan(profile: ConvexProfile, grid, model="elastica") -> ScanResult:
 
 
 def run_poses(profile: ConvexProfile, poses, model="elastica") -> ScanResult:
-    """Place the whisker at the first foot pose (unloaded, free) and step through the poses in order
-    (each a quasistatic step along the straight path in (x, y, heading) from the previous one)."""
+    """
+    Place the whisker at the first foot pose (unloaded, free) and step through the poses in order.
+
+    Each is a quasistatic step along the straight path in (x, y, heading) from the previous one.
+    """
     poses = list(poses)
     if not poses:
         raise ParameterError("no foot poses")

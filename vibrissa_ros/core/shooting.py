@@ -1,4 +1,5 @@
-"""An independent reference solver: shooting on the paper's 4th-order boundary value problem.
+"""
+An independent reference solver: shooting on the paper's 4th-order boundary value problem.
 
 This solver shares nothing with the closed forms of :mod:`.elastica` or with the tracker: it
 integrates the paper's system (§2.1 (2) and §2.2)
@@ -100,8 +101,8 @@ class ShootingSolver:
     def solve(self, x0: float, phase: int, seed: Sequence[float]) -> Optional[ShootingState]:
         """Newton-type solve from ``seed``; None if it does not converge to ~1e-12."""
         try:
-            sol = root(lambda u: self.residual(x0, phase, u), np.asarray(seed, float), method="hybr",
-                       options={"xtol": 1e-14, "maxfev": 400})
+            sol = root(lambda u: self.residual(x0, phase, u), np.asarray(seed, float),
+                       method="hybr", options={"xtol": 1e-14, "maxfev": 400})
         except (ValueError, OverflowError):
             return None
         if not np.all(np.isfinite(sol.x)) or np.max(np.abs(sol.fun)) > 1e-11:
@@ -114,7 +115,8 @@ class ShootingSolver:
             kappa0, f, alpha = u
             s1 = 1.0
             tip = integrate(x0, kappa0, f, alpha, 1.0)[2]
-        return ShootingState(float(x0), phase, float(kappa0), float(f), float(alpha), float(s1), float(tip))
+        return ShootingState(float(x0), phase, float(kappa0), float(f), float(alpha), float(s1),
+                             float(tip))
 
 
 class ShootingScan:

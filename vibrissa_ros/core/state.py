@@ -1,4 +1,5 @@
-"""Immutable values the core returns: foot poses, whisker states, events.
+"""
+Immutable values the core returns: foot poses, whisker states, events.
 
 Frame ("world", the paper's frame for a scan): the obstacle is placed in it; a foot pose is the
 position of the whisker's base and the heading of the undeformed whisker. The paper's set-up is
@@ -30,8 +31,12 @@ class Phase(IntEnum):
 
 @dataclass(frozen=True)
 class FootPose:
-    """Planar pose of the whisker's base: position (x, y) [L] and heading [rad] of the undeformed
-    whisker, counter-clockwise from +x. The paper's scan is ``FootPose(x0, 0.0, pi/2)``."""
+    """
+    Planar pose of the whisker's base.
+
+    Position (x, y) [L] and heading [rad] of the undeformed whisker, counter-clockwise from +x.
+    The paper's scan is ``FootPose(x0, 0.0, pi/2)``.
+    """
 
     x: float
     y: float = 0.0
@@ -49,12 +54,14 @@ class FootPose:
             object.__setattr__(self, key, value)
 
     def contact_to_world(self, x, y, side: int = 1):
-        """Map points of this pose's *contact frame* to the world frame.
+        """
+        Map points of this pose's *contact frame* to the world frame.
 
         The contact frame has the foot at the origin and the undeformed whisker along +y, mirrored
         (x -> -x) when the whisker bends counter-clockwise (``side`` = -1), so that the models only
         ever solve the clockwise case. This is the one place where the core rotates by the heading
-        (beta = heading - pi/2) and mirrors by the side. ``x``, ``y``: floats or arrays of one shape.
+        (beta = heading - pi/2) and mirrors by the side. ``x``, ``y``: floats or arrays of one
+        shape.
         """
         beta = self.heading - HALF_PI
         c, s = math.cos(beta), math.sin(beta)
@@ -64,7 +71,8 @@ class FootPose:
 
 @dataclass(frozen=True)
 class Event:
-    """Something that happened during a step, located by root finding on the equilibrium branch.
+    """
+    Something that happened during a step, located by root finding on the equilibrium branch.
 
     ``kind`` is ``touch`` (first contact), ``phase`` (tangential <-> tip), ``snap`` (the branch
     folds: criterion (c) of paper §2.2, the whisker jumps) or ``release`` (the contact force
@@ -84,7 +92,8 @@ class Event:
 
 @dataclass(frozen=True)
 class WhiskerState:
-    """One quasistatic equilibrium of the whisker (all quantities dimensionless, world frame).
+    """
+    One quasistatic equilibrium of the whisker (all quantities dimensionless, world frame).
 
     Attributes
     ----------
@@ -110,6 +119,7 @@ class WhiskerState:
         Contact point (xi(alpha), eta(alpha)) (world frame).
     tip : (float, float)
         Position of the whisker's tip (world frame).
+
     """
 
     phase: Phase
@@ -134,7 +144,7 @@ class WhiskerState:
         return self.pose.x
 
     def centerline(self, n: int = 101) -> np.ndarray:
-        """``n`` >= 2 points of the whisker's centerline from foot to tip, shape (n, 2), world frame."""
+        """Return ``n`` >= 2 centerline points from foot to tip, shape (n, 2), world frame."""
         n = int(n)
         if n < 2:
             raise ValueError(f"n = {n} points: need at least 2")
@@ -155,7 +165,8 @@ class WhiskerState:
 
 @dataclass(frozen=True)
 class StepResult:
-    """What a tracker step returns: the new state and the events crossed, in order.
+    """
+    What a tracker step returns: the new state and the events crossed, in order.
 
     ``substeps`` counts continuation steps, ``evaluations`` the model and profile evaluations the
     step used (bounded by ``TrackerOptions.max_evaluations``).

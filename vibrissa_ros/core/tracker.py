@@ -1,4 +1,5 @@
-"""Quasistatic tracking: follow the whisker's equilibrium while the foot moves.
+"""
+Quasistatic tracking: follow the whisker's equilibrium while the foot moves.
 
 A :class:`QuasistaticTracker` holds the current equilibrium. :meth:`QuasistaticTracker.step`
 moves the foot along the straight path (position and heading interpolated linearly) from the
@@ -100,20 +101,25 @@ class _Path:
 
 
 class _Contact:
-    """Mutable bookkeeping of a contact branch during one step.
+    """
+    Mutable bookkeeping of a contact branch during one step.
 
     ``jac`` optionally holds dR/dz (a00, a01, a10, a11) at (z, pose(t)), from the last Newton
-    iteration; it is path independent and seeds the next step's predictor.
+    iteration; it is path independent and seeds the next step's predictor. ``carried``: the
+    contact was carried over from the previous step and not yet moved (an event may sit exactly
+    at its start).
     """
 
-    __slots__ = ("phase", "side", "z", "t", "jac")
+    __slots__ = ("phase", "side", "z", "t", "jac", "carried")
 
-    def __init__(self, phase, side, z, t, jac=None):
+    def __init__(self, phase, side, z, t, jac=None, carried=False):
         self.phase, self.side, self.z, self.t, self.jac = phase, side, z, t, jac
+        self.carried = carried
 
 
 class QuasistaticTracker:
-    """Follows the quasistatic equilibrium of a whisker scanning a convex obstacle.
+    """
+    Follows the quasistatic equilibrium of a whisker scanning a convex obstacle.
 
     Parameters
     ----------
@@ -124,6 +130,7 @@ class QuasistaticTracker:
         heading pi/2). Raises :class:`InvalidPoseError` if the straight whisker cuts the obstacle.
     model : str or model instance
         ``"elastica"`` (paper §2).
+
     """
 
     def __init__(self, profile: ConvexProfile, pose=2.0, model="elastica", options=None):
@@ -131,9 +138,11 @@ class QuasistaticTracker:
             raise ParameterError(f"profile must be a ConvexProfile, got {type(profile).__name__}")
         self.profile = profile
         self.model = make_model(model) if isinstance(model, str) else model
+        self._for_side = getattr(self.model, "for_side", None)
         self.options = options or TrackerOptions()
         # pegs and curved whiskers: contact may start on the whisker's side (see _find_touch_shape)
-        self._shape_mode = hasattr(profile, "signed_distance") or not getattr(self.model, "is_straight", True)
+        self._shape_mode = (hasattr(profile, "signed_distance")
+                            or not getattr(self.model, "is_straight", True))
         self._free_nodes = None
         self._peg_side_ref = None
         pose = _as_pose(pose)
@@ -153,7 +162,7 @@ class QuasistaticTracker:
     # -- public ------------------------------------------------------------------------------
     @property
     def state(self) -> WhiskerState:
-        """The current equilibrium."""
+        """Return the current equilibrium."""
         return self._state
 
     @property
@@ -161,7 +170,8 @@ class QuasistaticTracker:
         return self._pose
 
     def step(self, pose) -> StepResult:
-        """Move the foot along the straight path to ``pose`` and follow the equilibrium.
+        """
+        Move the foot along the straight path to ``pose`` and follow the equilibrium.
 
         Returns the new state and the events crossed. On any error (always a
         :class:`~.errors.VibrissaError`) the tracker keeps its state.
@@ -174,7 +184,8 @@ class QuasistaticTracker:
             raise
         except _NUMERICAL_ERRORS as exc:
             raise ConvergenceError(
-                f"the step from {self._pose} to {target} failed numerically ({type(exc).__name__}: {exc})"
+                f"the step from {self._pose} to {target} failed numerically "
+                f"({type(exc).__name__}: {exc})"
             ) from exc
 
     def _step(self, target: FootPose) -> StepResult:
@@ -182,7 +193,7 @@ class QuasistaticTracker:
         contact = None
         if self._contact is not None:
             c = self._contact
-            contact = _Contact(c.phase, c.side, c.z, 0.0, c.jac)
+            contact = _Contact(c.phase, c.side, c.z, 0.0, c.jac, carried=True)
         events: List[Event] = []
         substeps = 0
         t = 0.0
@@ -194,7 +205,8 @@ class QuasistaticTracker:
         for _ in range(4 * _MAX_EVENTS):
             if len(events) > _MAX_EVENTS:
                 raise ConvergenceError(
-                    f"the step to {target} crossed more than {_MAX_EVENTS} events without reaching it"
+                    f"the step to {target} crossed more than {_MAX_EVENTS} events without "
+                    "reaching it"
                 )
             if contact is None:
                 t_touch = self._find_touch(path, t, exiting)
@@ -213,8 +225,10 @@ class QuasistaticTracker:
             kind = outcome[0]
             if kind == "target":
                 break
-            if kind == "phase" and outcome[1] == "tip" and getattr(self.profile, "is_point", False):
-                contact, t, ev = self._snap(path, contact)  # a point cannot hold the tip: it slips off
+            if (kind == "phase" and outcome[1] == "tip"
+                    and getattr(self.profile, "is_point", False)):
+                # a point cannot hold the tip: it slips off
+                contact, t, ev = self._snap(path, contact)
                 events.append(ev)
                 continue
             if kind == "phase":
@@ -247,7 +261,8 @@ class QuasistaticTracker:
         # commit
         self._pose = final_pose
         self._contact = (
-            None if contact is None else _Contact(contact.phase, contact.side, contact.z, 0.0, contact.jac)
+            None if contact is None
+            else _Contact(contact.phase, contact.side, contact.z, 0.0, contact.jac)
         )
         self._state = state
         return StepResult(state, tuple(events), substeps, self._work)
@@ -257,8 +272,8 @@ class QuasistaticTracker:
         self._work += 1
         if self._work > self._budget:
             raise ConvergenceError(
-                f"the step used more than {self._budget} evaluations of the model without settling "
-                "(TrackerOptions.max_evaluations)"
+                f"the step used more than {self._budget} evaluations of the model without "
+                "settling (TrackerOptions.max_evaluations)"
             )
 
     # -- free whisker ------------------------------------------------------------------------
@@ -271,10 +286,12 @@ class QuasistaticTracker:
         return prof, x, y
 
     def _gap(self, x: float, y: float) -> float:
-        """Signed height of the point below the profile, in the profile's own frame (> 0 outside).
+        """
+        Signed height of the point below the profile, in the profile's own frame (> 0 outside).
 
         The obstacle is the region above its lower boundary curve (for closed shapes: the strip
-        above the lower arc)."""
+        above the lower arc).
+        """
         self._spend()
         signed_distance = getattr(self.profile, "signed_distance", None)
         if signed_distance is not None:
@@ -351,12 +368,13 @@ class QuasistaticTracker:
             raise InvalidPoseError(f"{what} puts the whisker's foot inside the obstacle")
         if self._rod_clearance(pose) <= 0.0:
             raise InvalidPoseError(
-                f"{what} puts the straight whisker inside the obstacle ({self.profile.describe()}); "
-                "place it where the straight whisker is free"
+                f"{what} puts the straight whisker inside the obstacle "
+                f"({self.profile.describe()}); place it where the straight whisker is free"
             )
 
     def _find_touch(self, path: _Path, t: float, exiting: bool = False) -> Optional[float]:
-        """First t in [t, 1] where the straight whisker's tip reaches the profile (None: no touch).
+        """
+        First t in [t, 1] where the straight whisker's tip reaches the profile (None: no touch).
 
         Conservative advancement: the tip moves at most ``path.length`` per unit t, so it cannot
         reach the obstacle before t + distance / length; near contact the sign change of the
@@ -375,20 +393,20 @@ class QuasistaticTracker:
         return t_touch
 
     def _check_tip_touch(self, pose: FootPose) -> None:
-        """The model's first contact is the tip on the lower boundary curve: refuse anything else."""
+        """Check that the first contact is the tip on the lower boundary curve; refuse all else."""
         gap = self._gap(*self._tip(pose))
         if gap < -1e-9:
             raise ModelAssumptionError(
-                f"at {pose} the whisker's tip enters the obstacle ({self.profile.describe()}) across "
-                "its side, not across its lower boundary curve: not covered by the model"
+                f"at {pose} the whisker's tip enters the obstacle ({self.profile.describe()}) "
+                "across its side, not across its lower boundary curve: not covered by the model"
             )
         c, s = math.cos(pose.heading), math.sin(pose.heading)
         fun = lambda u: min(self._gap(pose.x + u * c, pose.y + u * s), 1e6)  # noqa: E731
         res = minimize_scalar(fun, bounds=(0.0, 0.999), method="bounded", options={"xatol": 1e-10})
         if min(fun(0.0), float(res.fun)) < -1e-9:
             raise ModelAssumptionError(
-                f"at {pose} the side of the straight whisker meets the obstacle before its tip: not "
-                "covered by the model (the foot moves into the obstacle)"
+                f"at {pose} the side of the straight whisker meets the obstacle before its tip: "
+                "not covered by the model (the foot moves into the obstacle)"
             )
 
     def _advance_to_touch(self, path: _Path, t: float) -> Optional[float]:
@@ -428,16 +446,24 @@ class QuasistaticTracker:
         return None
 
     def _starts_leaving(self, path: _Path) -> bool:
-        """A free whisker whose tip lies on the profile (released at the previous pose) and moves
-        out of the obstacle: its touch search must start beyond the profile, not touch at t = 0."""
+        """
+        Tell whether a free whisker's tip on the profile moves out of the obstacle.
+
+        The tip was released at the previous pose; its touch search must start beyond the
+        profile, not touch at t = 0.
+        """
         g0 = self._tip_gap(path, 0.0)
         if not -1e-12 <= g0 <= 1e-12:
             return False
         return self._tip_gap(path, min(1.0, 1e-8 / path.length)) > g0
 
     def _leave_profile(self, path: _Path, t: float) -> Optional[float]:
-        """The first t' > t (by doubling offsets from 1e-12 of the path) where the tip is outside the
-        obstacle again; None if the path ends with the tip on the profile."""
+        """
+        Find the first t' > t where the tip is outside the obstacle again.
+
+        By doubling offsets from 1e-12 of the path; None if the path ends with the tip on the
+        profile.
+        """
         delta = 1e-12
         for _ in range(45):  # 1e-12 * 2**44 > 1
             t_out = min(1.0, t + delta)
@@ -447,10 +473,11 @@ class QuasistaticTracker:
             if t_out >= 1.0:
                 break
             delta *= 2.0
-        if gap < -1e-12:  # (a release located on the force, f = 0, leaves the tip on the profile to ~1e-15)
+        # (a release located on the force, f = 0, leaves the tip on the profile to ~1e-15)
+        if gap < -1e-12:
             raise ConvergenceError(
-                f"after leaving the profile at t = {t!r} the straight whisker's tip stays inside the "
-                "obstacle: no equilibrium could be followed"
+                f"after leaving the profile at t = {t!r} the straight whisker's tip stays inside "
+                "the obstacle: no equilibrium could be followed"
             )
         return None
 
@@ -460,12 +487,13 @@ class QuasistaticTracker:
         pose = path.pose(t_touch)
         tx, ty = self._tip(pose)
         base, u, _ = self._base_frame_point(tx, ty)
-        alpha_w = base.alpha_at_x(u) + (self.profile.rotation if isinstance(self.profile, PlacedProfile) else 0.0)
+        alpha_w = base.alpha_at_x(u) + (self.profile.rotation
+                                        if isinstance(self.profile, PlacedProfile) else 0.0)
         alpha_f = math.remainder(alpha_w - (pose.heading - HALF_PI), _TWO_PI)
         if not abs(alpha_f) < HALF_PI:
             raise ModelAssumptionError(
-                f"first touch where the profile slope relative to the whisker is {alpha_f!r} rad: the "
-                "profile is not a graph over the whisker's normal there"
+                f"first touch where the profile slope relative to the whisker is {alpha_f!r} rad: "
+                "the profile is not a graph over the whisker's normal there"
             )
         if abs(alpha_f) < 1e-9:
             raise ModelAssumptionError(
@@ -516,9 +544,13 @@ class QuasistaticTracker:
         return self._gap(pose.x + c * fx - s * fy, pose.y + s * fx + c * fy)
 
     def _free_clearance(self, pose: FootPose, coarse: bool = False) -> Tuple[float, float]:
-        """(smallest gap along the unloaded whisker, its arc length). For a peg the gap is the
-        Euclidean distance to the peg; for a curved whisker against a convex profile the vertical gap.
-        ``coarse`` (pegs): far from the peg, a lower bound from the samples is enough."""
+        """
+        Return (smallest gap along the unloaded whisker, its arc length).
+
+        For a peg the gap is the Euclidean distance to the peg; for a curved whisker against a
+        convex profile the vertical gap. ``coarse`` (pegs): far from the peg, a lower bound from
+        the samples is enough.
+        """
         s, pts = self._free_sample()
         beta = pose.heading - HALF_PI
         c, sn = math.cos(beta), math.sin(beta)
@@ -546,15 +578,19 @@ class QuasistaticTracker:
         if value < best:
             best, s_best = value, refined
         if signed_distance is not None and self._peg_side_ref is not None:
-            # a point (or a peg's centre) crossing the whisker: the side it lies on decides the sign
+            # a point (or a peg's centre) crossing the whisker: the side it lies on decides the
+            # sign
             side = self._peg_side(pose, s_best)
             if side != 0 and side != self._peg_side_ref:
                 best = -best - 2.0 * self.profile.r
         return best, s_best
 
     def _peg_nearest(self, pose: FootPose, s: float, lo: float, hi: float) -> Optional[float]:
-        """Arc length in (lo, hi) of the unloaded whisker's point nearest to the peg's centre, by
-        Newton on (p(s) - c) . t(s) = 0 (derivative 1 + kappa0 (p - c) . n); None if it fails."""
+        """
+        Find the arc length in (lo, hi) of the unloaded whisker's point nearest to the peg centre.
+
+        By Newton on (p(s) - c) . t(s) = 0 (derivative 1 + kappa0 (p - c) . n); None if it fails.
+        """
         beta = pose.heading - HALF_PI
         cb, sb = math.cos(beta), math.sin(beta)
         # the peg's centre in the foot frame
@@ -581,11 +617,17 @@ class QuasistaticTracker:
         return None
 
     def _peg_side(self, pose: FootPose, s: float) -> int:
-        """+1 when the peg's centre is to the left of the unloaded whisker at s, -1 right, 0 beyond its ends."""
+        """
+        Tell the peg centre's side of the unloaded whisker at s.
+
+        +1 when the peg's centre is to the left of the unloaded whisker at s, -1 right, 0 beyond
+        its ends.
+        """
         if not 0.0 < s < 1.0:
             return 0
         fx, fy = self._free_point(s)
-        slope = 0.0 if getattr(self.model, "is_straight", True) else float(self.model.shape.intrinsic_slope(s))
+        slope = (0.0 if getattr(self.model, "is_straight", True)
+                 else float(self.model.shape.intrinsic_slope(s)))
         beta = pose.heading - HALF_PI
         cb, sb = math.cos(beta), math.sin(beta)
         px, py = pose.x + cb * fx - sb * fy, pose.y + sb * fx + cb * fy
@@ -594,11 +636,13 @@ class QuasistaticTracker:
         return 1 if cross > 0.0 else -1
 
     def _find_touch_shape(self, path: _Path, t: float) -> Optional[float]:
-        """First t in [t, 1] where the unloaded whisker meets the obstacle anywhere along it.
+        """
+        First t in [t, 1] where the unloaded whisker meets the obstacle anywhere along it.
 
         Against a peg the clearance is a distance and every whisker point moves at most
         ``path.length`` per unit t: conservative advancement, then brentq. Against a convex profile
-        (curved whisker) the clearance is sampled every 1e-3 L of motion and the sign change refined.
+        (curved whisker) the clearance is sampled every 1e-3 L of motion and the sign change
+        refined.
         """
         self._peg_side_ref = None
         if hasattr(self.profile, "signed_distance"):
@@ -645,7 +689,8 @@ class QuasistaticTracker:
             t, c0 = t_next, c1
         raise ConvergenceError("touch search did not terminate")
 
-    def _start_contact_shape(self, path: _Path, t_touch: float) -> Optional[Tuple[_Contact, Event]]:
+    def _start_contact_shape(self, path: _Path,
+                             t_touch: float) -> Optional[Tuple[_Contact, Event]]:
         pose = path.pose(t_touch)
         _, s_star = self._free_clearance(pose)
         fx, fy = self._free_point(s_star)
@@ -657,8 +702,10 @@ class QuasistaticTracker:
             alpha_w = normal_slope(wx, wy)
         else:
             base, u, _ = self._base_frame_point(wx, wy)
-            alpha_w = base.alpha_at_x(u) + (self.profile.rotation if isinstance(self.profile, PlacedProfile) else 0.0)
-        slope = 0.0 if getattr(self.model, "is_straight", True) else float(self.model.shape.intrinsic_slope(s_star))
+            alpha_w = base.alpha_at_x(u) + (self.profile.rotation
+                                            if isinstance(self.profile, PlacedProfile) else 0.0)
+        slope = (0.0 if getattr(self.model, "is_straight", True)
+                 else float(self.model.shape.intrinsic_slope(s_star)))
         theta_f = HALF_PI + slope
         if normal_slope is not None and s_star < 1.0 - 1e-9:
             # side touch of a peg: the normal is the whisker's (exact also for a point, r = 0)
@@ -671,21 +718,24 @@ class QuasistaticTracker:
         tip_first = s_star >= 1.0 - 1e-9
         if tip_first and getattr(self.profile, "is_point", False):
             raise ModelAssumptionError(
-                "the tip meets a point obstacle head first: a point (peg radius 0) takes side contact only"
+                "the tip meets a point obstacle head first: a point (peg radius 0) takes side "
+                "contact only"
             )
         if tip_first:
-            # the tip may touch where the obstacle's normal points along the tip's tangent or behind it
+            # the tip may touch where the obstacle's normal points along the tip's tangent or
+            # behind it
             phi_c = theta_f if side > 0 else math.pi - theta_f
             closed_forms = not hasattr(model, "side_touch_start")  # their domain: |alpha| < pi/2
-            if not 0.0 < phi_c - alpha_c < math.pi or (closed_forms and not abs(alpha_c) < HALF_PI):
+            if (not 0.0 < phi_c - alpha_c < math.pi
+                    or (closed_forms and not abs(alpha_c) < HALF_PI)):
                 raise ModelAssumptionError(
-                    f"first touch where the obstacle's slope relative to the whisker is {alpha_f!r} rad: "
-                    "the contact force would pull the tip away from the foot"
+                    f"first touch where the obstacle's slope relative to the whisker is "
+                    f"{alpha_f!r} rad: the contact force would pull the tip away from the foot"
                 )
             if abs(alpha_c) < 1e-9:
                 raise ModelAssumptionError(
-                    "the tip touches the obstacle head-on (contact force along the whisker's axis): "
-                    "the buckling that follows is not modelled"
+                    "the tip touches the obstacle head-on (contact force along the whisker's "
+                    "axis): the buckling that follows is not modelled"
                 )
             event = Event("touch", Phase.FREE, Phase.TIP, pose, alpha_w)
             tau_left = (1.0 - t_touch) * path.length
@@ -707,8 +757,8 @@ class QuasistaticTracker:
         side_touch_start = getattr(model, "side_touch_start", None)
         if side_touch_start is None:
             raise ModelAssumptionError(
-                "the side of the whisker meets the obstacle first: the closed forms cover tip-first "
-                "touches only; use the general (numeric) solver"
+                "the side of the whisker meets the obstacle first: the closed forms cover "
+                "tip-first touches only; use the general (numeric) solver"
             )
         phase, z = side_touch_start(s_star, alpha_c)
         event = Event("touch", Phase.FREE, phase, pose, alpha_w)
@@ -783,9 +833,13 @@ class QuasistaticTracker:
 
     @staticmethod
     def _tangent(J: np.ndarray, previous=None) -> np.ndarray:
-        """Unit tangent of the branch: the kernel of the 2x3 Jacobian (cross product of its rows),
-        oriented along increasing tau or along ``previous``. Scalar arithmetic: numpy's cross and
-        norm cost more than the model evaluation on 3-vectors."""
+        """
+        Return the unit tangent of the branch.
+
+        It is the kernel of the 2x3 Jacobian (cross product of its rows), oriented along
+        increasing tau or along ``previous``. Scalar arithmetic: numpy's cross and norm cost more
+        than the model evaluation on 3-vectors.
+        """
         (a0, a1, a2), (b0, b1, b2) = J[0], J[1]
         t0, t1, t2 = a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
         norm = math.sqrt(t0 * t0 + t1 * t1 + t2 * t2)
@@ -803,13 +857,19 @@ class QuasistaticTracker:
         return self._side_model(side).events(phase, z)
 
     def _side_model(self, side: int):
-        """The model in the contact frame of ``side`` (models whose whisker is not mirror-symmetric,
-        e.g. an intrinsically curved one, give a mirrored copy for side -1)."""
-        for_side = getattr(self.model, "for_side", None)
-        return self.model if for_side is None else for_side(side)
+        """
+        Return the model in the contact frame of ``side``.
+
+        Models whose whisker is not mirror-symmetric, e.g. an intrinsically curved one, give a
+        mirrored copy for side -1.
+        """
+        if side >= 0 or self._for_side is None:
+            return self.model
+        return self._for_side(side)
 
     def _follow(self, path: _Path, contact: _Contact):
-        """Follow the contact branch from contact.t towards t = 1.
+        """
+        Follow the contact branch from contact.t towards t = 1.
 
         Returns (kind, detail, substeps) with kind 'target', 'phase' (detail: event name),
         'fold' or 'release' (detail: t); ``contact`` is updated in place to the located point.
@@ -832,21 +892,23 @@ class QuasistaticTracker:
             steps += 1
             if steps > _MAX_CONTINUATION_STEPS:
                 raise ConvergenceError(
-                    f"the continuation took more than {_MAX_CONTINUATION_STEPS} steps on one branch "
-                    "without reaching the target pose"
+                    f"the continuation took more than {_MAX_CONTINUATION_STEPS} steps on one "
+                    "branch without reaching the target pose"
                 )
             Yp = Y + h * T
             Yn = self._corrector(path, phase, side, Yp, T, h)
             if Yn is None:
                 released = (
-                    self._check_release(path, phase, contact, Y, Yp) if self.model.release_by_gap else None
+                    self._check_release(path, phase, contact, Y, Yp)
+                    if self.model.release_by_gap else None
                 )
                 if released is not None:
                     return "release", released, steps
                 h *= 0.5
                 if h < _H_MIN:
                     if self.model.released(phase, (Y[0], Y[1])):
-                        contact.z, contact.t = (float(Y[0]), float(Y[1])), float(Y[2]) / path.length
+                        contact.z, contact.t = ((float(Y[0]), float(Y[1])),
+                                                float(Y[2]) / path.length)
                         return "release", contact.t, steps
                     self._raise_branch_end(path, phase, Y)
                 continue
@@ -854,6 +916,13 @@ class QuasistaticTracker:
             Tn = self._tangent(Jn, T)
             zn = (Yn[0], Yn[1])
             ev_b = self._events_of(phase, zn, side)
+            if contact.carried:
+                # the previous step ended on an event to rounding (its function is <= 0 at the
+                # start): it fires here if the branch moves on through it, not if it turns back
+                contact.carried = False
+                for k, v in ev_a.items():
+                    if v <= 0.0 and ev_b[k] < v:
+                        return "phase", k, steps
             found = []  # (kind, name)
             fold = T[2] > 0.0 >= Tn[2]
             if fold:
@@ -861,7 +930,8 @@ class QuasistaticTracker:
             for k, v in ev_b.items():
                 if v <= 0.0 < ev_a[k]:
                     found.append(("phase", k))
-            if Yn[2] >= tau_end and not fold:  # (with a fold, _locate decides whether the target comes first)
+            # (with a fold, _locate decides whether the target comes first)
+            if Yn[2] >= tau_end and not fold:
                 found.append(("target", None))
             if found:
                 kind, name, Ystar = self._locate(path, phase, side, Y, Yn, T, Tn, found, tau_end)
@@ -872,18 +942,20 @@ class QuasistaticTracker:
                     # branch parameter); Newton at fixed t only polishes it, and is not trusted
                     # next to a fold, where dR/dz is nearly singular
                     z = self._newton_fixed_t(path, phase, side, contact.z, 1.0)
-                    if z is not None and abs(z[0] - contact.z[0]) + abs(z[1] - contact.z[1]) <= 1e-9:
+                    if (z is not None
+                            and abs(z[0] - contact.z[0]) + abs(z[1] - contact.z[1]) <= 1e-9):
                         contact.z = z
                     contact.t = 1.0
                 return kind, name, steps
             if self.model.released(phase, zn):  # a tangential contact unloaded to rounding
-                contact.z, contact.t = (float(zn[0]), float(zn[1])), min(float(Yn[2]) / path.length, 1.0)
+                contact.z, contact.t = ((float(zn[0]), float(zn[1])),
+                                        min(float(Yn[2]) / path.length, 1.0))
                 return "release", contact.t, steps
             Y, T, ev_a = Yn, Tn, ev_b
             h = min(self.options.max_arclength_step * self.model.step_scale(phase, zn), h * 1.5)
 
     def _raise_branch_end(self, path, phase, Y):
-        """The continuation cannot go on from Y: say why (a model limit or a numerical failure)."""
+        """Raise why the continuation cannot go on from Y (a model limit or numerical failure)."""
         t = float(Y[2]) / path.length
         z = (float(Y[0]), float(Y[1]))
         try:
@@ -892,9 +964,9 @@ class QuasistaticTracker:
             f, s1 = math.inf, 0.0
         if phase == Phase.TANGENTIAL and not s1 > 1e-6:
             raise ModelAssumptionError(
-                f"the contact point slid down to the whisker's foot (s1 = {s1:.3g}, f = {f:.3g}) at "
-                f"{path.pose(t)}: the foot is being driven into the obstacle, which the model does "
-                "not cover"
+                f"the contact point slid down to the whisker's foot (s1 = {s1:.3g}, f = {f:.3g}) "
+                f"at {path.pose(t)}: the foot is being driven into the obstacle, which the model "
+                "does not cover"
             )
         try:
             near = [name for name, value in self.model.events(phase, z).items() if value < 1e-8]
@@ -913,9 +985,12 @@ class QuasistaticTracker:
         )
 
     def _follow_rest(self, path: _Path, contact: _Contact):
-        """:meth:`_follow` on the rest of the path from contact.t, so that the continuation's tau
-        starts at 0 wherever the branch begins (a branch met after a long jump is followed with
-        small numbers); results are mapped back to the whole path's t."""
+        """
+        Run :meth:`_follow` on the rest of the path from contact.t.
+
+        So the continuation's tau starts at 0 wherever the branch begins (a branch met after a
+        long jump is followed with small numbers); results are mapped back to the whole path's t.
+        """
         t0 = contact.t
         if t0 <= 0.0:
             return self._follow(path, contact)
@@ -930,9 +1005,13 @@ class QuasistaticTracker:
         return kind, detail, steps
 
     def _fast_step(self, path: _Path, contact: _Contact) -> bool:
-        """One tangent predictor to t = 1 and Newton there, accepted only when nothing can have
-        happened in between: a small change, no event function changed sign and the branch did
-        not turn (det dR/dz keeps its sign). Pure Python floats: this is the hot path."""
+        """
+        Try one tangent predictor to t = 1 and Newton there.
+
+        Accepted only when nothing can have happened in between: a small change, no event
+        function changed sign and the branch did not turn (det dR/dz keeps its sign). Pure Python
+        floats: this is the hot path.
+        """
         if contact.t != 0.0:
             return False
         phase, side, (z0, z1) = contact.phase, contact.side, contact.z
@@ -959,6 +1038,8 @@ class QuasistaticTracker:
         if det_a * det_b <= 0.0:
             return False
         ev_a = self._events_of(phase, (z0, z1), side)
+        if any(value <= 0.0 for value in ev_a.values()):
+            return False  # an event sits at the start: the careful path decides whether it fires
         ev_b = self._events_of(phase, z, side)
         for key, value in ev_b.items():
             if value <= 0.0 < ev_a[key]:
@@ -967,7 +1048,7 @@ class QuasistaticTracker:
         return True
 
     def _corrector(self, path, phase, side, Yp, T, h):
-        """Newton on [R(Y) = 0, T.(Y - Yp) = 0]; None when it fails or strays from the predictor."""
+        """Solve [R(Y) = 0, T.(Y - Yp) = 0] by Newton; None if it fails or strays from Yp."""
         Y = Yp.copy()
         for it in range(8):
             if not self.model.valid(phase, (Y[0], Y[1])):
@@ -984,7 +1065,8 @@ class QuasistaticTracker:
                 return None
             Y = Y + d
             if np.max(np.abs(d)) <= self.options.newton_tol * max(1.0, np.max(np.abs(Y))):
-                if np.linalg.norm(Y - Yp) > 0.5 * h + 1e-12 or not self.model.valid(phase, (Y[0], Y[1])):
+                if (np.linalg.norm(Y - Yp) > 0.5 * h + 1e-12
+                        or not self.model.valid(phase, (Y[0], Y[1]))):
                     return None
                 return Y
         return None
@@ -1012,7 +1094,8 @@ class QuasistaticTracker:
         raise ConvergenceError("event location did not converge on the branch")
 
     def _locate(self, path, phase, side, Ya, Yb, Ta, Tb, found, tau_end):
-        """Locate the earliest of the events found between branch points Ya and Yb.
+        """
+        Locate the earliest of the events found between branch points Ya and Yb.
 
         The branch between them is parametrized by the component of the chord that changes most
         (never tau when the branch folds in between), and each event function is solved for with
@@ -1036,7 +1119,8 @@ class QuasistaticTracker:
         kinds = {name: kind for kind, name in found}
         if has_fold:
             ends = {pa: Ta[2], pb: Tb[2]}
-            p_fold = brentq(lambda p: ends[p] if p in ends else tau_slope(p), pa, pb, xtol=xtol, rtol=1e-15)
+            p_fold = brentq(lambda p: ends[p] if p in ends else tau_slope(p), pa, pb, xtol=xtol,
+                            rtol=1e-15)
             Yb = point(p_fold)
             pb = p_fold
             found = [(k, n) for k, n in found if k == "phase"]
@@ -1047,7 +1131,8 @@ class QuasistaticTracker:
             if kind == "target":
                 g = lambda Y: Y[2] - tau_end  # noqa: E731
             else:
-                g = lambda Y, name=name: self._events_of(phase, (Y[0], Y[1]), side)[name]  # noqa: E731
+                g = lambda Y, name=name: (  # noqa: E731
+                    self._events_of(phase, (Y[0], Y[1]), side)[name])
             ga, gb = g(Ya), g(Yb)
             if ga == 0.0:
                 p_star = pa
@@ -1057,7 +1142,8 @@ class QuasistaticTracker:
                 p_star = pb
             else:
                 ends = {pa: ga, pb: gb}  # endpoint values as bracketed, not re-solved
-                p_star = brentq(lambda p: ends[p] if p in ends else g(point(p)), pa, pb, xtol=xtol, rtol=1e-15)
+                p_star = brentq(lambda p: ends[p] if p in ends else g(point(p)), pa, pb,
+                                xtol=xtol, rtol=1e-15)
             frac = (p_star - pa) / (pb - pa) if pb != pa else 0.0
             if best is None or frac < best[0]:
                 best = (frac, kind, name, p_star)
@@ -1117,7 +1203,8 @@ class QuasistaticTracker:
         helper = QuasistaticTracker(self.profile, start, self.model, self.options)
         result = helper.step(pose)
         if any(e.kind == "snap" for e in result.events) or helper._contact is None:
-            raise ModelAssumptionError("no equilibrium in contact exists after the snap at this pose")
+            raise ModelAssumptionError(
+                "no equilibrium in contact exists after the snap at this pose")
         c = helper._contact
         return _Contact(c.phase, c.side, c.z, 0.0)
 
@@ -1177,9 +1264,12 @@ class QuasistaticTracker:
 
 
 def _solve3(m, b) -> Optional[np.ndarray]:
-    """Solve the 3x3 system m x = b by Gaussian elimination with partial pivoting (scalar
-    arithmetic: for 3x3 systems in the continuation's inner loop this is several times faster
-    than LAPACK through numpy). None when singular or not finite."""
+    """
+    Solve the 3x3 system m x = b by Gaussian elimination with partial pivoting.
+
+    Scalar arithmetic: for 3x3 systems in the continuation's inner loop this is several times
+    faster than LAPACK through numpy. None when singular or not finite.
+    """
     m = [row[:] + [bi] for row, bi in zip(m, b)]
     for col in range(3):
         piv = max(range(col, 3), key=lambda r: abs(m[r][col]))
@@ -1206,6 +1296,8 @@ def _as_pose(pose) -> FootPose:
         pose = FootPose(float(pose), 0.0, HALF_PI)
     if not isinstance(pose, FootPose):
         raise InvalidPoseError(f"a foot pose must be a FootPose or the paper's x0, got {pose!r}")
+    if max(abs(pose.x), abs(pose.y), abs(pose.heading)) <= MAX_POSE_MAGNITUDE:
+        return pose
     for key in ("x", "y", "heading"):
         value = getattr(pose, key)
         if abs(value) > MAX_POSE_MAGNITUDE:
