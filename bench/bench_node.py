@@ -67,7 +67,7 @@ def receiver(work: Path) -> None:
     rclpy.try_shutdown()
 
 
-def sender(work: Path, segments) -> None:
+def sender(work: Path, segments, amplitude: float = 0.15) -> None:
     """Handshake through the receiver, then publish each (rate, seconds) segment on time."""
     import rclpy
     from geometry_msgs.msg import PoseStamped
@@ -94,7 +94,8 @@ def sender(work: Path, segments) -> None:
             if delay > 0:
                 time.sleep(delay)
             stamp = time.time_ns()
-            pub.publish(pose_stamped(sweep_x(t_offset + i * period), 0.0, math.pi / 2, stamp))
+            x = sweep_x(t_offset + i * period, amplitude=amplitude)
+            pub.publish(pose_stamped(x, 0.0, math.pi / 2, stamp))
             sent.append(stamp)
         out.append({"rate": rate, "achieved": n / (time.perf_counter() - start), "sent": sent})
         t_offset += seconds
@@ -105,10 +106,10 @@ def sender(work: Path, segments) -> None:
     rclpy.try_shutdown()
 
 
-def start_node(kind: str, log_path: str) -> subprocess.Popen:
+def start_node(kind: str, log_path: str, params: str) -> subprocess.Popen:
     if kind in ("whisker", "recording"):
         exe = Path(sys.executable).with_name("whisker_node")
-        cmd = [str(exe), "--ros-args", "--params-file", str(ROOT / "config" / "catenary.yaml"),
+        cmd = [str(exe), "--ros-args", "--params-file", params,
                "--log-level", "warn"]
         if kind == "recording":
             cmd += ["-p", f"record.path:={log_path}"]
@@ -122,8 +123,9 @@ def measure(kind: str, args, work: Path):
     segments = [(args.rate, args.seconds)]
     if kind != "recording":  # the recording run stays at --rate: its log size
         segments += [(rate, args.ramp_seconds) for rate in args.ramp]
-    node = start_node(kind, args.log)
-    me = [sys.executable, __file__, "--work", str(work)]
+    node = start_node(kind, args.log, args.params)
+    me = [sys.executable, __file__, "--work", str(work),
+          "--amplitude", repr(args.amplitude)]
     rx = subprocess.Popen(me + ["--role", "receiver"])
     tx = subprocess.Popen(me + ["--role", "sender", "--segments", json.dumps(segments)])
     try:
@@ -165,6 +167,11 @@ def main(argv=None):
                         help="where the recording run writes its log")
     parser.add_argument("--nodes", default="whisker,recording,echo",
                         help="which to measure: whisker, recording (record.path), echo")
+    parser.add_argument("--params", default=str(ROOT / "config" / "catenary.yaml"),
+                        help="whisker_node's parameter file (e.g. config/rat_pole.yaml)")
+    parser.add_argument("--amplitude", type=float, default=0.15,
+                        help="the foot sweeps x between +-amplitude [m] (0.15 for the catenary; "
+                        "0.012 for rat_pole.yaml)")
     parser.add_argument("--role", choices=["sender", "receiver"], help=argparse.SUPPRESS)
     parser.add_argument("--work", help=argparse.SUPPRESS)
     parser.add_argument("--segments", help=argparse.SUPPRESS)
@@ -172,7 +179,7 @@ def main(argv=None):
     if args.role == "receiver":
         return receiver(Path(args.work))
     if args.role == "sender":
-        return sender(Path(args.work), json.loads(args.segments))
+        return sender(Path(args.work), json.loads(args.segments), args.amplitude)
     os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
     results = {}
     with tempfile.TemporaryDirectory() as tmp:

@@ -80,3 +80,55 @@ def test_bad_values_are_rejected_with_the_reason(values, words):
 def test_every_parameter_has_a_default_of_its_type():
     for spec in PARAMETERS:
         assert isinstance(spec.default, (bool, int, float, str))
+
+
+RAT = {"whisker.length": 0.03, "whisker.youngs_modulus": 3.3e9, "whisker.base_radius": 5e-5,
+       "whisker.taper": 1.0 / 15.0, "whisker.curvature_k0": 1.0 / 0.06, "whisker.curvature_k1": -100.0,
+       "obstacle.type": "peg", "obstacle.peg_x": 0.003, "obstacle.peg_y": 0.015, "obstacle.peg_radius": 3e-4}
+
+
+def test_whisker_shape_peg_and_youngs_modulus_build_the_general_model_in_whisker_units():
+    cfg = build_config(RAT)
+    assert cfg.model.name == "general"
+    shape = cfg.model.shape
+    assert (shape.taper, shape.k0, shape.k1) == pytest.approx((1 / 15, 0.5, -100.0 * 0.03**2), rel=1e-15)
+    ei = 3.3e9 * math.pi * 5e-5**4 / 4
+    assert cfg.units.moment == pytest.approx(ei / 0.03, rel=1e-15)
+    assert cfg.units.force == pytest.approx(ei / 0.03**2, rel=1e-15)
+    assert (cfg.profile.name, cfg.profile.x, cfg.profile.y, cfg.profile.r) == (
+        "peg", pytest.approx(0.1), pytest.approx(0.5), pytest.approx(0.01))
+    assert cfg.fresh_model() is not cfg.model and cfg.fresh_model().shape == shape
+    assert "peg" in cfg.describe() and "general" in cfg.describe()
+
+
+def test_the_model_is_picked_like_scan_solver_auto():
+    assert build_config({}).model.name == "elastica"  # the paper's whisker against a convex profile
+    assert build_config({"whisker.taper": 0.5}).model.name == "general"
+    assert build_config({"whisker.curvature_k1": 1.0}).model.name == "general"
+    assert build_config({"obstacle.type": "peg"}).model.name == "general"  # a peg: the general solver
+    ei = 2e9 * math.pi * 1e-4**4 / 4
+    same = build_config({"whisker.youngs_modulus": 2e9, "whisker.base_radius": 1e-4, "whisker.bending_stiffness": ei})
+    assert same.units.moment * 0.1 == pytest.approx(ei, rel=1e-12)
+
+
+@pytest.mark.parametrize(
+    "values, words",
+    [
+        ({"whisker.taper": 0.0}, ["whisker.taper", "> 0.0 and <= 1.0"]),
+        ({"whisker.taper": 1.5}, ["whisker.taper", "<= 1.0"]),
+        ({"whisker.curvature_k0": 300.0}, ["whisker.curvature_k0", "<= 20"]),
+        ({"whisker.youngs_modulus": -1.0}, ["whisker.youngs_modulus", "in [0.0, "]),
+        ({"whisker.youngs_modulus": 3e9}, ["whisker.base_radius", "> 0"]),
+        ({"whisker.youngs_modulus": 3e9, "whisker.base_radius": 1e-4, "whisker.bending_stiffness": 1e-3},
+         ["disagrees", "not both"]),
+        ({"obstacle.type": "peg", "obstacle.peg_radius": -1e-3}, ["obstacle.peg_radius", ">= 0"]),
+        ({"model": "rigid", "whisker.taper": 0.5}, ["rigid", "taper"]),
+        ({"model": "rigid", "whisker.curvature_k0": 1.0}, ["rigid", "curvature"]),
+        ({"model": "rigid", "obstacle.type": "peg"}, ["peg", "elastica"]),
+    ],
+)
+def test_new_whisker_and_peg_parameters_are_refused_with_a_reason(values, words):
+    with pytest.raises(ParameterError) as err:
+        build_config(values)
+    for word in words:
+        assert word in str(err.value)

@@ -50,7 +50,7 @@ def _expected(values, msgs):
 def node(installed, ros_env, rcl_context, tmp_path, request):
     """Start whisker_node with the parameters of the test's ``params`` marker (default: catenary)."""
     marker = request.node.get_closest_marker("params")
-    values = dict(marker.args[0]) if marker else dict(CATENARY)
+    values = dict(marker.args[0]) if marker else dict(getattr(request, "param", CATENARY))
     params = write_params(tmp_path / "params.yaml", values)
     proc = start_installed_node(installed, params, ros_env)
     probe = Probe(rcl_context, "/whisker_node")
@@ -212,7 +212,7 @@ def test_clean_exit_on_signals(installed, ros_env, tmp_path, sig, rcl_context):
     assert "Traceback" not in out
 
 
-@pytest.mark.parametrize("config", ["default", "catenary", "two_circles", "parabola_rigid"])
+@pytest.mark.parametrize("config", ["default", "catenary", "two_circles", "parabola_rigid", "rat_pole"])
 def test_shipped_parameter_files_start_the_node(installed, ros_env, rcl_context, config):
     params = ROOT / "config" / f"{config}.yaml"
     proc = start_installed_node(installed, params, ros_env, namespace=f"/{config}")
@@ -295,3 +295,64 @@ def test_vibrissa_sweep_command_launches_the_node(tmp_path, ros_env):
     phases = [int(line.split(",")[3]) for line in lines[1:]]
     assert set(phases) == {0, 1, 2}
     assert "nan" not in out.read_text().lower()
+
+
+RAT_POLE = {
+    "model": "elastica",
+    "whisker.length": 0.03,
+    "whisker.youngs_modulus": 3.3e9,
+    "whisker.base_radius": 5e-5,
+    "whisker.taper": 1.0 / 15.0,
+    "whisker.curvature_k0": 1.0 / 0.06,
+    "whisker.curvature_k1": -100.0,
+    "obstacle.type": "peg",
+    "obstacle.peg_x": 0.0,
+    "obstacle.peg_y": 0.015,
+    "obstacle.peg_radius": 2.5e-4,
+    "diagnostics.period": 0.2,
+    "centerline.max_rate": 0.0,
+}
+
+
+def _rat_pole_poses():
+    """Translate past the pole and back, then whisk (foot fixed, heading sweeping) against it."""
+    xs = list(np.linspace(0.008, -0.012, 81)) + list(np.linspace(-0.012, 0.008, 81))[1:]
+    poses = [(x, 0.0, HALF_PI) for x in xs]
+    poses += [(0.004, 0.0, HALF_PI + a) for a in np.linspace(0.0, 0.6, 61)]
+    poses += [(0.004, 0.0, HALF_PI + a) for a in np.linspace(0.6, -0.3, 91)[1:]]
+    return [pose_msg(float(x), y, float(h), 1_000_000_000 + i * 1_000_000) for i, (x, y, h) in enumerate(poses)]
+
+
+@pytest.mark.parametrize("node", [RAT_POLE], indirect=True)
+def test_tapered_curved_whisker_past_a_peg_equals_the_general_core(node):
+    """Issue 12: the node's general model (taper, curvature, peg, E and r) == the core, SI, base frame."""
+    proc, probe, values = node
+    assert build_config(values).model.name == "general"
+    msgs = _rat_pole_poses()
+    probe.handshake(msgs[0])
+    wrenches = [probe.step(m) for m in msgs[1:]]
+    expected = _expected(values, msgs)[1:]
+    ei = 3.3e9 * math.pi * 5e-5**4 / 4.0
+    force_scale = ei / 0.03**2
+    in_contact = 0
+    for m, w, (state, reading, _) in zip(msgs[1:], wrenches, expected):
+        assert stamp_of(w) == stamp_of(m) and w.header.frame_id == "whisker_base"
+        for got, want, scale in ((w.wrench.force.x, reading.force_base[0], force_scale),
+                                 (w.wrench.force.y, reading.force_base[1], force_scale),
+                                 (w.wrench.torque.z, reading.torque_z, force_scale * 0.03)):
+            assert got == pytest.approx(want, rel=1e-9, abs=1e-9 * scale)
+        in_contact += state.phase > 0
+    assert in_contact > 50
+    assert [p.data for p in probe.got["phase"]] == [r.phase for _, r, _ in expected]
+    contacts = [r.contact_world for _, r, _ in expected if r.contact_world is not None]
+    probe.spin_until(lambda: len(probe.got["contact_point"]) >= len(contacts), 5.0)  # the last
+    assert len(probe.got["contact_point"]) == len(contacts)  # step waits for the wrench only
+    for msg, c in zip(probe.got["contact_point"], contacts):
+        assert (msg.point.x, msg.point.y) == pytest.approx(c, rel=1e-9, abs=1e-9 * 0.03)
+    events = [json.loads(e.data) for e in probe.got["events"]]
+    want = [(e.kind, int(e.from_phase), int(e.to_phase)) for _, _, evs in expected for e in evs]
+    assert [(e["kind"], e["from_phase"], e["to_phase"]) for e in events] == want
+    assert "touch" in [k for k, _, _ in want]
+    probe.spin_until(lambda: probe.got["obstacle"], 5.0)
+    ring = np.array([(p.x, p.y) for p in probe.got["obstacle"][-1].points])
+    assert np.hypot(ring[:, 0], ring[:, 1] - 0.015) == pytest.approx(2.5e-4, rel=1e-9)

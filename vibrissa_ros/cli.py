@@ -312,6 +312,18 @@ def build_parser() -> argparse.ArgumentParser:
         default=0.0,
         help="readings with a smaller force are taken as no contact (input units; noisy data)",
     )
+    rec.add_argument(
+        "--taper",
+        type=_taper,
+        help="scan CSV of a conical whisker: tip radius / base radius (default 1); a log "
+        "carries its own",
+    )
+    rec.add_argument(
+        "--curvature",
+        type=_curvature,
+        help="scan CSV of a curved whisker: intrinsic curvature k0 + k1 s [1/L] (default 0,0; "
+        "--curvature=-1,0 for a negative k0); a log carries its own",
+    )
     rec.set_defaults(func=_cmd_reconstruct)
     batch = sub.add_parser(
         "batch",
@@ -801,7 +813,11 @@ def _cmd_reconstruct(args) -> int:
 
         if not os.path.isfile(args.input):
             raise FileNotFoundError(2, "no such file", args.input)
-        rec = reconstruct_input(args.input, args.min_force)
+        shape = None
+        if args.taper is not None or args.curvature is not None:
+            k0, k1 = args.curvature or (0.0, 0.0)
+            shape = WhiskerShape(1.0 if args.taper is None else args.taper, k0, k1)
+        rec = reconstruct_input(args.input, args.min_force, shape)
         if args.csv == "-":
             write_csv(rec, sys.stdout)
         else:

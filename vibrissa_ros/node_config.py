@@ -7,12 +7,14 @@ machinery (types, ranges, reasons) is :mod:`vibrissa_ros.parameters`, shared by 
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any, Dict, Mapping, Tuple
 
 from .core.errors import ParameterError
+from .core.general import GeneralWhiskerModel, WhiskerShape
 from .core.models import make_model
-from .core.profiles import ConvexProfile, make_profile
+from .core.profiles import ConvexProfile, Peg, make_profile
 from .edge import NS_PER_S, Units
 from .parameters import ParameterSpec, nonnegative, positive, validate
 
@@ -24,7 +26,10 @@ SHAPE_PARAMETERS = {
     "circle": (("R", "obstacle.radius"),),
     "two_circles": (("R_left", "obstacle.radius_left"), ("R_right", "obstacle.radius_right")),
     "ellipse": (("a", "obstacle.a"), ("b", "obstacle.b")),
+    "peg": (("r", "obstacle.peg_radius"),),
 }
+#: relative tolerance between whisker.bending_stiffness and E pi r^4 / 4 when a file gives both
+EI_TOLERANCE = 1e-6
 
 
 def _frame(name: str, default: str, description: str) -> ParameterSpec:
@@ -33,8 +38,21 @@ def _frame(name: str, default: str, description: str) -> ParameterSpec:
 
 _WHISKER = (
     positive("whisker.length", 0.1, "length L of the whisker", "m", maximum=1e3),
-    positive("whisker.bending_stiffness", 5e-4, "bending stiffness EI of the whisker (elastica)",
-             "N m^2", maximum=1e9),
+    positive("whisker.bending_stiffness", 5e-4, "bending stiffness EI of the whisker at its base "
+             "(elastica); used when whisker.youngs_modulus is 0", "N m^2", maximum=1e9),
+    nonnegative("whisker.youngs_modulus", 0.0, "Young's modulus E of the whisker; > 0: the base "
+                "stiffness is E pi r^4 / 4 with r = whisker.base_radius (bending_stiffness then "
+                "stays at its default or agrees to 1e-6); 0: whisker.bending_stiffness is used",
+                "Pa", maximum=1e15),
+    nonnegative("whisker.base_radius", 0.0, "radius r of the whisker at its base (with "
+                "whisker.youngs_modulus)", "m", maximum=1e3),
+    ParameterSpec("whisker.taper", 1.0, "tip radius / base radius of a conical whisker (1: "
+                  "uniform); the stiffness falls as (1 - (1 - taper) s/L)^4", minimum=0.0,
+                  maximum=1.0, exclusive_minimum=True),
+    ParameterSpec("whisker.curvature_k0", 0.0, "intrinsic curvature at the base (k0 + k1 s, "
+                  "counter-clockwise positive; dimensionless k0 L)", "1/m"),
+    ParameterSpec("whisker.curvature_k1", 0.0, "rate of change of the intrinsic curvature along "
+                  "the whisker (dimensionless k1 L^2)", "1/m^2"),
 )
 _FRAMES = (
     _frame("world_frame", "world", "frame of the foot poses, the obstacle and the contact point"),
@@ -70,8 +88,9 @@ PARAMETERS: Tuple[ParameterSpec, ...] = (
         ParameterSpec(
             "obstacle.type",
             "parabola",
-            "obstacle profile: parabola, catenary, circle, two_circles or ellipse; it opens "
-            "towards world +y",
+            "obstacle profile: parabola, catenary, circle, two_circles or ellipse (they open "
+            "towards world +y, lowest point at apex_x, apex_y), or peg (a pole: a disk at "
+            "peg_x, peg_y of radius peg_radius)",
             choices=tuple(SHAPE_PARAMETERS),
         ),
         positive("obstacle.k", 10.0, "parabola: y = apex_y + k (x - apex_x)^2 / 2", "1/m"),
@@ -90,6 +109,9 @@ PARAMETERS: Tuple[ParameterSpec, ...] = (
         ),
         positive("obstacle.a", 0.14, "ellipse: semi-axis along x", "m"),
         positive("obstacle.b", 0.09, "ellipse: semi-axis along y", "m"),
+        ParameterSpec("obstacle.peg_x", 0.0, "peg: x of its centre in the world frame", "m"),
+        ParameterSpec("obstacle.peg_y", 0.05, "peg: y of its centre in the world frame", "m"),
+        nonnegative("obstacle.peg_radius", 0.0, "peg: radius of the pole (0: a point)", "m"),
         ParameterSpec(
             "obstacle.apex_x", 0.0, "x of the obstacle's lowest point in the world frame", "m"
         ),
@@ -204,15 +226,35 @@ class WhiskerConfig:
     def base_frame(self) -> str:
         return self.values["base_frame"]
 
+    def fresh_model(self):
+        """
+        Return the model for a new tracker.
+
+        The general model keeps warm starts, so a reset whisker gets its own: the same poses then
+        give the same numbers as a fresh core run.
+        """
+        if isinstance(self.model, GeneralWhiskerModel):
+            return GeneralWhiskerModel(self.model.shape, self.model.n)
+        return self.model
+
     def describe(self) -> str:
         """One line: model, length, obstacle and where its apex is."""
         v = self.values
         shape = ", ".join(f"{node}={v[node]!r} {SPECS[node].unit}"
                           for _, node in SHAPE_PARAMETERS[v["obstacle.type"]])
+        if v["obstacle.type"] == "peg":
+            where = f"centred at ({v['obstacle.peg_x']!r}, {v['obstacle.peg_y']!r}) m"
+        else:
+            where = f"with apex at ({v['obstacle.apex_x']!r}, {v['obstacle.apex_y']!r}) m"
+        whisker = ""
+        ei = self.units.moment * self.units.length
+        if v["model"] != "rigid":
+            whisker = (f", taper={v['whisker.taper']!r}, k0={v['whisker.curvature_k0']!r} 1/m, "
+                       f"k1={v['whisker.curvature_k1']!r} 1/m^2, EI={ei!r} N m^2 "
+                       f"({self.model.name})")
         return (
-            f"{v['model']} whisker L={v['whisker.length']!r} m, obstacle {v['obstacle.type']} "
-            f"({shape}) with apex at ({v['obstacle.apex_x']!r}, {v['obstacle.apex_y']!r}) m in "
-            f"'{v['world_frame']}'"
+            f"{v['model']} whisker L={v['whisker.length']!r} m{whisker}, obstacle "
+            f"{v['obstacle.type']} ({shape}) {where} in '{v['world_frame']}'"
         )
 
 
@@ -226,18 +268,85 @@ def build_config(values: Mapping[str, Any]) -> WhiskerConfig:
     """
     values = validate(PARAMETERS, values)
     length = values["whisker.length"]
-    if values["model"] == "elastica":
-        units = Units.elastica(length, values["whisker.bending_stiffness"])
+    if values["obstacle.type"] == "peg":
+        profile = Peg(values["obstacle.peg_x"] / length, values["obstacle.peg_y"] / length,
+                      values["obstacle.peg_radius"] / length, scan_checks=False)
     else:
+        params = {"p0": values["obstacle.apex_y"] / length}
+        for core_name, node_name in SHAPE_PARAMETERS[values["obstacle.type"]]:
+            size = values[node_name]
+            params[core_name] = size * length if SPECS[node_name].unit == "1/m" else size / length
+        profile = make_profile(values["obstacle.type"], params, scan_checks=False)
+        profile = profile.placed(values["obstacle.apex_x"] / length, 0.0, 0.0)
+    shape = whisker_shape(values)
+    if values["model"] == "elastica":
+        units = Units.elastica(length, base_stiffness(values))
+        model = whisker_model(shape, profile)
+    else:
+        if not shape.is_paper:
+            raise ParameterError(
+                f"model = 'rigid' is a rigid whisker on a spring (paper §3): it has no taper or "
+                f"intrinsic curvature (whisker.taper = {values['whisker.taper']!r}, "
+                f"whisker.curvature_k0 = {values['whisker.curvature_k0']!r}, "
+                f"whisker.curvature_k1 = {values['whisker.curvature_k1']!r}); use model "
+                f"'elastica' or taper 1 and curvature 0")
+        if isinstance(profile, Peg):
+            raise ParameterError("obstacle.type = 'peg' needs model 'elastica' (the rigid model "
+                                 "covers the paper's convex profiles only)")
         units = Units.rigid(length, values["rigid.spring_stiffness"])
-    model = make_model(values["model"])
-    params = {"p0": values["obstacle.apex_y"] / length}
-    for core_name, node_name in SHAPE_PARAMETERS[values["obstacle.type"]]:
-        size = values[node_name]
-        params[core_name] = size * length if SPECS[node_name].unit == "1/m" else size / length
-    profile = make_profile(values["obstacle.type"], params, scan_checks=False)
-    return WhiskerConfig(values, profile.placed(values["obstacle.apex_x"] / length, 0.0, 0.0),
-                         model, units)
+        model = make_model(values["model"])
+    return WhiskerConfig(values, profile, model, units)
+
+
+def base_stiffness(values: Mapping[str, Any]) -> float:
+    """
+    Return EI at the whisker's base [N m^2]: ``whisker.bending_stiffness``, or E pi r^4 / 4.
+
+    With ``whisker.youngs_modulus`` E > 0, ``whisker.base_radius`` r must be > 0 and
+    ``whisker.bending_stiffness`` must be left at its default or agree with E pi r^4 / 4 to
+    :data:`EI_TOLERANCE` (relative); otherwise :class:`ParameterError` says which to drop.
+    """
+    ei, modulus, radius = (values["whisker.bending_stiffness"], values["whisker.youngs_modulus"],
+                           values["whisker.base_radius"])
+    if modulus == 0.0:
+        return ei
+    if radius <= 0.0:
+        raise ParameterError(f"whisker.youngs_modulus = {modulus!r} Pa needs whisker.base_radius "
+                             f"> 0 m (it is {radius!r}); or set youngs_modulus 0 and give "
+                             "whisker.bending_stiffness")
+    from_modulus = modulus * math.pi * radius**4 / 4.0
+    default = SPECS["whisker.bending_stiffness"].default
+    if ei != default and abs(ei - from_modulus) > EI_TOLERANCE * from_modulus:
+        raise ParameterError(
+            f"whisker.bending_stiffness = {ei!r} N m^2 disagrees with whisker.youngs_modulus = "
+            f"{modulus!r} Pa and whisker.base_radius = {radius!r} m (E pi r^4 / 4 = "
+            f"{from_modulus!r} N m^2): give one of the two, not both")
+    return from_modulus
+
+
+def whisker_shape(values: Mapping[str, Any]) -> WhiskerShape:
+    """Return the whisker's taper and intrinsic curvature in whisker lengths (k0 L, k1 L^2)."""
+    length = values["whisker.length"]
+    k0, k1 = values["whisker.curvature_k0"] * length, values["whisker.curvature_k1"] * length**2
+    try:
+        return WhiskerShape(values["whisker.taper"], k0, k1)
+    except ParameterError as exc:
+        raise ParameterError(
+            f"whisker.curvature_k0 = {values['whisker.curvature_k0']!r} 1/m, "
+            f"whisker.curvature_k1 = {values['whisker.curvature_k1']!r} 1/m^2 (k0 L = {k0!r}, "
+            f"k1 L^2 = {k1!r}): {exc}") from None
+
+
+def whisker_model(shape: WhiskerShape, profile: ConvexProfile):
+    """
+    Return the model ``vibrissa scan --solver auto`` picks.
+
+    The exact elastica for a uniform straight whisker against a convex profile, the general
+    (Chebyshev collocation) model otherwise.
+    """
+    if shape.is_paper and not isinstance(profile, Peg):
+        return make_model("elastica")
+    return GeneralWhiskerModel(shape)
 
 
 #: contour_node's parameters
@@ -258,6 +367,7 @@ class ContourConfig:
 
     values: Mapping[str, Any]
     units: Units
+    shape: WhiskerShape = WhiskerShape()
 
     @property
     def world_frame(self) -> str:
@@ -274,17 +384,20 @@ class ContourConfig:
     def describe(self) -> str:
         """One line: the whisker and the frames."""
         v = self.values
+        ei = self.units.moment * self.units.length
         return (
-            f"elastica whisker L={v['whisker.length']!r} m, EI={v['whisker.bending_stiffness']!r}"
-            f" N m^2; poses in '{v['world_frame']}', wrenches in '{v['base_frame']}'"
+            f"elastica whisker L={v['whisker.length']!r} m, EI={ei!r}"
+            f" N m^2, taper={v['whisker.taper']!r}, k0={v['whisker.curvature_k0']!r} 1/m, "
+            f"k1={v['whisker.curvature_k1']!r} 1/m^2; poses in '{v['world_frame']}', wrenches in "
+            f"'{v['base_frame']}'"
         )
 
 
 def build_contour_config(values: Mapping[str, Any]) -> ContourConfig:
     """Validate contour_node's parameter values; raises :class:`ParameterError` with the reason."""
     values = validate(CONTOUR_PARAMETERS, values)
-    return ContourConfig(values, Units.elastica(values["whisker.length"],
-                                                values["whisker.bending_stiffness"]))
+    return ContourConfig(values, Units.elastica(values["whisker.length"], base_stiffness(values)),
+                         whisker_shape(values))
 
 
 __all__ = ["PARAMETERS", "SPECS", "CONTOUR_PARAMETERS", "CONTOUR_SPECS", "WhiskerConfig",

@@ -116,7 +116,7 @@ class PosePipeline:
             raise BadInput("out_of_range", f"pose ({x!r}, {y!r}) m is farther than the model "
                            f"allows from the world origin (|x|, |y| <= {limit:g} m)")
         if self.tracker is None:
-            tracker = QuasistaticTracker(cfg.profile, pose, model=cfg.model)
+            tracker = QuasistaticTracker(cfg.profile, pose, model=cfg.fresh_model())
             state, events = tracker.state, ()
         else:
             tracker = self.tracker

@@ -14,7 +14,9 @@ from dataclasses import dataclass
 from typing import IO, List, Optional, Sequence, Tuple
 
 from .core.errors import VibrissaError
+from .core.general import WhiskerShape
 from .core.inverse import ContactEstimate, estimate_contact
+from .core.inverse_general import estimate_contact_general
 from .core.state import FootPose
 from .edge import Units, header_ns, pose_of, wrench_to_core
 
@@ -37,23 +39,41 @@ class Reconstruction:
     )
 
 
-def from_scan_csv(path: str, min_force: float = 0.0) -> Reconstruction:
+def _estimate(pose: FootPose, fx: float, fy: float, m0: float, min_force: float,
+              shape: Optional[WhiskerShape]) -> Optional[ContactEstimate]:
+    """Estimate by the closed forms, or by the general whisker's inverse (taper, curvature)."""
+    if shape is not None and not shape.is_paper:
+        return estimate_contact_general(pose, fx, fy, m0, shape, min_force)
+    return estimate_contact(pose, fx, fy, m0, min_force)
+
+
+def from_scan_csv(path: str, min_force: float = 0.0,
+                  shape: Optional[WhiskerShape] = None) -> Reconstruction:
+    """
+    Reconstruct from a scan CSV: columns x0 (or x, y, heading: ``--poses``), fx, fy, m0.
+
+    ``shape``: the scanned whisker's taper and curvature (None: the paper's whisker).
+    """
     with open(path, newline="") as stream:
         rows = list(csv.DictReader(stream))
     if not rows:
         raise VibrissaError(f"{path}: empty CSV")
-    missing = {"x0", "fx", "fy", "m0"} - set(rows[0])
+    pose_columns = ("x0",) if "x0" in rows[0] or "x" not in rows[0] else ("x", "y", "heading")
+    missing = set(pose_columns + ("fx", "fy", "m0")) - set(rows[0])
     if missing:
         raise VibrissaError(
-            f"{path}: missing column(s) {', '.join(sorted(missing))}; need x0, fx, fy, m0"
+            f"{path}: missing column(s) {', '.join(sorted(missing))}; need x0 (or x, y, heading),"
+            " fx, fy, m0"
         )
     estimates, truth = [], []
     for i, row in enumerate(rows, start=2):
         try:
-            x0, fx, fy, m0 = (float(row[k]) for k in ("x0", "fx", "fy", "m0"))
-        except ValueError:
-            raise VibrissaError(f"{path}: line {i}: x0, fx, fy, m0 must be numbers") from None
-        est = estimate_contact(FootPose(x0), fx, fy, m0, min_force)
+            pose = FootPose(*(float(row[k]) for k in pose_columns))
+            fx, fy, m0 = (float(row[k]) for k in ("fx", "fy", "m0"))
+        except (ValueError, VibrissaError):
+            raise VibrissaError(f"{path}: line {i}: {', '.join(pose_columns)}, fx, fy, m0 must "
+                                "be numbers") from None
+        est = _estimate(pose, fx, fy, m0, min_force, shape)
         if est is not None:
             estimates.append(est)
         if row.get("contact_x") and row.get("contact_y"):
@@ -81,6 +101,7 @@ def from_log(path: str, min_force: float = 0.0) -> Reconstruction:
             msg = decode(m)
             wrenches[header_ns(msg)] = msg
     units = cfg.units
+    shape = cfg.model.shape if hasattr(cfg.model, "shape") else None  # as the log was made
     estimates = []
     for stamp in sorted(wrenches):
         if stamp not in poses:
@@ -91,7 +112,8 @@ def from_log(path: str, min_force: float = 0.0) -> Reconstruction:
         except VibrissaError:
             continue
         w = wrenches[stamp].wrench
-        est = estimate_from_wrench(x, y, yaw, w.force.x, w.force.y, w.torque.z, units, min_force)
+        est = estimate_from_wrench(x, y, yaw, w.force.x, w.force.y, w.torque.z, units, min_force,
+                                   shape)
         if est is not None:
             estimates.append(est)
     points = (decode(m) for m in messages if m.topic == f"{node}/contact_point")
@@ -103,10 +125,16 @@ def from_log(path: str, min_force: float = 0.0) -> Reconstruction:
 
 def estimate_from_wrench(x: float, y: float, yaw: float, force_x: float, force_y: float,
                          torque_z: float, units: Units,
-                         min_force: float = 0.0) -> Optional[ContactEstimate]:
-    """One SI reading (base pose in the world, base-frame wrench) -> a dimensionless estimate."""
+                         min_force: float = 0.0,
+                         shape: Optional[WhiskerShape] = None) -> Optional[ContactEstimate]:
+    """
+    One SI reading (base pose in the world, base-frame wrench) -> a dimensionless estimate.
+
+    ``shape``: the whisker's taper and curvature in whisker lengths; anything but the paper's
+    whisker uses :func:`~vibrissa_ros.core.inverse_general.estimate_contact_general`.
+    """
     fx, fy, m0 = wrench_to_core(yaw, force_x, force_y, torque_z, units)
-    return estimate_contact(units.foot_pose(x, y, yaw), fx, fy, m0, min_force / units.force)
+    return _estimate(units.foot_pose(x, y, yaw), fx, fy, m0, min_force / units.force, shape)
 
 
 def write_csv(rec: Reconstruction, stream: IO[str]) -> None:
@@ -193,8 +221,19 @@ def plot(rec: Reconstruction, path: str, title: str = "") -> None:
     plt.close(fig)
 
 
-def reconstruct_input(path: str, min_force: float = 0.0) -> Reconstruction:
-    return from_log(path, min_force) if path.endswith(".mcap") else from_scan_csv(path, min_force)
+def reconstruct_input(path: str, min_force: float = 0.0,
+                      shape: Optional[WhiskerShape] = None) -> Reconstruction:
+    """
+    Reconstruct from a log (its recorded whisker) or a scan CSV (``shape``: its whisker).
+
+    A log carries its whisker's taper and curvature: giving ``shape`` for one is refused.
+    """
+    if path.endswith(".mcap"):
+        if shape is not None:
+            raise VibrissaError(f"{path}: a log carries its whisker's taper and curvature (its "
+                                "recorded parameters); --taper/--curvature are for scan CSVs")
+        return from_log(path, min_force)
+    return from_scan_csv(path, min_force, shape)
 
 
 __all__: Sequence[str] = [

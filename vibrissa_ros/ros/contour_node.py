@@ -120,7 +120,7 @@ class ContourNode(Node):
             return
         try:
             est = estimate_from_wrench(*pose, w.force.x, w.force.y, w.torque.z, cfg.units,
-                                       cfg.values["min_force"])
+                                       cfg.values["min_force"], cfg.shape)
         except VibrissaError as exc:
             self._ignore("wrench", str(exc))
             return

@@ -7,6 +7,7 @@ builder converts to ``float`` explicitly, as ROS_PYTHON_CHECK_FIELDS requires.
 
 from __future__ import annotations
 
+import math
 from typing import Iterable, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
@@ -17,6 +18,7 @@ from std_msgs.msg import ColorRGBA, Float64, String, UInt8
 from visualization_msgs.msg import Marker
 
 from ..core.errors import VibrissaError
+from ..core.profiles import Peg
 from ..edge import EventRecord, encode_event, set_stamp, yaw_quaternion
 
 OBSTACLE_COLOR = (0.85, 0.35, 0.1, 1.0)
@@ -90,7 +92,15 @@ def centerline_path(stamp, frame: str, points: np.ndarray) -> Path:
 
 
 def obstacle_points(profile, reach: float = 2.0, n: int = 400) -> np.ndarray:
-    """Points (m, 2) of a profile (dimensionless) up to ``reach`` above its apex, apex included."""
+    """
+    Points (m, 2) of a profile (dimensionless) up to ``reach`` above its apex, apex included.
+
+    A peg: its whole circle, closed (a point peg: a circle of 0.005 L, to be seen).
+    """
+    if isinstance(profile, Peg):
+        t = np.linspace(0.0, 2.0 * math.pi, n)
+        r = max(profile.r, 0.005)
+        return np.column_stack((profile.x + r * np.cos(t), profile.y + r * np.sin(t)))
     apex_y = profile.point(profile.lowest_alpha())[1]
     ends = []
     for side in (-1, 1):
