@@ -34,20 +34,12 @@ from .core.errors import VibrissaError
 from .core.scan import ScanResult
 from .noise import NoiseSpec, SensorNoise
 from .scan_io import CSV_COLUMNS
+from .study import NOISE_KEYS as _NOISE_FIELDS
 from .study import Study, Task
 
 FORMAT = "vibrissa-batch/1"
 TABLES = ("poses", "events", "failures")
 _NOISY = ("fx_noisy", "fy_noisy", "m0_noisy")
-_NOISE_FIELDS = (
-    "force_stddev",
-    "torque_stddev",
-    "force_bias_x",
-    "force_bias_y",
-    "torque_bias",
-    "force_step",
-    "torque_step",
-)
 
 
 class DatasetError(VibrissaError):
