@@ -24,6 +24,7 @@ from typing import Optional
 from scipy.integrate import solve_ivp
 
 from .general import WhiskerShape
+from .general_shooting import loaded_whisker_rhs
 from .inverse import TIP_TOLERANCE, ContactEstimate
 from .state import FootPose, Phase
 
@@ -42,14 +43,7 @@ def estimate_contact_general(pose: FootPose, fx: float, fy: float, m0: float, sh
     if not (math.isfinite(f) and math.isfinite(m0)) or f <= min_force or f == 0.0 or m0 == 0.0:
         return None
     alpha = math.atan2(fx, -fy)
-    ca, sa = math.cos(alpha), math.sin(alpha)
-    k0, k1, c = shape.k0, shape.k1, 1.0 - shape.taper
-
-    def rhs(s, u):
-        _, _, th, m = u
-        b = (1.0 - c * s) ** 4
-        return [math.cos(th), math.sin(th), k0 + k1 * s + m / b,
-                f * (math.cos(th) * ca + math.sin(th) * sa)]
+    rhs = loaded_whisker_rhs(shape, f, alpha)
 
     def moment(s, u):
         return u[3]
