@@ -14,7 +14,7 @@ from .core.models import MODELS, make_model
 from .core.profiles import PROFILE_PARAMETERS, make_profile
 from .core.general import GeneralWhiskerModel, WhiskerShape
 from .core.profiles import Peg
-from .core.scan import run_poses, run_scan, scan_grid
+from .core.scan import run_poses, run_scan, scan_grid, whisk_poses
 from .parameters import ParameterSpec
 from .scan_io import read_poses_csv, write_events_json, write_scan_csv
 
@@ -78,6 +78,13 @@ def _placement(text: str):
     return tuple(_finite(p) for p in parts)
 
 
+def _foot(text: str):
+    parts = text.split(",")
+    if len(parts) != 2 or not all(p.strip() for p in parts):
+        raise argparse.ArgumentTypeError(f"{text!r} is not X,Y (e.g. --whisk=-1.5,0)")
+    return tuple(_finite(p) for p in parts)
+
+
 def _workers(text: str) -> int:
     try:
         value = int(text)
@@ -97,7 +104,7 @@ def build_parser() -> argparse.ArgumentParser:
         "scan",
         help="sweep the foot along the x-axis past an obstacle and write the states",
         description="Sweep the whisker's foot along the x-axis (heading +y) past a convex "
-        "obstacle. "
+        "obstacle, or whisk (--whisk), or follow any foot poses (--poses). "
         "Dimensionless units: length L, force EI/L^2, moment EI/L.",
     )
     names = ", ".join(f"{p} ({', '.join(ks)})" for p, ks in PROFILE_PARAMETERS.items())
@@ -158,9 +165,30 @@ def build_parser() -> argparse.ArgumentParser:
         help="move the obstacle: turn it by DEG degrees counter-clockwise about its apex, then "
         "shift it by (X, Y) (whisker lengths); as a study's placement",
     )
-    scan.add_argument("--from", dest="x_from", type=_finite, help="first foot position x0")
-    scan.add_argument("--to", dest="x_to", type=_finite, help="last foot position x0 (inclusive)")
-    scan.add_argument("--step", type=_positive, help="grid spacing of x0 (> 0)")
+    scan.add_argument(
+        "--from",
+        dest="x_from",
+        type=_finite,
+        help="first foot position x0 (--whisk: first heading, deg)",
+    )
+    scan.add_argument(
+        "--to",
+        dest="x_to",
+        type=_finite,
+        help="last foot position x0, inclusive (--whisk: last heading, deg)",
+    )
+    scan.add_argument(
+        "--step", type=_positive, help="grid spacing of x0, > 0 (--whisk: of the heading, deg)"
+    )
+    scan.add_argument(
+        "--whisk",
+        type=_foot,
+        metavar="X,Y",
+        help="whisk instead of sliding: the foot fixed at (X, Y), the heading sweeping from --from "
+        "to --to by --step degrees (counter-clockwise from +x; 90 = the paper's set-up), and back "
+        "with --back; written as --poses is (columns x,y,heading, heading in rad). Write "
+        "--whisk=-1.5,0 for a negative X",
+    )
     scan.add_argument(
         "--poses",
         metavar="POSES.csv",
@@ -446,14 +474,20 @@ def rigid_output_path(path: str) -> str:
 
 
 def _scan_path(args):
-    """The foot positions (x0 grid) or poses (--poses) of a scan."""
+    """The foot positions (x0 grid) or poses (--poses, --whisk) of a scan."""
     sweep = (args.x_from, args.x_to, args.step)
     if args.poses is not None:
+        if args.whisk is not None:
+            raise VibrissaError("give either --poses or --whisk, not both")
         if any(v is not None for v in sweep) or args.back:
             raise VibrissaError("give either --poses or --from/--to/--step [--back], not both")
         return None, read_poses_csv(args.poses)
+    if args.whisk is not None:
+        if any(v is None for v in sweep):
+            raise VibrissaError("--whisk X,Y needs the headings: --from, --to and --step [deg]")
+        return None, list(whisk_poses(*args.whisk, args.x_from, args.x_to, args.step, args.back))
     if any(v is None for v in sweep):
-        raise VibrissaError("give --from, --to and --step (or --poses POSES.csv)")
+        raise VibrissaError("give --from, --to and --step (or --poses POSES.csv, or --whisk X,Y)")
     return scan_grid(args.x_from, args.x_to, args.step, args.back), None
 
 

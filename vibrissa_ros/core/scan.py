@@ -1,4 +1,4 @@
-"""Quasistatic scans along the paper's foot line: the x0 grid and the run over it."""
+"""Quasistatic scans: the paper's foot line (the x0 grid), whisking (a heading grid), the runs."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import numpy as np
 
 from .errors import ParameterError
 from .profiles import ConvexProfile
-from .state import Event, WhiskerState
+from .state import Event, FootPose, WhiskerState
 from .tracker import QuasistaticTracker
 
 
@@ -53,6 +53,24 @@ def scan_grid(x_from: float, x_to: float, step: float, back: bool = False) -> np
     if back:
         grid = np.concatenate((grid, grid[-2::-1]))
     return grid
+
+
+def whisk_poses(
+    x: float, y: float, from_deg: float, to_deg: float, step_deg: float, back: bool = False
+) -> Tuple[FootPose, ...]:
+    """
+    Foot poses of a whisk: the foot fixed at (``x``, ``y``) [L], the heading sweeping.
+
+    The headings [deg, counter-clockwise from +x; 90 is the paper's set-up, the whisker along +y]
+    are the grid of :func:`scan_grid` from ``from_deg`` to ``to_deg`` inclusive, spaced by
+    ``step_deg`` (> 0), and back when ``back`` (a protraction and its retraction); each is turned
+    into radians by :func:`math.radians`.
+    """
+    for name, value in (("x", x), ("y", y)):
+        if not math.isfinite(value):
+            raise ParameterError(f"the whisking foot's {name} = {value!r} must be a finite number")
+    headings = scan_grid(from_deg, to_deg, step_deg, back)
+    return tuple(FootPose(x, y, math.radians(float(h))) for h in headings)
 
 
 def run_scan(profile: ConvexProfile, grid, model="elastica") -> ScanResult:
