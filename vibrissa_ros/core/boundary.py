@@ -302,7 +302,9 @@ class GraphArc(Arc):
 @dataclass(frozen=True)
 class Vertex:
     """
-    A corner at (x, y): the arc ending with tangent ``phi_in`` meets the one starting with ``phi_out``.
+    A corner at (x, y), where two arcs meet.
+
+    The arc ending there has the tangent angle ``phi_in``, the one starting there ``phi_out``.
 
     ``phi_out - phi_in`` is the left turn in (-pi, pi] (2 pi for a point peg). Convex corners
     (turn > 0) can be touched from outside; the contact force lies in the normal cone
