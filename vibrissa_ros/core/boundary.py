@@ -31,7 +31,7 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 
 from .errors import ParameterError
-from .profiles import ConvexProfile
+from .profiles import ConvexProfile, PlacedProfile, TwoCircles
 
 TWO_PI = 2.0 * math.pi
 
@@ -53,12 +53,12 @@ class ArcPoint:
 
     @property
     def normal(self) -> Tuple[float, float]:
-        """Outward unit normal (sin phi, -cos phi)."""
+        """Return the outward unit normal, (sin phi, -cos phi)."""
         return math.sin(self.phi), -math.cos(self.phi)
 
     @property
     def tangent(self) -> Tuple[float, float]:
-        """Unit tangent (cos phi, sin phi), obstacle to its left."""
+        """Return the unit tangent, (cos phi, sin phi), the obstacle to its left."""
         return math.cos(self.phi), math.sin(self.phi)
 
 
@@ -83,12 +83,27 @@ class Arc:
         return self.periodic or self.u_min <= u <= self.u_max
 
     def sigma_between(self, u_a: float, u_b: float) -> float:
-        """Arc length from u_a to u_b (negative when u_b < u_a): Gauss-Legendre, 48 points."""
+        """
+        Arc length from u_a to u_b (negative when u_b < u_a): Gauss-Legendre, 48 points.
+
+        The interval is split at the arc's :meth:`breaks` (where the speed is not smooth, e.g. a
+        spline's knots), so every piece is integrated to rounding.
+        """
         if u_a == u_b:
             return 0.0
+        lo, hi = min(u_a, u_b), max(u_a, u_b)
+        cuts = [lo] + [b for b in self.breaks() if lo < b < hi] + [hi]
+        total = sum(self._gauss_length(a, b) for a, b in zip(cuts[:-1], cuts[1:]))
+        return float(total if u_b > u_a else -total)
+
+    def breaks(self) -> Tuple[float, ...]:
+        """Parameters where the speed is not smooth (none for an analytic arc)."""
+        return ()
+
+    def _gauss_length(self, a: float, b: float) -> float:
         x, w = _gauss()
-        half = 0.5 * (u_b - u_a)
-        u = u_a + half * (x + 1.0)
+        half = 0.5 * (b - a)
+        u = a + half * (x + 1.0)
         return float(half * sum(wi * self.at(float(ui)).speed for ui, wi in zip(u, w)))
 
     def sample(self, n: int, u_from: Optional[float] = None,
@@ -157,6 +172,34 @@ class SegmentArc(Arc):
 
 
 @dataclass(frozen=True)
+class RayArc(Arc):
+    """
+    A half-line through (x, y) of direction phi, obstacle to its left: u = signed arc length.
+
+    ``incoming``: the ray comes from infinity and ends at (x, y) (u <= 0); otherwise it starts
+    there and goes to infinity (u >= 0). The straight walls of a profile's strip are rays.
+    """
+
+    x: float
+    y: float
+    phi: float
+    incoming: bool = False
+    u_min: float = field(init=False)
+    u_max: float = field(init=False)
+
+    def __post_init__(self):
+        object.__setattr__(self, "u_min", -math.inf if self.incoming else 0.0)
+        object.__setattr__(self, "u_max", 0.0 if self.incoming else math.inf)
+
+    def at(self, u):
+        c, s = math.cos(self.phi), math.sin(self.phi)
+        return ArcPoint(self.x + u * c, self.y + u * s, self.phi, 0.0, 1.0)
+
+    def sigma_between(self, u_a, u_b):
+        return u_b - u_a
+
+
+@dataclass(frozen=True)
 class ProfileArc(Arc):
     """A (placed) convex profile of ``profiles.py``: u = its slope alpha, speed = rho(alpha)."""
 
@@ -171,6 +214,13 @@ class ProfileArc(Arc):
     def at(self, u):
         x, y = self.profile.point(u)
         return ArcPoint(float(x), float(y), u, 1.0, float(self.profile.radius_of_curvature(u)))
+
+    def breaks(self):
+        """Return the slope where two circles meet (their radii differ there), else none."""
+        prof, shift = self.profile, 0.0
+        while isinstance(prof, PlacedProfile):
+            prof, shift = prof.base, shift + prof.rotation
+        return (shift,) if isinstance(prof, TwoCircles) else ()
 
 
 @dataclass(frozen=True)
@@ -210,6 +260,11 @@ class GraphArc(Arc):
             return g + d1 * (x - xe), d1, 0.0
         return g, d1, d2
 
+    def breaks(self):
+        """Return the spline's knots (in u)."""
+        knots = self._spline.x if self.side == "above" else -self._spline.x[::-1]
+        return tuple(float(k) for k in knots)
+
     def at(self, u):
         x = u if self.side == "above" else -u
         g, d1, d2 = self.height(x)
@@ -223,7 +278,7 @@ class GraphArc(Arc):
 @dataclass(frozen=True)
 class Vertex:
     """
-    A corner at (x, y) joining an arc of end tangent ``phi_in`` to one of start tangent ``phi_out``.
+    A corner at (x, y) joining an arc ending along ``phi_in`` to one starting along ``phi_out``.
 
     ``phi_out - phi_in`` is the left turn in (-pi, pi] (2 pi for a point peg). Convex corners
     (turn > 0) can be touched from outside; the contact force lies in the normal cone
@@ -244,7 +299,7 @@ class Vertex:
         return self.turn > 0.0
 
     def in_cone(self, fx: float, fy: float, widen: float = 0.0) -> bool:
-        """Tell whether the force (fx, fy) on the whisker lies in the normal cone (+- widen rad)."""
+        """Tell whether the force (fx, fy) on the whisker is in the normal cone (+- widen rad)."""
         if self.turn >= TWO_PI:
             return True
         phi = math.atan2(fx, -fy)  # (sin phi, -cos phi) ~ (fx, fy)
