@@ -204,6 +204,22 @@ class Obstacle:
         """
         raise NotImplementedError
 
+    def boundary_lines(self, n: int = 200, window: Optional[Window] = None
+                       ) -> Tuple[np.ndarray, ...]:
+        """
+        Return the boundary as polylines (k, 2) in the arcs' order [L], for drawing.
+
+        A bounded obstacle: one closed polyline (first point repeated; a point peg: its point,
+        (1, 2)). An infinite one: its parts inside ``window``, cut at the window's edge.
+        """
+        pieces = sorted(self.boundary_samples(n, window), key=lambda item: item[0] or 0)
+        pts = np.vstack([p for _, _, p in pieces])
+        if self.bounded:
+            if len(pts) > 1 and not np.array_equal(pts[0], pts[-1]):
+                pts = np.vstack((pts, pts[:1]))
+            return (pts,)
+        return tuple(clip_polyline(pts, self._check_window(window)))
+
     def _check_window(self, window):
         if window is None:
             raise ParameterError(f"{self.name}: an infinite obstacle needs a window to be drawn")
@@ -211,6 +227,74 @@ class Obstacle:
         if not (x1 > x0 and y1 > y0):
             raise ParameterError(f"window {window!r} must be (x_min, y_min, x_max, y_max)")
         return x0, y0, x1, y1
+
+
+def clip_polyline(pts: np.ndarray, window: Window) -> List[np.ndarray]:
+    """Cut a polyline (k, 2) to the window: the pieces inside it (Liang-Barsky per segment)."""
+    x0, y0, x1, y1 = window
+    out: List[List[Tuple[float, float]]] = []
+    current: List[Tuple[float, float]] = []
+    for (ax, ay), (bx, by) in zip(pts[:-1], pts[1:]):
+        dx, dy = bx - ax, by - ay
+        t0, t1 = 0.0, 1.0
+        inside = True
+        for p, q in ((-dx, ax - x0), (dx, x1 - ax), (-dy, ay - y0), (dy, y1 - ay)):
+            if p == 0.0:
+                if q < 0.0:
+                    inside = False
+                    break
+                continue
+            r = q / p
+            if p < 0.0:
+                t0 = max(t0, r)
+            else:
+                t1 = min(t1, r)
+            if t0 > t1:
+                inside = False
+                break
+        if not inside:
+            if len(current) > 1:
+                out.append(current)
+            current = []
+            continue
+        start = (ax + t0 * dx, ay + t0 * dy)
+        end = (ax + t1 * dx, ay + t1 * dy)
+        if not current or current[-1] != start:
+            if len(current) > 1:
+                out.append(current)
+            current = [start]
+        current.append(end)
+        if t1 < 1.0:
+            out.append(current)
+            current = []
+    if len(current) > 1:
+        out.append(current)
+    return [np.array(piece) for piece in out]
+
+
+def clip_polygon(ring: np.ndarray, window: Window) -> np.ndarray:
+    """Cut a closed polygon (k, 2) to the window (Sutherland-Hodgman), closed again."""
+    x0, y0, x1, y1 = window
+    pts = [tuple(p) for p in ring[:-1]] if np.array_equal(ring[0], ring[-1]) else [
+        tuple(p) for p in ring]
+    edges = ((0, x0, 1.0), (0, x1, -1.0), (1, y0, 1.0), (1, y1, -1.0))
+    for axis, bound, sign in edges:
+        if not pts:
+            break
+        kept = []
+        for k, cur in enumerate(pts):
+            prev = pts[k - 1]
+            cin = sign * (cur[axis] - bound) >= 0.0
+            pin = sign * (prev[axis] - bound) >= 0.0
+            if cin != pin:
+                t = (bound - prev[axis]) / (cur[axis] - prev[axis])
+                kept.append((prev[0] + t * (cur[0] - prev[0]), prev[1] + t * (cur[1] - prev[1])))
+            if cin:
+                kept.append(cur)
+        pts = kept
+    if not pts:
+        return np.empty((0, 2))
+    return np.array(pts + pts[:1])
 
 
 # ------------------------------------------------------------------------------------------------
@@ -347,13 +431,6 @@ class PolygonObstacle(Obstacle):
                     "give each corner once")
             if length > hi:
                 raise ParameterError(f"{what}: edge {i} is {length!r} L long, more than {hi:g}")
-        area2 = float(np.sum(arr[:, 0] * np.roll(arr[:, 1], -1)
-                             - np.roll(arr[:, 0], -1) * arr[:, 1]))
-        diameter = max(math.hypot(*(a - b)) for a in arr for b in arr)
-        if abs(area2) / diameter < lo:
-            raise ParameterError(
-                f"{what}: zero area (width {abs(area2) / diameter!r} L < {lo:g}); the vertices "
-                "must enclose a region")
         for i in range(n):
             for j in range(i + 1, n):
                 if j == i + 1 or (i == 0 and j == n - 1):
@@ -362,6 +439,13 @@ class PolygonObstacle(Obstacle):
                     raise ParameterError(
                         f"{what}: self-intersecting (edges {i} and {j} cross); give the corners "
                         "in order along the boundary")
+        area2 = float(np.sum(arr[:, 0] * np.roll(arr[:, 1], -1)
+                             - np.roll(arr[:, 0], -1) * arr[:, 1]))
+        diameter = max(math.hypot(*(a - b)) for a in arr for b in arr)
+        if abs(area2) / diameter < lo:
+            raise ParameterError(
+                f"{what}: zero area (width {abs(area2) / diameter!r} L < {lo:g}); the vertices "
+                "must enclose a region")
         for i in range(n):  # adjacent edges folding back onto each other (a spike)
             a, b, c = arr[i - 1], arr[i], arr[(i + 1) % n]
             u, v = b - a, c - b
@@ -618,10 +702,13 @@ class CurveObstacle(Obstacle):
         x0, y0, x1, y1 = self._check_window(window)
         pts = self.boundary_samples(n, window)[0][2]
         if self.side == "above":
-            top = max(y1, float(pts[:, 1].max())) + 0.0
-            return (np.vstack((pts, [[x1, top], [x0, top]], pts[:1])),)
-        bottom = min(y0, float(pts[:, 1].min()))
-        return (np.vstack((pts, [[x0, bottom], [x1, bottom]], pts[:1])),)
+            top = max(y1, float(pts[:, 1].max())) + 1.0
+            ring = np.vstack((pts, [[x1, top], [x0, top]], pts[:1]))
+        else:
+            bottom = min(y0, float(pts[:, 1].min())) - 1.0
+            ring = np.vstack((pts, [[x0, bottom], [x1, bottom]], pts[:1]))
+        ring = clip_polygon(ring, (x0, y0, x1, y1))
+        return (ring,) if len(ring) else ()
 
 
 # ------------------------------------------------------------------------------------------------
@@ -824,7 +911,8 @@ class ProfileObstacle(Obstacle):
         top = float(np.max(q[:, 1])) + far
         ring = np.vstack((q, [[q[-1, 0], top], [q[0, 0], top]], q[:1]))
         wx, wy = self._from_base(ring[:, 0], ring[:, 1])
-        return (np.column_stack((wx, wy)),)
+        ring = clip_polygon(np.column_stack((wx, wy)), (x0, y0, x1, y1))
+        return (ring,) if len(ring) else ()
 
 
 # ------------------------------------------------------------------------------------------------
