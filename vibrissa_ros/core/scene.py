@@ -367,6 +367,7 @@ class PegObstacle(Obstacle):
             return [(None, np.empty(0), np.array([[self.x, self.y]]))]
         u = np.linspace(-math.pi, math.pi, max(n, 8))
         pts = np.column_stack((self.x + self.r * np.sin(u), self.y - self.r * np.cos(u)))
+        pts[-1] = pts[0]  # closed exactly
         return [(0, u, pts)]
 
     def outline(self, n=200, window=None):
