@@ -556,6 +556,7 @@ class CurveObstacle(Obstacle):
     vertex_arcs: Tuple[Tuple[int, int], ...] = field(default=(), init=False, repr=False,
                                                      compare=False)
     bounded: bool = field(default=False, init=False, repr=False, compare=False)
+    _tables: tuple = field(init=False, repr=False, compare=False)
 
     def __post_init__(self):
         what = self.name
@@ -578,6 +579,7 @@ class CurveObstacle(Obstacle):
         object.__setattr__(self, "points", pts)
         object.__setattr__(self, "friction", _friction(what, self.friction))
         object.__setattr__(self, "arcs", (GraphArc(pts, self.side),))
+        object.__setattr__(self, "_tables", self._build_tables())
 
     @property
     def params(self):
@@ -588,83 +590,123 @@ class CurveObstacle(Obstacle):
         return self.arcs[0]
 
     def height(self, x) -> np.ndarray:
-        """g(x) for an array of x, continued linearly beyond the end points."""
-        sp = self.graph._spline
+        """Return g(x) for an array of x, continued linearly beyond the end points."""
+        knots, c, _, _, _, rays = self._tables
         x = np.asarray(x, dtype=float)
-        x0, x1 = sp.x[0], sp.x[-1]
-        xe = np.clip(x, x0, x1)
-        return sp(xe) + np.where(x < x0, sp(x0, 1) * (x - x0), 0.0) + np.where(
-            x > x1, sp(x1, 1) * (x - x1), 0.0)
+        i = np.clip(np.searchsorted(knots, x, side="right") - 1, 0, len(knots) - 2)
+        t = np.clip(x, knots[0], knots[-1]) - knots[i]
+        g = ((c[0][i] * t + c[1][i]) * t + c[2][i]) * t + c[3][i]
+        (_, _, dx0, dy0, _), (_, _, dx1, dy1, _) = rays
+        return g + np.where(x < knots[0], dy0 / dx0 * (x - knots[0]), 0.0) + np.where(
+            x > knots[-1], dy1 / dx1 * (x - knots[-1]), 0.0)
 
     def _distance(self, p):
         """Unsigned distance of points (m, 2) to the graph and the nearest point's x."""
-        sp = self.graph._spline
         px, py = p[:, 0], p[:, 1]
-        knots, c = sp.x, sp.c  # piece i: g = c0 t^3 + c1 t^2 + c2 t + c3, t = x - x_i
-        h = np.diff(knots)
-        # the rays beyond the end points
+        knots, c, h, boxes, samples, rays = self._tables
+        # the two rays beyond the end points
         best, best_x = None, None
-        for end, sign in ((0, -1), (-1, 1)):
-            x0 = knots[end]
-            y0, k = float(sp(x0)), float(sp(x0, 1))
-            norm = math.hypot(1.0, k)
-            dist, tau = _ray_distance(px, py, x0, y0, 1.0 / norm, k / norm, sign)
-            xq = x0 + tau / norm
+        for x0, y0, dx, dy, sign in rays:
+            dist, tau = _ray_distance(px, py, x0, y0, dx, dy, sign)
+            xq = x0 + tau * dx
             if best is None:
                 best, best_x = dist, xq
             else:
                 better = dist < best
                 best, best_x = np.where(better, dist, best), np.where(better, xq, best_x)
-        # the cubic pieces: the stationary points of the squared distance are the roots of a
-        # quintic in s = t / h on [0, 1]; all found at once as companion-matrix eigenvalues
-        c0, c1, c2, c3 = (c[k][None, :] for k in range(4))
-        A = c3 - py[:, None]
-        dx = (knots[:-1][None, :] - px[:, None])
-        coef = [c2 * A + dx, c2 * c2 + 2.0 * c1 * A + 1.0, 3.0 * c1 * c2 + 3.0 * c0 * A,
-                4.0 * c0 * c2 + 2.0 * c1 * c1, 5.0 * c0 * c1, 3.0 * c0 * c0 + 0.0 * dx]
-        coef = [np.broadcast_to(ck * h[None, :] ** k, A.shape) for k, ck in enumerate(coef)]
-        scale = np.max(np.abs(np.stack(coef)), axis=0)
+        # screening: an upper bound from samples of the curve, a lower bound per cubic piece
+        # from its bounding box; only the pieces that may hold the nearest point are solved
+        upper = np.minimum(best, np.min(np.hypot(px[:, None] - samples[None, :, 0],
+                                                 py[:, None] - samples[None, :, 1]), axis=1))
+        gx = np.maximum(np.maximum(boxes[None, :, 0] - px[:, None], px[:, None]
+                                   - boxes[None, :, 2]), 0.0)
+        gy = np.maximum(np.maximum(boxes[None, :, 1] - py[:, None], py[:, None]
+                                   - boxes[None, :, 3]), 0.0)
+        rows, piece = np.nonzero(np.hypot(gx, gy) <= upper[:, None] * (1.0 + 1e-9) + 1e-300)
+        if len(rows) == 0:
+            return best, best_x
+        # on a piece, the stationary points of the squared distance are the roots of a quintic
+        # in s = t / h on [0, 1]: all found at once as companion-matrix eigenvalues
+        c0, c1, c2, c3 = c[0][piece], c[1][piece], c[2][piece], c[3][piece]
+        hp, xi = h[piece], knots[:-1][piece]
+        qx, qy = px[rows], py[rows]
+        A = c3 - qy
+        coef = np.stack([c2 * A + xi - qx, c2 * c2 + 2.0 * c1 * A + 1.0,
+                         3.0 * c1 * c2 + 3.0 * c0 * A, 4.0 * c0 * c2 + 2.0 * c1 * c1,
+                         5.0 * c0 * c1, 3.0 * c0 * c0])
+        coef = coef * hp[None, :] ** np.arange(6)[:, None]
+        scale = np.max(np.abs(coef), axis=0)
         scale = np.where(scale > 0.0, scale, 1.0)
-        lead = coef[5]
         # a vanishing leading coefficient (a straight piece): perturb it; its roots then run off
         # to |s| ~ 1e3 while those in [0, 1] move by ~1e-15 (and are polished below)
-        lead = np.where(np.abs(lead) < 1e-14 * scale, 1e-14 * scale, lead)
-        m, npieces = A.shape
-        comp = np.zeros((m, npieces, 5, 5))
-        comp[..., 1:, :-1] = np.eye(4)
-        for k in range(5):
-            comp[..., k, 4] = -coef[k] / lead
-        roots = np.linalg.eigvals(comp)  # (m, npieces, 5)
+        lead = np.where(np.abs(coef[5]) < 1e-14 * scale, 1e-14 * scale, coef[5])
+        comp = np.zeros((len(rows), 5, 5))
+        comp[:, 1:, :-1] = np.eye(4)
+        comp[:, :, 4] = -(coef[:5] / lead).T
+        roots = np.linalg.eigvals(comp)  # (pairs, 5)
         real = np.abs(roots.imag) <= 1e-7 * (1.0 + np.abs(roots.real))
-        s = np.clip(roots.real, 0.0, 1.0)
-        s = np.where(real, s, 0.0)
-        s = np.concatenate((s, np.zeros((m, npieces, 1)), np.ones((m, npieces, 1))), axis=2)
-        t = s * h[None, :, None]
-        xq = knots[:-1][None, :, None] + t
-        g = ((c0[..., None] * t + c1[..., None]) * t + c2[..., None]) * t + c3[..., None]
-        d2 = (xq - px[:, None, None]) ** 2 + (g - py[:, None, None]) ** 2
-        flat = d2.reshape(m, -1)
-        k = np.argmin(flat, axis=1)
-        rows = np.arange(m)
-        piece = k // s.shape[2]
-        tq = t.reshape(m, -1)[rows, k]
+        s = np.where(real, np.clip(roots.real, 0.0, 1.0), 0.0)
+        s = np.concatenate((s, np.zeros((len(rows), 1)), np.ones((len(rows), 1))), axis=1)
+        t = s * hp[:, None]
+        g = ((c0[:, None] * t + c1[:, None]) * t + c2[:, None]) * t + c3[:, None]
+        d2 = (xi[:, None] + t - qx[:, None]) ** 2 + (g - qy[:, None]) ** 2
+        k = np.argmin(d2, axis=1)
+        pair = np.arange(len(rows))
+        d2_pair, t_pair = d2[pair, k], t[pair, k]
+        # the best pair of each point (rows are sorted: the first of each group after lexsort)
+        order = np.lexsort((d2_pair, rows))
+        first = np.ones(len(order), dtype=bool)
+        first[1:] = rows[order][1:] != rows[order][:-1]
+        win = order[first]
+        r = rows[win]
+        a0, a1, a2, a3 = c0[win], c1[win], c2[win], c3[win]
+        tq, hi, x_i = t_pair[win], hp[win], xi[win]
+        ux, uy = px[r], py[r]
         # polish: Newton on the stationarity condition within the piece
-        a0, a1, a2, a3 = (c[j][piece] for j in range(4))
-        lo, hi = 0.0, h[piece]
-        xi = knots[:-1][piece]
         for _ in range(3):
-            gv = ((a0 * tq + a1) * tq + a2) * tq + a3 - py
+            gv = ((a0 * tq + a1) * tq + a2) * tq + a3 - uy
             g1 = (3.0 * a0 * tq + 2.0 * a1) * tq + a2
             g2 = 6.0 * a0 * tq + 2.0 * a1
-            f = xi + tq - px + gv * g1
+            f = x_i + tq - ux + gv * g1
             df = 1.0 + g1 * g1 + gv * g2
             step = np.where(df > 0.0, f / np.where(df > 0.0, df, 1.0), 0.0)
-            tq = np.clip(tq - step, lo, hi)
+            tq = np.clip(tq - step, 0.0, hi)
         gv = ((a0 * tq + a1) * tq + a2) * tq + a3
-        dist = np.hypot(xi + tq - px, gv - py)
-        dist = np.minimum(dist, np.sqrt(flat[rows, k]))
-        better = dist < best
-        return np.where(better, dist, best), np.where(better, xi + tq, best_x)
+        dist = np.minimum(np.hypot(x_i + tq - ux, gv - uy), np.sqrt(d2_pair[win]))
+        better = dist < best[r]
+        best, best_x = best.copy(), best_x.copy()
+        best[r] = np.where(better, dist, best[r])
+        best_x[r] = np.where(better, x_i + tq, best_x[r])
+        return best, best_x
+
+    def _build_tables(self):
+        """Spline pieces, their bounding boxes, samples and the end rays, for the distance."""
+        sp = self.graph._spline
+        knots, c = np.asarray(sp.x), np.asarray(sp.c)
+        h = np.diff(knots)
+        boxes, samples = [], []
+        for i in range(len(h)):
+            a0, a1, a2, a3 = c[:, i]
+            # the cubic's extremes on the piece: its ends and the roots of g' in (0, h)
+            ts = [0.0, h[i]]
+            if a0 != 0.0:
+                disc = a1 * a1 - 3.0 * a0 * a2
+                if disc >= 0.0:
+                    ts += [(-a1 + sq) / (3.0 * a0) for sq in (math.sqrt(disc), -math.sqrt(disc))]
+            elif a1 != 0.0:
+                ts.append(-a2 / (2.0 * a1))
+            ts = np.array([t for t in ts if 0.0 <= t <= h[i]])
+            ys = ((a0 * ts + a1) * ts + a2) * ts + a3
+            boxes.append((knots[i], ys.min(), knots[i + 1], ys.max()))
+            tt = np.linspace(0.0, h[i], 9)
+            samples.append(np.column_stack((knots[i] + tt, ((a0 * tt + a1) * tt + a2) * tt + a3)))
+        rays = []
+        for end, sign in ((0, -1), (-1, 1)):
+            x0 = float(knots[end])
+            y0, k = float(sp(x0)), float(sp(x0, 1))
+            norm = math.hypot(1.0, k)
+            rays.append((x0, y0, 1.0 / norm, k / norm, sign))
+        return knots, c, h, np.array(boxes), np.vstack(samples), tuple(rays)
 
     def signed_distance(self, points):
         p = np.asarray(points, dtype=float).reshape(-1, 2)
