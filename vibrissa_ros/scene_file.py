@@ -40,7 +40,8 @@ def _scale(value: Any, factor: float, into_l: bool) -> Any:
     if isinstance(value, bool):
         return value
     if isinstance(value, (int, float)):
-        return value / factor if into_l else value * factor
+        # into metres (written for people): 15 significant digits, no trailing rounding noise
+        return value / factor if into_l else float(f"{value * factor:.15g}")
     if isinstance(value, (list, tuple)):
         return [_scale(v, factor, into_l) for v in value]
     return value
