@@ -4,6 +4,7 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings, strategies as st
 from scipy.integrate import quad
 from scipy.interpolate import CubicSpline
 from scipy.optimize import minimize_scalar
@@ -127,6 +128,31 @@ def test_signed_distance_is_exact_near_the_boundary(key, offset):
         near = ob.closest(*p[0])
         assert near.arc_index == index
         assert abs(near.u - u) < 1e-7 * max(1.0, q.speed)
+
+
+def _segment_distance(p, a, b):
+    ax, ay = a
+    bx, by = b
+    dx, dy = bx - ax, by - ay
+    t = max(0.0, min(1.0, ((p[0] - ax) * dx + (p[1] - ay) * dy) / (dx * dx + dy * dy)))
+    return math.hypot(p[0] - ax - t * dx, p[1] - ay - t * dy)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.floats(0.2, 1.0), min_size=3, max_size=9),
+       st.lists(st.tuples(st.floats(-1.5, 1.5), st.floats(-1.5, 1.5)), min_size=1, max_size=8))
+def test_star_shaped_polygons_against_plain_segment_distances(radii, points):
+    """Random star-shaped polygons, convex or not, either orientation of the input."""
+    n = len(radii)
+    angles = [2.0 * math.pi * (i + 0.3 * ((i * 7) % 3) / 3.0) / n for i in range(n)]
+    corners = [(r * math.cos(a), r * math.sin(a)) for r, a in zip(radii, angles)]
+    ob = PolygonObstacle(corners[::-1] if n % 2 else corners)
+    sd = ob.signed_distance(points)
+    for p, d in zip(points, sd):
+        ref = min(_segment_distance(p, corners[i], corners[(i + 1) % n]) for i in range(n))
+        assert abs(abs(d) - ref) < 1e-14
+        if ref > 1e-12:
+            assert (d < 0.0) == crossing_inside(corners, *p)
 
 
 def test_signed_distance_of_many_points_is_vectorised():
@@ -324,6 +350,9 @@ obstacles:
             assert np.array(value, dtype=float) == pytest.approx(np.array(b.params[key],
                                                                           dtype=float))
     assert "k: 40.0" in dump_scene(scene, length_scale=length)
+    # YAML 1.1 reads 1.5e-3 without a dot as a string: converted all the same
+    small = load_scene("obstacles: [{type: peg, x: 0, y: 2e-2, r: 1e-3}]", length_scale=length)
+    assert small[0].params == pytest.approx({"x": 0.0, "y": 0.4, "r": 0.02})
 
 
 @pytest.mark.parametrize("text, message", [

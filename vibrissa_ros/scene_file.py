@@ -39,6 +39,11 @@ def _scale(value: Any, factor: float, into_l: bool) -> Any:
     """Convert a number, or every number of nested lists (anything else is kept)."""
     if isinstance(value, bool):
         return value
+    if isinstance(value, str):  # YAML 1.1 reads 1e-3 (no dot) as a string
+        try:
+            value = float(value)
+        except ValueError:
+            return value
     if isinstance(value, (int, float)):
         # into metres (written for people): 15 significant digits, no trailing rounding noise
         return value / factor if into_l else float(f"{value * factor:.15g}")
