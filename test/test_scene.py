@@ -287,6 +287,11 @@ def test_arc_lengths_are_exact_across_spline_knots_and_circle_joins():
     q = ray.at(-2.0)
     assert (q.x, q.y) == pytest.approx((1.0 - 2.0 * math.cos(0.5), 2.0 - 2.0 * math.sin(0.5)))
     assert ray.sigma_between(-3.0, -1.0) == 2.0 and RayArc(0, 0, 0).u_max == math.inf
+    # projection onto a wall: clamped to its end, signed along the outward normal
+    wall = RayArc(0.0, 0.0, 0.5 * math.pi)  # going up along x = 0, obstacle at x < 0
+    assert wall.project(0.3, 2.0) == pytest.approx((2.0, 0.3))
+    assert wall.project(-0.2, 1.0) == pytest.approx((1.0, -0.2))
+    assert wall.project(0.3, -0.4)[0] == 0.0
 
 
 # -- scenes ---------------------------------------------------------------------------------------
