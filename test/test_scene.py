@@ -159,8 +159,9 @@ def test_signed_distance_of_many_points_is_vectorised():
     pts = np.random.default_rng(0).uniform(-1.0, 1.0, (500, 2))
     for ob in OBSTACLES.values():
         sd = ob.signed_distance(pts)
-        one = np.array([ob.signed_distance(p[None, :])[0] for p in pts[:20]])
-        assert np.array_equal(sd[:20], one)
+        one = np.array([ob.signed_distance(p[None, :])[0] for p in pts[:40]])
+        # (a curve has its own path for one point, in plain floats: equal to rounding)
+        assert np.max(np.abs(sd[:40] - one)) <= 1e-15
 
 
 @pytest.mark.parametrize("key", sorted(OBSTACLES))

@@ -23,6 +23,7 @@ Lengths are in whisker lengths L (dimensionless), like the rest of the core.
 from __future__ import annotations
 
 import math
+from bisect import bisect_right
 from dataclasses import dataclass, field
 from functools import lru_cache
 from typing import Optional, Tuple
@@ -316,6 +317,9 @@ class GraphArc(Arc):
     u_min: float = field(default=-math.inf, init=False)
     u_max: float = field(default=math.inf, init=False)
     _spline: CubicSpline = field(init=False, repr=False, compare=False)
+    _knots: Tuple[float, ...] = field(init=False, repr=False, compare=False)
+    _pieces: Tuple[Tuple[float, float, float, float], ...] = field(init=False, repr=False,
+                                                                   compare=False)
 
     def __post_init__(self):
         pts = np.asarray(self.points, dtype=float)
@@ -325,17 +329,24 @@ class GraphArc(Arc):
             raise ParameterError("curve: point x values must be strictly increasing")
         if self.side not in ("above", "below"):
             raise ParameterError(f"curve: side {self.side!r} must be 'above' or 'below'")
-        object.__setattr__(self, "_spline", CubicSpline(pts[:, 0], pts[:, 1], bc_type="natural"))
+        sp = CubicSpline(pts[:, 0], pts[:, 1], bc_type="natural")
+        object.__setattr__(self, "_spline", sp)
+        # the pieces as plain floats: evaluated by Horner's rule without scipy's call overhead
+        object.__setattr__(self, "_knots", tuple(float(k) for k in sp.x))
+        object.__setattr__(self, "_pieces", tuple(tuple(float(v) for v in col) for col in sp.c.T))
 
     def height(self, x: float) -> Tuple[float, float, float]:
         """Return g(x), g'(x), g''(x), continued linearly beyond the end points."""
-        sp = self._spline
-        x0, x1 = sp.x[0], sp.x[-1]
-        xe = min(max(x, x0), x1)
-        g, d1, d2 = float(sp(xe)), float(sp(xe, 1)), float(sp(xe, 2))
+        knots = self._knots
+        xe = min(max(x, knots[0]), knots[-1])
+        i = min(max(bisect_right(knots, xe) - 1, 0), len(knots) - 2)
+        t = xe - knots[i]
+        a0, a1, a2, a3 = self._pieces[i]
+        g = ((a0 * t + a1) * t + a2) * t + a3
+        d1 = (3.0 * a0 * t + 2.0 * a1) * t + a2
         if x != xe:
             return g + d1 * (x - xe), d1, 0.0
-        return g, d1, d2
+        return g, d1, 6.0 * a0 * t + 2.0 * a1
 
     def breaks(self):
         """Return the spline's knots (in u)."""

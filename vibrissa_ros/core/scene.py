@@ -56,6 +56,9 @@ OBSTACLE_TYPES = ("peg", "polygon", "curve") + FAMILIES
 #: a window (x_min, y_min, x_max, y_max) [L]
 Window = Tuple[float, float, float, float]
 
+#: sub-intervals per spline piece for the bounds that screen a curve's pieces
+_SUB = 8
+
 
 @dataclass(frozen=True)
 class Closest:
@@ -557,6 +560,8 @@ class CurveObstacle(Obstacle):
                                                      compare=False)
     bounded: bool = field(default=False, init=False, repr=False, compare=False)
     _tables: tuple = field(init=False, repr=False, compare=False)
+    _box_list: tuple = field(init=False, repr=False, compare=False)
+    _coef_list: tuple = field(init=False, repr=False, compare=False)
 
     def __post_init__(self):
         what = self.name
@@ -580,6 +585,11 @@ class CurveObstacle(Obstacle):
         object.__setattr__(self, "friction", _friction(what, self.friction))
         object.__setattr__(self, "arcs", (GraphArc(pts, self.side),))
         object.__setattr__(self, "_tables", self._build_tables())
+        knots, c, h, boxes, _, _ = self._tables
+        object.__setattr__(self, "_box_list", tuple(tuple(tuple(float(v) for v in b) for b in sub)
+                                                    for sub in boxes))
+        object.__setattr__(self, "_coef_list", tuple(tuple(float(v) for v in col)
+                                                     for col in c.T))
 
     @property
     def params(self):
@@ -602,6 +612,9 @@ class CurveObstacle(Obstacle):
 
     def _distance(self, p):
         """Unsigned distance of points (m, 2) to the graph and the nearest point's x."""
+        if len(p) == 1:
+            d, x = self._distance_one(float(p[0, 0]), float(p[0, 1]))
+            return np.array([d]), np.array([x])
         px, py = p[:, 0], p[:, 1]
         knots, c, h, boxes, samples, rays = self._tables
         # the two rays beyond the end points
@@ -618,11 +631,11 @@ class CurveObstacle(Obstacle):
         # from its bounding box; only the pieces that may hold the nearest point are solved
         upper = np.minimum(best, np.min(np.hypot(px[:, None] - samples[None, :, 0],
                                                  py[:, None] - samples[None, :, 1]), axis=1))
-        gx = np.maximum(np.maximum(boxes[None, :, 0] - px[:, None], px[:, None]
-                                   - boxes[None, :, 2]), 0.0)
-        gy = np.maximum(np.maximum(boxes[None, :, 1] - py[:, None], py[:, None]
-                                   - boxes[None, :, 3]), 0.0)
-        rows, piece = np.nonzero(np.hypot(gx, gy) <= upper[:, None] * (1.0 + 1e-9) + 1e-300)
+        x_, y_ = px[:, None, None], py[:, None, None]
+        gx = np.maximum(np.maximum(boxes[None, :, :, 0] - x_, x_ - boxes[None, :, :, 2]), 0.0)
+        gy = np.maximum(np.maximum(boxes[None, :, :, 1] - y_, y_ - boxes[None, :, :, 3]), 0.0)
+        lower = np.min(np.hypot(gx, gy), axis=2)
+        rows, piece = np.nonzero(lower <= upper[:, None] * (1.0 + 1e-9) + 1e-300)
         if len(rows) == 0:
             return best, best_x
         # on a piece, the stationary points of the squared distance are the roots of a quintic
@@ -679,6 +692,63 @@ class CurveObstacle(Obstacle):
         best_x[r] = np.where(better, x_i + tq, best_x[r])
         return best, best_x
 
+    def _distance_one(self, px: float, py: float) -> Tuple[float, float]:
+        """Do what :meth:`_distance` does, for one point in plain floats (the solvers' case)."""
+        knots, c, h, boxes, samples, rays = self._tables
+        best, best_x = math.inf, math.nan
+        for x0, y0, dx, dy, sign in rays:
+            tau = (px - x0) * dx + (py - y0) * dy
+            tau = max(tau, 0.0) if sign > 0 else min(tau, 0.0)
+            d = math.hypot(px - (x0 + tau * dx), py - (y0 + tau * dy))
+            if d < best:
+                best, best_x = d, x0 + tau * dx
+        upper = min(best, float(np.min(np.hypot(samples[:, 0] - px, samples[:, 1] - py))))
+        found = []
+        limit = upper * (1.0 + 1e-9) + 1e-300
+        for i, piece_boxes in enumerate(self._box_list):
+            for bx0, by0, bx1, by1 in piece_boxes:
+                if math.hypot(max(bx0 - px, 0.0, px - bx1), max(by0 - py, 0.0, py - by1)) <= limit:
+                    found.append(i)
+                    break
+        if not found:
+            return best, best_x
+        comp = np.zeros((len(found), 5, 5))
+        comp[:, 1:, :-1] = np.eye(4)
+        for row, i in enumerate(found):
+            c0, c1, c2, c3 = self._coef_list[i]
+            A, hi = c3 - py, h[i]
+            coef = [c2 * A + knots[i] - px, c2 * c2 + 2.0 * c1 * A + 1.0,
+                    3.0 * c1 * c2 + 3.0 * c0 * A, 4.0 * c0 * c2 + 2.0 * c1 * c1,
+                    5.0 * c0 * c1, 3.0 * c0 * c0]
+            coef = [ck * hi ** k for k, ck in enumerate(coef)]
+            scale = max(abs(ck) for ck in coef) or 1.0
+            lead = coef[5] if abs(coef[5]) >= 1e-14 * scale else 1e-14 * scale
+            comp[row, :, 4] = [-ck / lead for ck in coef[:5]]
+        roots = np.linalg.eigvals(comp)
+        win = None
+        for row, i in enumerate(found):
+            c0, c1, c2, c3 = self._coef_list[i]
+            hi, xi = h[i], knots[i]
+            cands = [0.0, hi] + [min(max(r.real, 0.0), 1.0) * hi for r in roots[row]
+                                 if abs(r.imag) <= 1e-7 * (1.0 + abs(r.real))]
+            for t in cands:
+                g = ((c0 * t + c1) * t + c2) * t + c3
+                d2 = (xi + t - px) ** 2 + (g - py) ** 2
+                if win is None or d2 < win[0]:
+                    win = (d2, i, t)
+        d2, i, t = win
+        c0, c1, c2, c3 = self._coef_list[i]
+        hi, xi = h[i], knots[i]
+        for _ in range(3):  # polish: Newton on the stationarity condition within the piece
+            gv = ((c0 * t + c1) * t + c2) * t + c3 - py
+            g1 = (3.0 * c0 * t + 2.0 * c1) * t + c2
+            df = 1.0 + g1 * g1 + gv * (6.0 * c0 * t + 2.0 * c1)
+            if df > 0.0:
+                t = min(max(t - (xi + t - px + gv * g1) / df, 0.0), hi)
+        g = ((c0 * t + c1) * t + c2) * t + c3
+        d = min(math.hypot(xi + t - px, g - py), math.sqrt(d2))
+        return (d, xi + t) if d < best else (best, best_x)
+
     def _build_tables(self):
         """Spline pieces, their bounding boxes, samples and the end rays, for the distance."""
         sp = self.graph._spline
@@ -687,26 +757,31 @@ class CurveObstacle(Obstacle):
         boxes, samples = [], []
         for i in range(len(h)):
             a0, a1, a2, a3 = c[:, i]
-            # the cubic's extremes on the piece: its ends and the roots of g' in (0, h)
-            ts = [0.0, h[i]]
+            # the cubic's extremes: the roots of g' (and the ends of each sub-interval)
+            crit = []
             if a0 != 0.0:
                 disc = a1 * a1 - 3.0 * a0 * a2
                 if disc >= 0.0:
-                    ts += [(-a1 + sq) / (3.0 * a0) for sq in (math.sqrt(disc), -math.sqrt(disc))]
+                    crit = [(-a1 + sq) / (3.0 * a0) for sq in (math.sqrt(disc), -math.sqrt(disc))]
             elif a1 != 0.0:
-                ts.append(-a2 / (2.0 * a1))
-            ts = np.array([t for t in ts if 0.0 <= t <= h[i]])
-            ys = ((a0 * ts + a1) * ts + a2) * ts + a3
-            boxes.append((knots[i], ys.min(), knots[i + 1], ys.max()))
-            tt = np.linspace(0.0, h[i], 9)
-            samples.append(np.column_stack((knots[i] + tt, ((a0 * tt + a1) * tt + a2) * tt + a3)))
+                crit = [-a2 / (2.0 * a1)]
+            # the piece's bounding box is the union of _SUB boxes (a tighter lower bound)
+            cuts = np.linspace(0.0, h[i], _SUB + 1)
+            sub = []
+            for lo, hi in zip(cuts[:-1], cuts[1:]):
+                ts = np.array([lo, hi] + [t for t in crit if lo < t < hi])
+                ys = ((a0 * ts + a1) * ts + a2) * ts + a3
+                sub.append((knots[i] + lo, ys.min(), knots[i] + hi, ys.max()))
+            boxes.append(sub)
+            samples.append(np.column_stack((knots[i] + cuts,
+                                            ((a0 * cuts + a1) * cuts + a2) * cuts + a3)))
         rays = []
         for end, sign in ((0, -1), (-1, 1)):
             x0 = float(knots[end])
             y0, k = float(sp(x0)), float(sp(x0, 1))
             norm = math.hypot(1.0, k)
             rays.append((x0, y0, 1.0 / norm, k / norm, sign))
-        return knots, c, h, np.array(boxes), np.vstack(samples), tuple(rays)
+        return knots, c, h, np.array(boxes), np.vstack(samples), tuple(rays)  # boxes (n, _SUB, 4)
 
     def signed_distance(self, points):
         p = np.asarray(points, dtype=float).reshape(-1, 2)
