@@ -415,6 +415,8 @@ class PolygonObstacle(Obstacle):
     _d: np.ndarray = field(init=False, repr=False, compare=False)
     _len2: np.ndarray = field(init=False, repr=False, compare=False)
     _pseudo: np.ndarray = field(init=False, repr=False, compare=False)
+    _edge_list: tuple = field(init=False, repr=False, compare=False)
+    _pseudo_list: tuple = field(init=False, repr=False, compare=False)
 
     def __post_init__(self):
         what = self.name
@@ -479,6 +481,11 @@ class PolygonObstacle(Obstacle):
         # the angle-weighted pseudo-normal of a corner (2-d: the sum of its edges' normals) gives
         # the sign of points whose nearest boundary point is that corner
         object.__setattr__(self, "_pseudo", normals + np.roll(normals, 1, axis=0))
+        object.__setattr__(self, "_edge_list", tuple(
+            (float(a[0]), float(a[1]), float(e[0]), float(e[1]), float(l2))
+            for a, e, l2 in zip(arr, d, len2)))
+        object.__setattr__(self, "_pseudo_list", tuple((float(v[0]), float(v[1]))
+                                                       for v in self._pseudo))
 
     @property
     def params(self):
@@ -499,8 +506,30 @@ class PolygonObstacle(Obstacle):
         rows = np.arange(len(p))
         return j, t[rows, j], np.sqrt(dist2[rows, j]), diff[rows, j]
 
+    def _nearest_one(self, x: float, y: float):
+        """Do what :meth:`_nearest` and the sign do, for one point in plain floats."""
+        best = None
+        for j, (ax, ay, dx, dy, len2) in enumerate(self._edge_list):
+            rx, ry = x - ax, y - ay
+            t = min(max((rx * dx + ry * dy) / len2, 0.0), 1.0)
+            ex, ey = rx - t * dx, ry - t * dy
+            d2 = ex * ex + ey * ey
+            if best is None or d2 < best[0]:
+                best = (d2, j, t, ex, ey)
+        d2, j, t, ex, ey = best
+        if 0.0 < t < 1.0:
+            _, _, dx, dy, _ = self._edge_list[j]
+            side = dy * ex - dx * ey
+        else:
+            px, py = self._pseudo_list[j if t <= 0.0 else (j + 1) % len(self._edge_list)]
+            side = px * ex + py * ey
+        dist = math.sqrt(d2)
+        return j, t, (-dist if side < 0.0 else dist)
+
     def signed_distance(self, points):
         p = np.asarray(points, dtype=float).reshape(-1, 2)
+        if len(p) == 1:
+            return np.array([self._nearest_one(float(p[0, 0]), float(p[0, 1]))[2]])
         j, t, dist, diff = self._nearest(p)
         n = len(self._a)
         corner = np.where(t <= 0.0, j, (j + 1) % n)
@@ -511,10 +540,7 @@ class PolygonObstacle(Obstacle):
         return np.where(side < 0.0, -dist, dist)
 
     def closest(self, x, y):
-        p = np.array([[x, y]], dtype=float)
-        j, t, _, _ = self._nearest(p)
-        j, t = int(j[0]), float(t[0])
-        sd = float(self.signed_distance(p)[0])
+        j, t, sd = self._nearest_one(float(x), float(y))
         n = len(self._a)
         if 0.0 < t < 1.0:
             u = t * self.arcs[j].u_max
