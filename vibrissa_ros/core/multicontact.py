@@ -546,6 +546,34 @@ class MultiContactSolver:
                              tuple(contacts), float(fx), float(fy), float(m0),
                              (tip_x, tip_y), tip_slope, vec.copy())
 
+    def node_points(self, modes, vec, pose, spacing: float):
+        """
+        Return arc lengths and world points sampling the whisker: the collocation nodes.
+
+        Beyond the last contact the unloaded part is sampled every ``spacing`` or closer.
+        """
+        modes = tuple(modes)
+        if modes:
+            breaks = self.breaks_of(modes, vec)
+            segs, G, E, A, kap = self._assemble(breaks)
+            K = self.n * len(modes)
+            theta = vec[:K]
+            c_, s_ = np.cos(theta), np.sin(theta)
+            s_nodes = np.concatenate([seg.s for seg in segs])
+            px, py = pose.x + G @ c_, pose.y + G @ s_
+            last, th_last, x_last, y_last = breaks[-1], float(theta[-1]), px[-1], py[-1]
+        else:
+            s_nodes, px, py = np.zeros(1), np.array([pose.x]), np.array([pose.y])
+            last, th_last, x_last, y_last = 0.0, pose.heading, pose.x, pose.y
+        if last < 1.0:
+            m = max(2, int(math.ceil((1.0 - last) / spacing)) + 1)
+            s_free = np.linspace(last, 1.0, m)[1:]
+            ox, oy = _unloaded_offsets(self.shape, last, th_last, s_free)
+            s_nodes = np.concatenate((s_nodes, s_free))
+            px = np.concatenate((px, x_last + ox))
+            py = np.concatenate((py, y_last + oy))
+        return s_nodes, np.column_stack((px, py))
+
     def chebyshev_matrix(self, x: np.ndarray) -> np.ndarray:
         """T_k(x) for k < n at points x in [-1, 1], shape (len(x), n)."""
         x = np.clip(np.asarray(x, dtype=float), -1.0, 1.0)

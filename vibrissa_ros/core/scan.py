@@ -10,7 +10,7 @@ import numpy as np
 
 from .errors import ParameterError
 from .profiles import ConvexProfile
-from .state import Event, WhiskerState
+from .state import Event, FootPose, WhiskerState
 from .tracker import QuasistaticTracker
 
 
@@ -79,6 +79,32 @@ def run_poses(profile: ConvexProfile, poses, model="elastica") -> ScanResult:
     if not poses:
         raise ParameterError("no foot poses")
     tracker = QuasistaticTracker(profile, poses[0], model=model)
+    states = [tracker.state]
+    events, steps = [], []
+    for pose in poses[1:]:
+        result = tracker.step(pose)
+        states.append(result.state)
+        events.extend(result.events)
+        steps.extend([len(states) - 1] * len(result.events))
+    return ScanResult(tuple(states), tuple(events), tuple(steps))
+
+
+def run_scene(obstacles, poses, shape=None, friction=None, model=None) -> ScanResult:
+    """
+    Scan a scene: place the whisker at the first pose (unloaded) and step through the rest.
+
+    ``obstacles``: scene obstacles (``core/scene.py``), ``friction`` their Coulomb coefficients;
+    ``poses``: foot poses or the paper's x0 values. A scene of one convex profile or peg without
+    friction is the single-contact problem: ``model`` (a single-contact model, e.g. the exact
+    elastica) then runs the single-contact tracker, whose numbers the scene tracker reproduces to
+    ~1e-12; otherwise the multi-contact :class:`~.scene_tracker.SceneTracker` runs.
+    """
+    from .scene_tracker import SceneTracker
+
+    poses = [p if isinstance(p, FootPose) else FootPose(float(p)) for p in poses]
+    if not poses:
+        raise ParameterError("no foot poses")
+    tracker = SceneTracker(obstacles, poses[0], shape=shape, friction=friction)
     states = [tracker.state]
     events, steps = [], []
     for pose in poses[1:]:

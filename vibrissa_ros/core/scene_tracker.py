@@ -63,8 +63,9 @@ _MAX_EVENTS = 64
 _MAX_SUBSTEPS = 20000
 #: penetration below which a sample point counts as cutting an obstacle
 _CUT = -1e-10
-#: points sampling the whisker for touch detection
+#: points sampling the whisker for touch detection (and their spacing)
 _SAMPLES = np.linspace(0.0, 1.0, 81)
+_SPACING = 1.0 / 80.0
 _NUMERICAL_ERRORS = (ArithmeticError, ValueError, np.linalg.LinAlgError)
 
 
@@ -327,6 +328,8 @@ class SceneTracker:
                 if ev is not None:
                     events.append(ev)
                 t = t_star
+                if ev is not None and ev.kind == "touch":
+                    modes, vec, t = self._first_friction(modes, vec, path, t, t_new, dpose)
                 values = self._event_values(modes, vec, path.pose(t), dpose)
                 h = max(h * 0.25, 1e-6)
                 continue
@@ -357,8 +360,10 @@ class SceneTracker:
             raise ConvergenceError("sub-step too large")
         guess = vec + dt * tan
         before = self.solver.evaluations
-        new, lu = self.solver.solve(modes, path.pose(t_new), guess, max_iter=8, lu=lu)
-        self._lu_cache = (modes, lu) if self.solver.iterations <= 3 else None
+        # a fresh Jacobian at the predicted point: Newton converges quadratically from there (a
+        # Jacobian from the step's start converges only linearly, at ~ the step's size)
+        new, lu = self.solver.solve(modes, path.pose(t_new), guess, max_iter=8)
+        self._lu_cache = (modes, lu)  # for the next sub-step's tangent
         if self._change(modes, new - vec) > 2.0 * _MAX_CHANGE:
             raise ConvergenceError("sub-step jumped")
         return new, self.solver.evaluations - before
@@ -519,41 +524,48 @@ class SceneTracker:
         """
         Return the first (obstacle, s) where the whisker cuts an obstacle, or None.
 
-        The whisker is sampled at 81 points; around every local minimum of an obstacle's
-        distance that comes near (< 0.05 L) it is resampled densely (33 points over two
-        sample spacings) so that a shallow cut of a small obstacle is not missed.
+        The whisker is sampled at its collocation nodes (and every 1/80 L beyond the last
+        contact); around every local minimum of an obstacle's distance that could hide a cut
+        between samples (closer than half the local spacing: the distance changes at most as
+        fast as the arc length) it is resampled densely (33 points), so that a shallow cut of a
+        small obstacle is not missed. The neighbourhood of a contact (2/80 L) is left to that
+        contact's own events.
         """
-        pts = None
+        s_all = pts = None
         first = None
         for i, ob in enumerate(self.obstacles):
             if float(ob.signed_distance(np.array([[pose.x, pose.y]]))[0]) > 1.1:
                 continue  # out of reach of a whisker of length 1
             if pts is None:
-                pts = self._points(modes, vec, pose, _SAMPLES)
+                s_all, pts = self.solver.node_points(modes, vec, pose, _SPACING)
+                gaps = np.diff(s_all)
+                local = np.zeros(s_all.size)
+                local[:-1] = gaps
+                np.maximum(local[1:], gaps, out=local[1:])
             d = ob.signed_distance(pts)
-            held = [sc for m, sc in zip(modes, self._contact_s(modes, vec)) if m.obstacle == i]
-            spacing = _SAMPLES[1] - _SAMPLES[0]
-            for sc in held:  # an existing contact's neighbourhood is its own events' business
-                d[np.abs(_SAMPLES - sc) <= 2.0 * spacing] = np.inf
-            cuts = []
+            for m, sc in zip(modes, self._contact_s(modes, vec)):
+                if m.obstacle == i:
+                    d[np.abs(s_all - sc) <= 2.0 * _SPACING] = np.inf
+            cut = None
             bad = np.nonzero(d < _CUT)[0]
             if bad.size:
                 run = bad[: int(np.argmax(np.diff(np.r_[bad, bad[-1] + 2]) > 1)) + 1]
-                cuts.append(float(_SAMPLES[run[np.argmin(d[run])]]))
+                cut = float(s_all[run[np.argmin(d[run])]])
             else:
-                lower = np.r_[np.inf, d[:-1]]
-                upper = np.r_[d[1:], np.inf]
-                for j in np.nonzero((d <= lower) & (d <= upper) & (d < 0.05))[0]:
-                    lo = _SAMPLES[max(j - 1, 0)]
-                    hi = _SAMPLES[min(j + 1, len(_SAMPLES) - 1)]
+                near = d < 0.5 * local
+                near[1:] &= d[1:] <= d[:-1]
+                near[:-1] &= d[:-1] <= d[1:]
+                for j in np.nonzero(near)[0]:
+                    lo = s_all[max(j - 1, 0)]
+                    hi = s_all[min(j + 1, len(s_all) - 1)]
                     s_fine = np.linspace(lo, hi, 33)
                     d_fine = ob.signed_distance(self._points(modes, vec, pose, s_fine))
                     k = int(np.argmin(d_fine))
                     if d_fine[k] < _CUT:
-                        cuts.append(float(s_fine[k]))
+                        cut = float(s_fine[k])
                         break
-            if cuts and (first is None or cuts[0] < first[1]):
-                first = (i, cuts[0])
+            if cut is not None and (first is None or cut < first[1]):
+                first = (i, cut)
         return first
 
     def _contact_s(self, modes, vec):
@@ -680,11 +692,6 @@ class SceneTracker:
             new_params = params[:index] + [p] + params[index:]
             new_vec = self._rebuild(modes, vec, pose, new_modes, new_params)
             new_vec = self._settle(new_modes, new_vec, pose)
-            if mode.kind in ("side", "corner") and mode.mu > 0.0 and not mode.stick:
-                # the slip direction of the first motion (the force is zero at the touch, so the
-                # frictionless rate decides): T = -sign(dq/dt) mu N
-                rate = self._slip_rates(tuple(new_modes), new_vec, pose, dpose)[index]
-                new_modes[index] = mode.with_(slip_sign=1 if rate >= 0.0 else -1)
             settled = self.solver.configuration(tuple(new_modes), new_vec, pose)
             s_new = settled.contacts[index].s
             return (tuple(new_modes), new_vec,
@@ -715,7 +722,6 @@ class SceneTracker:
             e = 1 if math.cos(cfg.tip_slope - p_arc.phi) >= 0.0 else -1
             modes[c] = m.with_(kind="side", e=e, anchor=(sol.u, 1.0))
             params[c] = np.concatenate(([1.0 - 1e-15], p))
-            ev_kind = "phase"
         elif name in ("end_min", "end_max"):
             arc = m.feature
             u_end = arc.u_min if name == "end_min" else arc.u_max
@@ -796,6 +802,47 @@ class SceneTracker:
         new_vec = self._settle(tuple(modes), new_vec, pose)
         return tuple(modes), new_vec, SceneEvent(ev_kind, pose, m.obstacle, m.kind, sol.s)
 
+    def _first_friction(self, modes, vec, path, t, t_end, dpose):
+        """
+        Decide whether a side or corner contact just made sticks or slips.
+
+        At the touch the force is zero and a tangential force along the still unloaded whisker
+        bends nothing, so the sticking solution is not determined there. The first motion decides:
+        the contact is followed frictionless over a tiny probe step (the foot moves 1e-5 L), then
+        solved sticking (held at the touch point); it sticks if that needs |T| <= mu N, and slips
+        against the sticking force's direction otherwise. The probe step becomes part of the path.
+        """
+        c = next((i for i, m in enumerate(modes) if m.mu > 0.0 and m.on_side
+                  and not m.stick and m.slip_sign == 0), None)
+        if c is None:
+            return modes, vec, t
+        m = modes[c]
+        dt = min(1e-5 / path.length, 0.5 * (t_end - t))
+        if dt <= 0.0:
+            return modes, vec, t
+        pose_p = path.pose(t + dt)
+        touch = self.solver.configuration(modes, vec, path.pose(t)).contacts[c]
+        anchor = (touch.u if touch.u is not None else 0.0, touch.s)
+        free = tuple(x.with_(mu=0.0) if i == c else x for i, x in enumerate(modes))
+        vec_p = self._solve_at(free, vec, path, t, t + dt, dpose)
+        stick = list(modes)
+        stick[c] = m.with_(stick=True, slip_sign=0, anchor=anchor)
+        params = self._params(modes, vec_p)
+        params[c] = np.concatenate((params[c], [0.0]))
+        try:
+            guess = self._rebuild(modes, vec_p, pose_p, stick, params)
+            sv = self._settle(tuple(stick), guess, pose_p)
+            sol = self.solver.configuration(tuple(stick), sv, pose_p).contacts[c]
+            if abs(sol.T) <= m.mu * sol.N:
+                return tuple(stick), sv, t + dt
+            sign = -1 if sol.T > 0.0 else 1  # slip against the force sticking would need
+        except ConvergenceError:
+            sign = 1 if self._slip_rates(free, vec_p, pose_p, dpose)[c] >= 0.0 else -1
+        slip = list(modes)
+        slip[c] = m.with_(slip_sign=sign)
+        sv = self._settle(tuple(slip), vec_p, pose_p)
+        return tuple(slip), sv, t + dt
+
     def _settle(self, modes, vec, pose):
         if not modes:
             return vec
@@ -821,8 +868,11 @@ class SceneTracker:
                 continue
             if self._penetration(new_modes, new_vec, pose) is not None:
                 continue
-            return new_modes, new_vec, SceneEvent("snap", pose, modes[c].obstacle,
-                                                  modes[c].kind, None)
+            # a contact dropped while its force is zero is a release, not a jump
+            gone = self.solver.configuration(modes, vec, pose).contacts[c]
+            kind = "release" if abs(gone.N) + abs(gone.T) <= 1e-9 else "snap"
+            return new_modes, new_vec, SceneEvent(kind, pose, modes[c].obstacle,
+                                                  modes[c].kind, gone.s)
         raise ModelAssumptionError(
             f"the equilibrium folds at {pose} and no configuration with one contact less is "
             "admissible (the whisker would jump into another contact): not modelled")
