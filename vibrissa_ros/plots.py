@@ -354,3 +354,45 @@ __all__ = [
     "si_units",
     "sketch_selection",
 ]
+
+
+#: scene colours: obstacles filled and outlined like the single obstacle of the sketch
+SCENE_FILL, SCENE_EDGE = "#c8a27a", "#8c5a2b"
+
+
+def draw_scene(ax, scene, window: Optional[Tuple[float, float, float, float]] = None,
+               scale_length: float = 1.0, names: bool = True, n: int = 300) -> None:
+    """
+    Draw a scene's obstacles on matplotlib axes: filled, outlined, corners marked.
+
+    ``window`` (x_min, y_min, x_max, y_max) [L] bounds the infinite obstacles (default: the
+    scene's own window, :meth:`Scene.window`); ``scale_length`` converts L to the axes' unit.
+    Convex corners are drawn as filled dots, reflex ones as open circles, point pegs as "+".
+    Every artist of obstacle ``name`` has gid ``"obstacle:<name>"``. The axes' limits are left to
+    the caller.
+    """
+    window = scene.window() if window is None else window
+    L = scale_length
+    for ob in scene:
+        gid = f"obstacle:{ob.name}"
+        if getattr(ob, "is_point", False):
+            ax.plot(ob.x * L, ob.y * L, "+", color=SCENE_EDGE, ms=9, mew=2, gid=gid)
+        else:
+            for ring in ob.outline(n, window):
+                ax.fill(ring[:, 0] * L, ring[:, 1] * L, color=SCENE_FILL, alpha=0.6, lw=0,
+                        gid=gid)
+            for line in ob.boundary_lines(n, window):
+                ax.plot(line[:, 0] * L, line[:, 1] * L, color=SCENE_EDGE, lw=1.5, gid=gid)
+            corners = [v for v in ob.vertices]
+            convex = np.array([(v.x, v.y) for v in corners if v.convex]).reshape(-1, 2)
+            reflex = np.array([(v.x, v.y) for v in corners if not v.convex]).reshape(-1, 2)
+            if len(convex):
+                ax.plot(convex[:, 0] * L, convex[:, 1] * L, "o", color=SCENE_EDGE, ms=3.5,
+                        gid=gid)
+            if len(reflex):
+                ax.plot(reflex[:, 0] * L, reflex[:, 1] * L, "o", mfc="none", color=SCENE_EDGE,
+                        ms=4.5, gid=gid)
+        if names:
+            x0, y0, x1, y1 = ob.extent()
+            ax.annotate(ob.name, (0.5 * (x0 + x1) * L, 0.5 * (y0 + y1) * L), fontsize=7,
+                        color="#5a3a1b", ha="center", va="center", gid=gid)
