@@ -60,6 +60,19 @@ KINDS = ("side", "corner", "tip", "tip_corner")
 _FD_STEP = 1e-7
 
 
+class _Ones(dict):
+    """Read-only arrays of ones by length (1/B of a cylinder)."""
+
+    def __missing__(self, n):
+        a = np.ones(n)
+        a.setflags(write=False)
+        self[n] = a
+        return a
+
+
+_ONES = _Ones()
+
+
 @dataclass(frozen=True)
 class ContactMode:
     """
@@ -155,8 +168,12 @@ class _Segment:
     def __init__(self, shape: WhiskerShape, t: np.ndarray, S: np.ndarray, a: float, b: float):
         self.a, self.b = a, b
         if shape.taper == 1.0:
-            s = a + (b - a) * t
-            sp = np.full_like(t, b - a)
+            self.s = s = a + (b - a) * t
+            self.Sig = (0.5 * (b - a)) * S
+            self.w = self.Sig[-1].copy()
+            self.binv = _ONES[t.size]
+            self.k = shape.k0 + shape.k1 * s if shape.k1 else np.full(t.size, shape.k0)
+            return
         else:
             # s_p - s = (s_p - a) r^t: B(s(t)) = ((s_p - a) / s_p)^4 r^(4 t) is entire in t
             s_p = 1.0 / (1.0 - shape.taper)
@@ -451,16 +468,23 @@ class MultiContactSolver:
                 lu = None  # chord iterations converge slowly: fresh Jacobian
                 prev = size
                 continue
+            rate = size / prev if (not fresh and math.isfinite(prev)) else None
             prev = size
             step = sla.lu_solve(lu, R, check_finite=False)
             big = float(np.max(np.abs(step)))
             if not math.isfinite(big):
                 raise ConvergenceError("multi-contact: Newton step is not finite")
-            if big > 0.3:
+            damped = big > 0.3
+            if damped:
                 step *= 0.3 / big
             vec = vec - step
             if not self._admissible(modes, vec):
                 raise ConvergenceError("multi-contact: Newton left the configuration's domain")
+            if rate is not None and not damped and rate * size <= 0.01 * self._NEWTON_TOL:
+                # the iteration contracts by ``rate`` (measured on the last two residuals): the
+                # residual after this step is below a hundredth of the tolerance
+                self.iterations = it + 1
+                return vec, lu
         raise ConvergenceError(
             f"multi-contact: no convergence in {max_iter} iterations (residual {prev:.3g})")
 

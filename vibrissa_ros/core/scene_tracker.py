@@ -895,6 +895,12 @@ def _cone_mid(V: Vertex) -> float:
 
 def _nearest_feature(obstacle, x, y):
     """(feature, index, u): the arc (with its parameter) or convex vertex nearest to (x, y)."""
+    closest = getattr(obstacle, "closest", None)
+    if closest is not None:  # a scene obstacle: global and exact
+        near = closest(x, y)
+        if near.on_vertex:
+            return obstacle.vertices[near.vertex_index], near.vertex_index, None
+        return obstacle.arcs[near.arc_index], near.arc_index, near.u
     best = None
     for i, arc in enumerate(obstacle.arcs):
         u, d = arc.project(x, y)
