@@ -647,7 +647,13 @@ class QuasistaticTracker:
         self._peg_side_ref = None
         if hasattr(self.profile, "signed_distance"):
             pose0 = path.pose(t)
-            self._peg_side_ref = self._peg_side(pose0, self._free_clearance(pose0)[1]) or None
+            clear, s_near = self._free_clearance(pose0)
+            if clear <= 1e-12 and t < 1.0:
+                # the peg lies on the whisker where the search starts (a release exactly there,
+                # e.g. of a point peg): its side is the one the motion leaves it on
+                pose0 = path.pose(min(1.0, t + 1e-7 / path.length))
+                s_near = self._free_clearance(pose0)[1]
+            self._peg_side_ref = self._peg_side(pose0, s_near) or None
         try:
             return self._find_touch_shape_signed(path, t)
         finally:
