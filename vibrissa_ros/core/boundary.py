@@ -53,12 +53,12 @@ class ArcPoint:
 
     @property
     def normal(self) -> Tuple[float, float]:
-        """Outward unit normal (sin phi, -cos phi)."""
+        """Return the outward unit normal, (sin phi, -cos phi)."""
         return math.sin(self.phi), -math.cos(self.phi)
 
     @property
     def tangent(self) -> Tuple[float, float]:
-        """Unit tangent (cos phi, sin phi), obstacle to its left."""
+        """Return the unit tangent, (cos phi, sin phi): the obstacle is to its left."""
         return math.cos(self.phi), math.sin(self.phi)
 
 
@@ -91,6 +91,63 @@ class Arc:
         u = u_a + half * (x + 1.0)
         return float(half * sum(wi * self.at(float(ui)).speed for ui, wi in zip(u, w)))
 
+    def project(self, x: float, y: float) -> Tuple[float, float]:
+        """
+        Return (u, d): the arc's point nearest to (x, y) and its signed distance along the normal.
+
+        d > 0 on the outer side (away from the obstacle). Seeded on a grid of the arc's range (or
+        a window about the point for unbounded arcs), refined by Newton on the foot-point
+        condition (p - point(u)) . t(u) = 0, and clamped to the arc's ends.
+        """
+        lo, hi = self._seed_range(x, y)
+        grid = np.linspace(lo, hi, 65)
+        best = min(grid, key=lambda u: _dist2(self.at(float(u)), x, y))
+        u = float(best)
+        for _ in range(40):
+            p = self.at(u)
+            c, s = math.cos(p.phi), math.sin(p.phi)
+            dx, dy = x - p.x, y - p.y
+            g = dx * c + dy * s  # (p - b) . t
+            d = dx * s - dy * c  # (p - b) . n
+            dg = -p.speed + d * p.dphi  # d/du of (p - b) . t
+            if dg >= 0.0:
+                break
+            step = -g / dg
+            d2 = dx * dx + dy * dy
+            for _ in range(30):  # damped: the distance must not grow
+                u_new = u + step
+                if not self.periodic:
+                    u_new = min(max(u_new, self._lo), self._hi)
+                q = self.at(u_new)
+                if math.isfinite(q.x) and _dist2(q, x, y) <= d2 * (1.0 + 1e-12):
+                    break
+                step *= 0.5
+            else:
+                break
+            if abs(u_new - u) <= 1e-15 * max(1.0, abs(u)):
+                u = u_new
+                break
+            u = u_new
+        p = self.at(u)
+        return u, (x - p.x) * math.sin(p.phi) - (y - p.y) * math.cos(p.phi)
+
+    @property
+    def _lo(self) -> float:
+        """Smallest parameter used numerically (open ends are at infinity for profiles)."""
+        return self.u_min + 1e-9 * max(1.0, abs(self.u_min))
+
+    @property
+    def _hi(self) -> float:
+        return self.u_max - 1e-9 * max(1.0, abs(self.u_max))
+
+    def _seed_range(self, x: float, y: float) -> Tuple[float, float]:
+        lo, hi = self._lo, self._hi
+        if not math.isfinite(lo):
+            lo = -0.5 * math.pi + 1e-9
+        if not math.isfinite(hi):
+            hi = 0.5 * math.pi - 1e-9
+        return lo, hi
+
     def sample(self, n: int, u_from: Optional[float] = None,
                u_to: Optional[float] = None) -> np.ndarray:
         """``n`` points of the arc from u_from to u_to (default: its finite range), (n, 2)."""
@@ -99,6 +156,10 @@ class Arc:
         if not (math.isfinite(a) and math.isfinite(b)):
             raise ValueError("an infinite arc needs an explicit parameter range to sample")
         return np.array([(p.x, p.y) for p in (self.at(float(u)) for u in np.linspace(a, b, n))])
+
+
+def _dist2(p: ArcPoint, x: float, y: float) -> float:
+    return (p.x - x) ** 2 + (p.y - y) ** 2
 
 
 @lru_cache(maxsize=1)
@@ -128,6 +189,10 @@ class CircleArc(Arc):
     def sigma_between(self, u_a, u_b):
         return self.r * (u_b - u_a)
 
+    def project(self, x, y):
+        u = math.atan2(x - self.cx, -(y - self.cy))
+        return u, math.hypot(x - self.cx, y - self.cy) - self.r
+
 
 @dataclass(frozen=True)
 class SegmentArc(Arc):
@@ -154,6 +219,12 @@ class SegmentArc(Arc):
 
     def sigma_between(self, u_a, u_b):
         return u_b - u_a
+
+    def project(self, x, y):
+        c, s = math.cos(self._phi), math.sin(self._phi)
+        u = min(max((x - self.x0) * c + (y - self.y0) * s, 0.0), self.u_max)
+        p = self.at(u)
+        return u, (x - p.x) * s - (y - p.y) * c
 
 
 @dataclass(frozen=True)
@@ -210,6 +281,14 @@ class GraphArc(Arc):
             return g + d1 * (x - xe), d1, 0.0
         return g, d1, d2
 
+    def _seed_range(self, x, y):
+        u = x if self.side == "above" else -x
+        sp = self._spline
+        span = float(sp.x[-1] - sp.x[0])
+        g = self.height(x)[0]
+        reach = abs(y - g) + 0.05 * span
+        return u - reach, u + reach
+
     def at(self, u):
         x = u if self.side == "above" else -u
         g, d1, d2 = self.height(x)
@@ -223,7 +302,9 @@ class GraphArc(Arc):
 @dataclass(frozen=True)
 class Vertex:
     """
-    A corner at (x, y) joining an arc of end tangent ``phi_in`` to one of start tangent ``phi_out``.
+    A corner at (x, y), where two arcs meet.
+
+    The arc ending there has the tangent angle ``phi_in``, the one starting there ``phi_out``.
 
     ``phi_out - phi_in`` is the left turn in (-pi, pi] (2 pi for a point peg). Convex corners
     (turn > 0) can be touched from outside; the contact force lies in the normal cone
@@ -244,7 +325,7 @@ class Vertex:
         return self.turn > 0.0
 
     def in_cone(self, fx: float, fy: float, widen: float = 0.0) -> bool:
-        """Tell whether the force (fx, fy) on the whisker lies in the normal cone (+- widen rad)."""
+        """Tell whether the force (fx, fy) on the whisker is in the normal cone (+- widen rad)."""
         if self.turn >= TWO_PI:
             return True
         phi = math.atan2(fx, -fy)  # (sin phi, -cos phi) ~ (fx, fy)
