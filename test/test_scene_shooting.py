@@ -25,6 +25,7 @@ from vibrissa_ros.core import (
 )
 from vibrissa_ros.core.boundary import CircleArc, GraphArc, ProfileArc, SegmentArc, Vertex
 from vibrissa_ros.core.scene_shooting import (
+    arc_end_margin,
     ContactSpec,
     PosePath,
     cone_margin,
@@ -149,19 +150,8 @@ def test_two_pegs_tolerance_sweep(two_pegs):
 def test_two_pegs_maxwell_betti_symmetry(two_pegs):
     """Frictionless contacts are conservative: d(fx, fy, m0)/d(x, y, heading) is symmetric."""
     _, shape, _, _, eq = two_pegs
-    h = 1e-4
-    jac = np.empty((3, 3))
-    for j in range(3):
-        loads = []
-        for sign in (1.0, -1.0):
-            d = [0.0, 0.0, 0.0]
-            d[j] = sign * h
-            p = FootPose(eq.pose.x + d[0], eq.pose.y + d[1], eq.pose.heading + d[2])
-            e = solve_scene_equilibrium(shape, p, eq.warm())
-            loads.append(np.array([e.fx, e.fy, e.m0]))
-        jac[:, j] = (loads[0] - loads[1]) / (2.0 * h)
-    scale = np.max(np.abs(jac))
-    assert np.max(np.abs(jac - jac.T)) < 1e-6 * scale, jac
+    jac = _stiffness(shape, eq)
+    assert np.max(np.abs(jac - jac.T)) < 1e-6 * np.max(np.abs(jac)), jac
 
 
 def test_touch_and_release_are_one_event_located_two_ways(two_pegs):
@@ -246,6 +236,20 @@ def test_corner_on_the_whiskers_side():
     assert rounded.contacts[0].N == pytest.approx(c.N, rel=1e-5)
 
 
+def test_corner_leaves_its_cone_where_the_whisker_lies_along_an_edge():
+    """The cone event of a corner is where the whisker becomes parallel to the adjacent edge."""
+    path = PosePath(FootPose(0.1, 0.0, HALF_PI), FootPose(-0.3, 0.0, HALF_PI))
+    touch = locate_event(STRAIGHT, path, [], touch_gap(DIAMOND_RIGHT, side=1))
+    spec = touching_contact(touch.equilibrium, DIAMOND_RIGHT, side=1)
+    ev = locate_event(STRAIGHT, PosePath(touch.pose, FootPose(-1.0, 0.0, HALF_PI)), [spec],
+                      cone_margin(0), steps=10)
+    assert ev is not None
+    c = ev.equilibrium.contacts[0]
+    assert math.remainder(c.theta - DIAMOND_RIGHT.phi_in, math.pi) == pytest.approx(0.0,
+                                                                                    abs=1e-12)
+    assert c.N > 0.0
+
+
 EDGE = SegmentArc(-1.0, 0.95, 1.0, 0.95)  # a wall above, obstacle to the left of +x
 
 
@@ -298,6 +302,79 @@ def test_sticking_tip_holds_q_until_it_slips():
     later = solve_scene_equilibrium(STRAIGHT, path.pose(ev.t + 0.05), at.warm())
     dq = later.contacts[0].q - at.contacts[0].q
     assert math.copysign(1.0, dq) == slip_sign  # the sliding contact moves against its friction
+
+
+def test_tip_slides_to_the_end_of_an_edge():
+    touch, spec = _tip_on_edge({})
+    end = touch.equilibrium.tip[0] + 0.01
+    short = SegmentArc(-1.0, 0.95, end, 0.95)
+    spec = ContactSpec("tip", short, s=1.0, u=spec.u)
+    path = PosePath(touch.pose, FootPose(0.0, touch.pose.y + 0.1, 1.3))
+    ev = locate_event(STRAIGHT, path, [spec], arc_end_margin(0), steps=5)
+    assert ev is not None
+    c = ev.equilibrium.contacts[0]
+    assert (c.x, c.u) == pytest.approx((end, short.u_max), abs=1e-12)
+
+
+def test_tip_held_at_a_vertex():
+    """The tip on a corner: held there, the force free within the cone widened by atan(mu)."""
+    shape = WhiskerShape(1.0, 0.8, 0.0)
+    free = solve_scene_equilibrium(shape, FootPose(0.0, 0.0, HALF_PI), [])
+    chord = math.atan2(free.tip[1], free.tip[0])
+    mid = chord + 1.5 * math.pi  # the cone's bisector: the force pushes back towards the foot
+    # the force turns by ~0.14 rad from -chord while the foot advances; the cone ends at 0.16
+    corner = Vertex(free.tip[0], free.tip[1], mid - 0.3, mid + 0.16 - math.atan(0.05))
+    spec = ContactSpec("tip_corner", corner, s=1.0, mu=0.05)
+    d = 0.03  # the foot moves towards the tip: the whisker bows further
+    path = PosePath(FootPose(0.0, 0.0, HALF_PI),
+                    FootPose(d * math.cos(chord), d * math.sin(chord), HALF_PI))
+    eqs = follow_path(shape, path, [spec], np.linspace(0.0, 1.0, 4)[1:])
+    for eq in eqs:
+        c = eq.contacts[0]
+        assert eq.tip == pytest.approx((corner.x, corner.y), abs=1e-12)
+        assert cone_margin(0)(eq) > 0.0 and c.q is None and c.u is None and c.N > 0.0
+        assert eq.m0 == pytest.approx(cross(c.x - eq.pose.x, c.y - eq.pose.y, c.fx, c.fy),
+                                      abs=1e-10)
+        assert eq.state(1.0)[3, 0] == pytest.approx(0.0, abs=1e-12)  # no moment at the tip
+    # turning the foot turns the force out of the widened cone
+    turn = PosePath(eqs[-1].pose, FootPose(eqs[-1].pose.x, eqs[-1].pose.y, HALF_PI + 0.5))
+    ev = locate_event(shape, turn, eqs[-1].warm(), cone_margin(0), steps=6)
+    assert ev is not None
+    c = ev.equilibrium.contacts[0]
+    off = math.remainder(math.atan2(c.fx, -c.fy) - mid, 2.0 * math.pi)
+    assert off == pytest.approx(0.16, abs=1e-12)
+
+
+def _stiffness(shape, eq, h=1e-4):
+    """d(fx, fy, m0)/d(x, y, heading) by central differences, each solve from ``eq``."""
+    jac = np.empty((3, 3))
+    for j in range(3):
+        loads = []
+        for sign in (1.0, -1.0):
+            d = [0.0, 0.0, 0.0]
+            d[j] = sign * h
+            p = FootPose(eq.pose.x + d[0], eq.pose.y + d[1], eq.pose.heading + d[2])
+            e = solve_scene_equilibrium(shape, p, eq.warm())
+            loads.append(np.array([e.fx, e.fy, e.m0]))
+        jac[:, j] = (loads[0] - loads[1]) / (2.0 * h)
+    return jac
+
+
+def test_a_sticking_tip_is_conservative():
+    """A held tip is a workless constraint: Maxwell-Betti symmetry holds with it too."""
+    touch, spec = _tip_on_edge({})
+    pressed = solve_scene_equilibrium(STRAIGHT, FootPose(0.0, touch.pose.y + 0.03, 1.3), [spec])
+    c0 = pressed.contacts[0]
+    stick = ContactSpec("tip", EDGE, friction="stick", mu=0.3, anchor=c0.q, s=1.0, u=c0.u,
+                        N=c0.N)
+    eq = solve_scene_equilibrium(STRAIGHT, FootPose(0.0005, pressed.pose.y, 1.3), [stick])
+    assert eq.contacts[0].T != 0.0
+    jac = _stiffness(STRAIGHT, eq, h=2e-6)
+    assert np.max(np.abs(jac - jac.T)) < 1e-5 * np.max(np.abs(jac)), jac
+    # the sliding tip on the horizontal wall takes no sideways load at all; the held one does
+    free = _stiffness(STRAIGHT, solve_scene_equilibrium(STRAIGHT, eq.pose, [spec]), h=2e-6)
+    assert abs(free[0, 0]) < 1e-6 and jac[0, 0] < -1.0
+    assert np.max(np.abs(free - free.T)) < 1e-5 * np.max(np.abs(free)), free
 
 
 def test_mu_zero_is_exactly_frictionless():

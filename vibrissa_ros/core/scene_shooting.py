@@ -62,6 +62,10 @@ RESIDUAL_TOL = 1e-13
 RESIDUAL_ACCEPT = 1e-10
 #: Newton iterations of one solve
 MAX_NEWTON = 60
+#: right-hand side evaluations one integration may use (a regular one uses a few hundred)
+MAX_RHS_CALLS = 20000
+#: largest contact force a trial point may carry [EI_b / L^2] (beyond: a step too far)
+MAX_FORCE = 1e5
 
 _TWO_PI = 2.0 * math.pi
 
@@ -256,10 +260,14 @@ def _cone_bisector(v: Vertex) -> float:
 
 
 # -- the shooting map ---------------------------------------------------------------------------
-def _rhs(shape: WhiskerShape, fx_in: float, fy_in: float):
+def _rhs(shape: WhiskerShape, fx_in: float, fy_in: float, budget: List[int]):
+    """Right-hand side under the inner force; ``budget[0]`` calls left (then _Unusable)."""
     k0, k1, c = shape.k0, shape.k1, 1.0 - shape.taper
 
     def rhs(s, y):
+        budget[0] -= 1
+        if budget[0] < 0:
+            raise _Unusable("the integration takes too many steps (a load far too large)")
         th, m = y[2], y[3]
         b = 1.0 - c * s
         b *= b
@@ -335,7 +343,10 @@ class _Problem:
     def integrate(self, x, dense=False):
         """Integrate foot to last contact; return loads, states at the contacts, pieces."""
         self.calls += 1
+        self.budget = [MAX_RHS_CALLS]
         loads = self._loads(x)
+        if max((abs(ld[1]) + abs(ld[2]) for ld in loads), default=0.0) > MAX_FORCE:
+            raise _Unusable(f"a contact force beyond {MAX_FORCE:g}")
         order = sorted(range(len(loads)), key=lambda c: loads[c][0])
         for c in order:
             s = loads[c][0]
@@ -363,7 +374,7 @@ class _Problem:
         return loads, states, y, pieces
 
     def _segment(self, a, b, y, fx_in, fy_in, dense):
-        sol = solve_ivp(_rhs(self.shape, fx_in, fy_in), (a, b), y, method="DOP853",
+        sol = solve_ivp(_rhs(self.shape, fx_in, fy_in, self.budget), (a, b), y, method="DOP853",
                         rtol=self.rtol, atol=self.atol, dense_output=dense)
         if not sol.success:
             raise _Unusable(sol.message)
@@ -524,7 +535,10 @@ def solve_scene_equilibrium(shape: WhiskerShape, pose: FootPose,
         x, norm = problem.x0, 0.0
     else:
         x, norm = _newton(problem, tol)
-    loads, states, _, pieces = problem.integrate(x, dense=True)
+    try:
+        loads, states, _, pieces = problem.integrate(x, dense=True)
+    except _Unusable as exc:
+        raise ConvergenceError(f"scene shooting: the solution cannot be integrated ({exc})")
     tip_state = pieces[-1][2](1.0)
     out = []
     for spec, (s, fx, fy, p, u, n_arc, t_arc), st in zip(specs, loads, states):
