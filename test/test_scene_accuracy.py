@@ -195,3 +195,28 @@ def test_sticking_and_slipping_contacts_agree_with_shooting():
             worst = max(worst, _compare(state, shape))
     assert seen == {"stick", "slip"}
     assert worst < TOL
+
+
+def test_a_polygon_corner_edge_and_tip_agree_with_shooting_and_mirror():
+    # a diamond: its right corner meets the whisker's side, the contact moves onto an edge, slides
+    # to the bottom corner, reaches the tip there, and the tip slips off; the way back mirrors it
+    scene = load_scene("obstacles:\n  - {type: polygon, vertices: "
+                       "[[0.0, 0.45], [0.2, 0.65], [0.0, 0.85], [-0.2, 0.65]]}\n")
+    shape = WhiskerShape()
+    tracker = SceneTracker(list(scene), 0.6)
+    events, kinds, worst = [], set(), 0.0
+    grid = np.concatenate((np.linspace(0.6, -0.8, 141), np.linspace(-0.8, 0.6, 141)[1:]))
+    for x0 in grid[1:]:
+        result = tracker.step(float(x0))
+        events += [(e.kind, e.pose.x) for e in result.events]
+        for c in result.state.contacts:
+            kinds.add(c.kind)
+        if result.state.contacts:
+            worst = max(worst, _compare(result.state, shape))
+    assert kinds == {"corner", "side", "tip_corner"}
+    assert worst < TOL
+    names = [k for k, _ in events]
+    assert names[:6] == ["touch", "edge", "corner", "tip", "edge", "snap"]
+    assert names[6:] == ["touch", "edge", "corner"]
+    for (_, a), (_, b) in zip(events[:3], events[6:9]):
+        assert abs(a + b) < 1e-9  # the diamond is symmetric about x = 0

@@ -372,9 +372,9 @@ class MultiContactSolver:
             col_x, col_y = A[c] @ s_, -(A[c] @ c_)
             for j, dF in d.items():
                 J[:K, j] += dF[0] * col_x + dF[1] * col_y
-            if dth is not None:
+            if dth is not None:  # a corner's force turns with the whisker's slope there
                 jc = (c + 1) * n - 1
-                J[:K, jc] += dth[0] * col_x + dth[1] * col_y
+                Jth[:, jc] += dth[0] * col_x + dth[1] * col_y
         J[:K, :K] = Jth
         for c, (m, o) in enumerate(zip(modes, offsets)):
             # positions: d(Px, Py)/dtheta = E_c (-sin, cos)

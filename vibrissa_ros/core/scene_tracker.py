@@ -67,6 +67,8 @@ _CUT = -1e-10
 _SAMPLES = np.linspace(0.0, 1.0, 81)
 _SPACING = 1.0 / 80.0
 _NUMERICAL_ERRORS = (ArithmeticError, ValueError, np.linalg.LinAlgError)
+#: geometric switches of one contact; two at one pose mean neither configuration goes on
+_SWITCHES = ("tip", "tangential", "end_min", "end_max", "edge_in", "edge_out")
 
 
 @dataclass(frozen=True)
@@ -321,18 +323,18 @@ class SceneTracker:
             if crossed or cut is not None:
                 t_star, what = self._first_event(modes, vec, path, t, t_new, dpose, crossed, cut)
                 vec_star = self._solve_at(modes, vec, path, t, t_star, dpose)
-                if (what[0] == "event" and what[1][0] in ("tip", "tangential") and last_switch
+                if (what[0] == "event" and what[1][0] in _SWITCHES and last_switch
                         and abs(t_star - last_switch[0]) <= 1e-12
                         and last_switch[1] == what[1][1]):
-                    # side -> tip -> side at one pose: neither branch goes on (the tip slides off
-                    # the obstacle's edge): the whisker snaps
+                    # side -> tip -> side (or corner -> edge -> corner) at one pose: neither
+                    # configuration goes on (the tip slides off the edge or corner): a snap
                     modes, vec, ev = self._snap(modes, vec_star, path, t_star, dpose,
                                                 only=what[1][1])
                     last_switch = None
                 else:
                     modes, vec, ev = self._transition(modes, vec_star, path, t_star, what, dpose)
                     last_switch = ((t_star, what[1][1]) if what[0] == "event"
-                                   and what[1][0] in ("tip", "tangential") else None)
+                                   and what[1][0] in _SWITCHES else None)
                 if ev is not None:
                     events.append(ev)
                 t = t_star
@@ -906,7 +908,14 @@ def _nearest_feature(obstacle, x, y):
         near = closest(x, y)
         if near.on_vertex:
             return obstacle.vertices[near.vertex_index], near.vertex_index, None
-        return obstacle.arcs[near.arc_index], near.arc_index, near.u
+        arc = obstacle.arcs[near.arc_index]
+        for end in (arc.u_min, arc.u_max):
+            # at an edge's end (to rounding) the touch is the corner's
+            if math.isfinite(end) and abs(near.u - end) <= 1e-9 * max(1.0, abs(end)):
+                found = _vertex_at(obstacle, arc.at(end))
+                if found is not None and found[1].convex:
+                    return found[1], found[0], None
+        return arc, near.arc_index, near.u
     best = None
     for i, arc in enumerate(obstacle.arcs):
         u, d = arc.project(x, y)
