@@ -218,6 +218,8 @@ class MultiContactSolver:
 
     _NEWTON_TOL = 1e-13
     _MAX_ITER = 30
+    #: the contact arc lengths' Jacobian columns in closed form (cylinder) or by differences
+    analytic_breaks = True
 
     def __init__(self, shape: Optional[WhiskerShape] = None, n: int = DEFAULT_SEGMENT_POINTS):
         self.shape = shape if shape is not None else WhiskerShape()
@@ -228,6 +230,7 @@ class MultiContactSolver:
         self._S = S
         self._Vinv = Vinv
         self.evaluations = 0
+        self._last_configuration = None
         #: Newton iterations of the last successful solve
         self.iterations = 0
         self._cache = {}
@@ -381,7 +384,16 @@ class MultiContactSolver:
             J[o, :K] = -E[c] * s_
             J[o + 1, :K] = E[c] * c_
             self._contact_jacobian(m, vec, o, J, theta[(c + 1) * n - 1], (c + 1) * n - 1)
-        # the contact arc lengths: forward differences
+        # the contact arc lengths: in closed form for a cylinder, else forward differences
+        if self.shape.taper == 1.0 and self.analytic_breaks:
+            vs = [F[1] * c_ - F[0] * s_ for F, _, _ in forces]
+            for c, (m, o) in enumerate(zip(modes, offsets)):
+                if m.on_side:
+                    self._break_column(c, modes, offsets, G, E, kap, vs, c_, s_, J[:, o])
+                    if m.has_tangential_unknown:
+                        J[o + 3 if m.kind == "side" else o + 2, o] = (
+                            -m.e if m.kind == "side" else 1.0)
+            return R, J
         for c, (m, o) in enumerate(zip(modes, offsets)):
             if not m.on_side:
                 continue
@@ -391,6 +403,43 @@ class MultiContactSolver:
             R2, _ = self.residual(modes, v2, pose, want_jacobian=False)
             J[:, o] = (R2 - R) / h
         return R, J
+
+    def _break_column(self, c, modes, offsets, G, E, kap, vs, c_, s_, out):
+        """
+        Write d(residual)/d(s_c) for a cylinder (B = 1) into ``out``.
+
+        The segments' lengths L_j enter G, E and the nodes linearly: G = sum_j L_j G^(j), and
+        s_c lengthens segment c and shortens segment c + 1, so dG = G^(c) - G^(c+1), dE likewise,
+        and kappa0 at the nodes moves with k1 (t on segment c, 1 - t on segment c + 1).
+        """
+        n, k = self.n, len(modes)
+        K = n * k
+        half_S, half_w = 0.5 * self._S, 0.5 * self._S[-1]
+        dG = np.zeros((K, K))
+        dE = np.zeros((k, K))
+        dk = np.zeros(K)
+        for j, sign in ((c, 1.0), (c + 1, -1.0)):
+            if j >= k:
+                continue
+            cols = slice(j * n, (j + 1) * n)
+            dG[cols, cols] += sign * half_S
+            dG[(j + 1) * n:, cols] += sign * half_w
+            dE[j:, cols] += sign * half_w
+            dk[cols] = self.shape.k1 * (self._t if sign > 0 else 1.0 - self._t)
+        res = -(dG @ kap) - G @ dk
+        for ell, v in enumerate(vs):
+            rows = (ell + 1) * n
+            y = E[ell] @ v - G[:rows] @ v  # H_l (E_l - G) v, rows up to segment l
+            dy = dE[ell] @ v - dG[:rows] @ v
+            res -= dG[:, :rows] @ y + G[:, :rows] @ dy
+        out[:K] = res
+        for ell, o in enumerate(offsets):
+            out[o] = dE[ell] @ c_  # the contact's position moves with the lengths
+            out[o + 1] = dE[ell] @ s_
+            m = modes[ell]
+            if m.kind == "side":
+                out[o + 2] = 0.0
+        return out
 
     def _contact_equations(self, m, vec, o, px, py, th_c):
         kind = m.kind
@@ -519,8 +568,17 @@ class MultiContactSolver:
 
     # -- results -----------------------------------------------------------------------------
     def configuration(self, modes, vec, pose) -> Configuration:
-        """Package a solved vector: contacts, base load, tip."""
+        """Package a solved vector: contacts, base load, tip (the last one is remembered)."""
         modes = tuple(modes)
+        key = (modes, pose, vec.tobytes())
+        last = self._last_configuration
+        if last is not None and last[0] == key:
+            return last[1]
+        cfg = self._configuration(modes, vec, pose)
+        self._last_configuration = (key, cfg)
+        return cfg
+
+    def _configuration(self, modes, vec, pose) -> Configuration:
         if not modes:  # free: the unloaded whisker
             ex, ey = _unloaded_offset(self.shape, 0.0, pose.heading)
             return Configuration((), (), np.zeros(0), (), 0.0, 0.0, 0.0,
