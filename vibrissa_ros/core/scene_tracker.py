@@ -224,6 +224,11 @@ class SceneTracker:
             if not (math.isfinite(m) and m >= 0.0):
                 raise ParameterError(f"friction coefficient {m!r} must be finite and >= 0")
         self.friction = tuple(mu)
+        for i, ob in enumerate(self.obstacles):
+            if not ob.arcs and any(v.turn >= TWO_PI for v in ob.vertices):
+                raise ParameterError(
+                    f"obstacle {i} is a point peg (r = 0): the scene tracker needs r > 0 (a point "
+                    "is supported as the only obstacle, without friction: --profile peg)")
         self.max_evaluations = int(max_evaluations)
         pose = _as_pose(pose)
         self._modes: Tuple[ContactMode, ...] = ()
