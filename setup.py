@@ -49,7 +49,8 @@ setup(
         ("share/" + package_name + "/launch", glob("launch/*.launch.xml")),
     ],
     python_requires=">=3.10",
-    install_requires=["setuptools", "numpy>=1.24", "scipy>=1.10"],
+    # pyyaml 5.1: safe_dump(sort_keys=False) of scene files
+    install_requires=["setuptools", "numpy>=1.24", "scipy>=1.10", "pyyaml>=5.1"],
     extras_require={
         # ROS 2 Jazzy from PyPI wheels (no sourcing needed), for the node and its tools
         "ros": ROS + PLOTS,

@@ -5,6 +5,7 @@ run computes only what is missing and ends with the very dataset of an uninterru
 import csv
 import io
 import json
+import math
 import os
 import signal
 import subprocess
@@ -24,7 +25,7 @@ from vibrissa_ros import dataset
 from vibrissa_ros.batch import run_study
 from vibrissa_ros.cli import main
 from vibrissa_ros.noise import NoiseSpec, SensorNoise
-from vibrissa_ros.scan_io import CSV_COLUMNS
+from vibrissa_ros.scan_io import CSV_COLUMNS, POSE_CSV_COLUMNS
 from vibrissa_ros.study import parse_study
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -110,6 +111,51 @@ motion: {from: 1.6, to: -1.6, step: 0.1}
     _assert_equals_vibrissa_scan(ds, sub, tmp_path, capsys)
 
 
+# 18 tasks: two whiskers, two pegs and a parabola, a slide and two whisks (from beside the parabola, and from
+# the origin); the rigid model fails where a peg meets the whisker's side, the whisk from the origin cannot
+# start inside the parabola
+WHISK_AND_PEG = """
+seed: 4
+whisker: {model: [elastica, rigid], spring_stiffness: 3}
+obstacles:
+  - profile: peg
+    params: {x: [-0.3, 0.3], y: 0.6, r: 0.05}
+  - profile: parabola
+    params: {p0: 0.3}
+motion:
+  - {from: 1.5, to: -1.5, step: 0.05}
+  - whisk: {x: 1.5, from_deg: 90, to_deg: 150, step_deg: 2, back: true}
+  - whisk: {from_deg: 50, to_deg: 130, step_deg: 2, back: true}
+noise: {force_stddev: 0.002}
+"""
+
+
+def test_a_study_of_whisks_and_pegs_equals_vibrissa_scan(client, tmp_path, capsys):
+    """Whisking and pegs as study axes: every task equals ``vibrissa scan --whisk`` / ``--profile peg``."""
+    sub = parse_study(WHISK_AND_PEG)
+    out = tmp_path / "ds"
+    report = run_study(sub, str(out), client=client, progress=None)
+    assert report.complete and report.computed == 18 and not report.errors
+    ds = dataset.open(str(out))
+    poses, tasks, failures = ds.poses, ds.tasks, ds.failures
+    assert set(failures.error) == {"ModelAssumptionError", "InvalidPoseError"}
+    assert set(failures[failures.error == "ModelAssumptionError"].model) == {"rigid"}
+    assert set(failures[failures.error == "InvalidPoseError"].whisk_x) == {0.0}
+    assert len(poses) > 0 and set(poses.motion) == {"sweep", "whisk"}
+    # the foot pose of every row; a slide's: (x0, 0, pi/2)
+    slides, whisks = poses[poses.motion == "sweep"], poses[poses.motion == "whisk"]
+    assert (slides.foot_x == slides.x0).all() and (slides.foot_y == 0).all()
+    assert (slides.heading == math.pi / 2).all() and slides.whisk_x.isna().all()
+    assert (whisks.foot_x == whisks.whisk_x).all() and whisks.sweep_from.isna().all()
+    assert whisks.heading.min() == math.radians(50) and whisks.heading.max() == math.radians(150)
+    # the peg's parameters are its own columns, beside the placement's x, y
+    pegs = tasks[tasks.profile == "peg"]
+    assert set(pegs.peg_x) == {-0.3, 0.3} and set(pegs.peg_r) == {0.05} and pegs.p0.isna().all()
+    assert (tasks.x == 0).all() and tasks[tasks.profile == "parabola"].peg_x.isna().all()
+    assert set(ds.events.columns[:6]) == {"task", "step", "foot_x", "foot_y", "heading", "x0"}
+    _assert_equals_vibrissa_scan(ds, sub, tmp_path, capsys)
+
+
 def _assert_equals_vibrissa_scan(ds, study, tmp_path, capsys):
     poses = ds.poses
     events = ds.events
@@ -128,16 +174,23 @@ def _assert_equals_vibrissa_scan(ds, study, tmp_path, capsys):
         rows = list(csv.DictReader(io.StringIO(csv_path.read_text())))
         mine = poses[poses.task == task.index]
         assert list(mine.step) == list(range(len(rows)))
+        # a whisk is written as foot poses (x, y, heading): the dataset's foot_x, foot_y, heading
+        whisk = task.whisk is not None
+        columns = POSE_CSV_COLUMNS if whisk else CSV_COLUMNS
+        assert list(rows[0]) == list(columns)
         for row, (_, got) in zip(rows, mine.iterrows()):
-            for col in CSV_COLUMNS:
+            for col in columns:
                 want = int(row[col]) if col == "phase" else _float(row[col])
-                value = got[col]
+                value = got[{"x": "foot_x", "y": "foot_y"}.get(col, col)]
                 value = None if value != value else value  # NaN is the DataFrame's null
                 assert value == want, (task.index, col)
         want_events = json.loads(ev_path.read_text())
         got_events = events[events.task == task.index]
-        assert [(e["x0"], e["kind"], e["from_phase"], e["to_phase"]) for e in want_events] == \
-            list(zip(got_events.x0, got_events.kind, got_events.from_phase, got_events.to_phase))
+        where = ("x", "y", "heading") if whisk else ("x0",)
+        got_where = [got_events.foot_x, got_events.foot_y, got_events.heading] if whisk else [got_events.x0]
+        assert [tuple(e[k] for k in where + ("kind", "from_phase", "to_phase")) for e in want_events] == \
+            list(zip(*got_where, got_events.kind, got_events.from_phase, got_events.to_phase))
+        assert len(want_events) == len(got_events)
         # the task's parameters ride along on every row
         assert set(mine.profile) == {task.profile} and set(mine.rotation_deg) == {task.rotation_deg}
         assert set(mine.model) == {task.model}

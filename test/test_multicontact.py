@@ -138,3 +138,28 @@ def test_friction_stays_in_its_cone_and_dissipates():
     assert "stick" in ev3 and "slip" in ev3
     # while slipping, friction opposes the slip: T has the sign opposite to dq/dt
     assert len(opposed) > 50 and max(opposed) <= 0.0
+
+
+def _whisk_events(taper, mu):
+    """A whisker whisking (foot fixed, heading 100 -> -10 deg) into a pole, with friction."""
+    from vibrissa_ros.core.state import FootPose
+
+    tracker = SceneTracker([_Disk(0.25, 0.45, 0.02)], FootPose(0.0, 0.0, math.radians(100)),
+                           shape=WhiskerShape(taper), friction=[mu])
+    events = []
+    for deg in np.arange(99.5, -10.0, -0.5):
+        result = tracker.step(FootPose(0.0, 0.0, math.radians(float(deg))))
+        events += [(e.kind, math.degrees(e.pose.heading)) for e in result.events]
+    return events
+
+
+def test_conical_whiskers_slip_off_a_pole_later_with_friction_cylinders_never():
+    # Hires et al. 2013: pushed into a pole, a conical whisker slips off at a critical angle, a
+    # cylindrical one does not; Coulomb friction holds the cone on longer
+    snaps = []
+    for mu in (0.0, 0.2, 0.48):
+        events = _whisk_events(1.0 / 15.0, mu)
+        assert events[0][0] == "touch" and events[-1][0] == "snap"
+        snaps.append(events[0][1] - events[-1][1])  # the push angle at the slip-off
+        assert [k for k, _ in _whisk_events(1.0, mu)] == ["touch"]
+    assert 35.0 < snaps[0] < snaps[1] < snaps[2] < 60.0

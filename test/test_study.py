@@ -180,3 +180,156 @@ def test_whisker_geometry_axes_pick_the_general_solver_and_are_refused_for_the_r
     ]:
         with pytest.raises(StudyError, match=re.escape(words)):
             parse_study(bad + "\nobstacles: [{profile: parabola, params: {p0: 0.3}}]\nmotion: {from: 2, to: -2, step: 0.5}\n")
+
+
+WHISK_AND_PEG = """
+whisker: {model: [elastica, rigid], spring_stiffness: 3}
+obstacles:
+  - profile: peg
+    params: {x: [-0.3, 0.3], y: 0.6, r: 0.05}
+  - profile: parabola
+    params: {p0: 0.3}
+motion:
+  - {from: 1.5, to: -1.5, step: 0.05}
+  - whisk: {x: [1.5, -1.5], from_deg: 90, to_deg: 150, step_deg: 2, back: true}
+"""
+
+
+def test_whisking_motions_keep_the_foot_and_sweep_the_heading():
+    from vibrissa_ros.study import Whisk
+
+    study = parse_study(WHISK_AND_PEG)
+    assert study.has_whisking and len(study.tasks) == 2 * 3 * 3
+    whisks = [t for t in study.tasks if t.motion == "whisk"]
+    assert {t.whisk for t in whisks} == {Whisk(1.5, 0.0, 90.0, 150.0, 2.0), Whisk(-1.5, 0.0, 90.0, 150.0, 2.0)}
+    task = whisks[0]
+    assert task.sweep_from is None and task.back
+    poses = task.foot_poses()
+    assert len(poses) == len(task.grid()) == 61 and study.poses == sum(len(t.grid()) for t in study.tasks)
+    assert {(p.x, p.y) for p in poses} == {(task.whisk.x, 0.0)}
+    headings = [p.heading for p in poses]
+    assert headings[0] == math.pi / 2 and headings[30] == math.radians(150.0) and headings[-1] == math.pi / 2
+    assert headings[:31] == headings[30:][::-1]  # the retraction retraces the protraction
+    assert "--whisk=1.5,0.0 --from=90.0 --to=150.0 --step=2.0 --back --csv" in task.scan_command()
+    sweep = study.tasks[0]
+    assert sweep.motion == "sweep" and sweep.whisk is None and sweep.foot_poses() is None
+    assert not parse_study("obstacles: [{profile: parabola, params: {p0: 0.3}}]\n"
+                           "motion: {from: 2, to: -2, step: 0.5}\n").has_whisking
+
+
+def test_pegs_are_study_obstacles_solved_by_the_general_model():
+    from vibrissa_ros.core.general import GeneralWhiskerModel
+    from vibrissa_ros.core.models import RigidModel
+
+    study = parse_study(WHISK_AND_PEG)
+    assert study.param_names == ("p0", "k", "peg_x", "peg_y", "peg_r")
+    pegs = [t for t in study.tasks if t.profile == "peg"]
+    assert {t.params for t in pegs} == {(("x", -0.3), ("y", 0.6), ("r", 0.05)), (("x", 0.3), ("y", 0.6), ("r", 0.05))}
+    assert pegs[0].param_columns() == {"peg_x": -0.3, "peg_y": 0.6, "peg_r": 0.05}
+    assert all(isinstance(t.whisker_model(), GeneralWhiskerModel) for t in pegs if t.model == "elastica")
+    assert all(isinstance(t.whisker_model(), RigidModel) for t in pegs if t.model == "rigid")
+    assert "--profile peg --param x=-0.3 --param y=0.6 --param r=0.05 --model elastica --from" in \
+        pegs[0].scan_command()
+    # random pegs: the centre anywhere, the radius >= 0 (0: a point)
+    random = parse_study("obstacles: [{profile: peg, samples: 5, params: {x: {uniform: [-0.5, 0.5]}, "
+                         "y: {uniform: [0.4, 0.9]}, r: {uniform: [0, 0.1]}}}]\nmotion: {from: 1, to: -1, step: 0.5}\n")
+    assert len({t.params for t in random.tasks}) == 5
+    assert all(-0.5 <= dict(t.params)["x"] <= 0.5 and 0 <= dict(t.params)["r"] <= 0.1 for t in random.tasks)
+
+
+def test_the_whisking_example_study_is_small():
+    study = load_study(str(ROOT / "config" / "study_whisk.yaml"))
+    assert study.has_whisking and 50 <= len(study.tasks) <= 200 and study.poses < 20_000
+    assert {t.profile for t in study.tasks} == {"peg"}
+
+
+def test_the_readme_shows_the_whisking_example_study():
+    section = (ROOT / "README.md").read_text().split("## Studies at scale", 1)[1].split("\n## ", 1)[0]
+    shown = [parse_study(block) for block in re.findall(r"```yaml\n(.+?)```", section, re.S)]
+    assert any(s.tasks == load_study(str(ROOT / "config" / "study_whisk.yaml")).tasks for s in shown)
+
+
+_PARABOLA = "obstacles: [{profile: parabola, params: {p0: 0.3}}]\n"
+_PEG = "obstacles: [{profile: peg, params: {x: 0.2, y: 0.6, r: 0.05}}]\nmotion: {from: 1, to: -1, step: 0.1}\n"
+BAD_WHISK_AND_PEG = [
+    ("whisk: unknown key", _PARABOLA + "motion: [{whisk: {x: 1.5, from_deg: 90, to_deg: 150, step_deg: 1, speed: 2}}]\n",
+     "motion[0].whisk: unknown key 'speed'; allowed: x, y, from_deg, to_deg, step_deg, back"),
+    ("whisk: a key beside it", _PARABOLA + "motion: {whisk: {x: 1.5, from_deg: 90, to_deg: 150, step_deg: 1}, step: 1}\n",
+     "motion: unknown key 'step' beside 'whisk'"),
+    ("whisk: missing key", _PARABOLA + "motion: [{whisk: {x: 1.5, from_deg: 90, to_deg: 150}}]\n",
+     "motion[0].whisk: key 'step_deg' is required"),
+    ("whisk: not a mapping", _PARABOLA + "motion: [{whisk: 90}]\n", "motion[0].whisk must be a mapping"),
+    ("whisk: empty range", _PARABOLA + "motion: [{whisk: {x: 1.5, from_deg: 90, to_deg: 90, step_deg: 1}}]\n",
+     "motion[0].whisk: from_deg = to_deg = 90.0 is an empty range"),
+    ("whisk: empty list", _PARABOLA + "motion: [{whisk: {x: [], from_deg: 90, to_deg: 150, step_deg: 1}}]\n",
+     "motion[0].whisk.x is an empty list"),
+    ("whisk: wrong type", _PARABOLA + "motion: [{whisk: {x: 1.5, from_deg: 90, to_deg: 150, step_deg: fast}}]\n",
+     "motion[0].whisk.step_deg = 'fast' must be a number"),
+    ("whisk: zero step", _PARABOLA + "motion: [{whisk: {x: 1.5, from_deg: 90, to_deg: 150, step_deg: 0}}]\n",
+     "motion[0].whisk.step_deg = 0.0 must be > 0"),
+    ("whisk: back not a bool", _PARABOLA + "motion: [{whisk: {x: 1.5, from_deg: 90, to_deg: 150, step_deg: 1, back: 1}}]\n",
+     "motion[0].whisk.back = 1 must be true or false"),
+    ("whisk: too many headings", _PARABOLA + "motion: [{whisk: {from_deg: 0, to_deg: 90, step_deg: 0.000000001}}]\n",
+     "motion[0].whisk: --step = 1e-09 gives"),
+    ("number YAML reads as text", _PARABOLA + "motion: [{whisk: {from_deg: 60, to_deg: 120, step_deg: 5e-1}}]\n",
+     "motion[0].whisk.step_deg = '5e-1' must be a number (YAML reads 5e-1 as text: write 0.5)"),
+    ("sweep: empty range", _PARABOLA + "motion: {from: 1, to: 1, step: 0.1}\n", "motion: from = to = 1.0 is an empty range"),
+    ("peg: unknown parameter", "obstacles: [{profile: peg, params: {x: 0, y: 0.6, R: 0.1}}]\n"
+     "motion: {from: 1, to: -1, step: 0.1}\n", "obstacles[0].params: unknown key 'R'; allowed: x, y, r"),
+    ("peg: missing centre", "obstacles: [{profile: peg, params: {x: 0}}]\nmotion: {from: 1, to: -1, step: 0.1}\n",
+     "obstacles[0].params: key 'y' is required"),
+    ("peg: negative radius", "obstacles: [{profile: peg, params: {x: 0, y: 0.6, r: -0.1}}]\n"
+     "motion: {from: 1, to: -1, step: 0.1}\n", "obstacles[0].params.r = -0.1 must be >= 0"),
+    ("peg: random radius below 0", "obstacles: [{profile: peg, samples: 3, params: {x: 0, y: 0.6, r: {uniform: [-0.1, 0.1]}}}]\n"
+     "motion: {from: 1, to: -1, step: 0.1}\n", "obstacles[0].params.r.uniform = -0.1 must be >= 0"),
+    ("peg: placed", _PEG + "placement: {rotation_deg: [0, 10]}\n", "obstacles[0] is a peg, placed by its own params x, y"),
+    ("peg: placed at random", _PEG + "placement: {x: {uniform: [-0.1, 0.1]}, samples: 2}\n", "is a peg"),
+]
+
+
+@pytest.mark.parametrize("case", BAD_WHISK_AND_PEG, ids=[c[0] for c in BAD_WHISK_AND_PEG])
+def test_a_bad_whisk_or_peg_is_refused_with_one_line_before_anything_runs(case, tmp_path, capsys):
+    test_a_bad_study_is_refused_with_one_line_before_anything_runs(case, tmp_path, capsys)
+
+
+def test_a_peg_with_placement_zero_is_allowed():
+    assert len(parse_study(_PEG + "placement: {x: 0, rotation_deg: 0}\n").tasks) == 1
+
+
+def _scan_csv(tmp_path, name, args):
+    path = tmp_path / name
+    assert main(["scan", "--profile", "parabola", "--param", "p0=0.3"] + args + ["--csv", str(path),
+                 "--events", str(path) + ".json"]) == 0
+    return path.read_text(), (tmp_path / (name + ".json")).read_text()
+
+
+def test_scan_whisk_equals_the_same_poses_from_a_file(tmp_path):
+    from vibrissa_ros.core.scan import whisk_poses
+
+    poses = whisk_poses(1.5, 0.0, 90.0, 150.0, 1.0, back=True)
+    lines = ["x,y,heading"] + [f"{p.x!r},{p.y!r},{p.heading!r}" for p in poses]
+    (tmp_path / "poses.csv").write_text("\n".join(lines) + "\n")
+    by_file = _scan_csv(tmp_path, "file.csv", ["--poses", str(tmp_path / "poses.csv")])
+    by_whisk = _scan_csv(tmp_path, "whisk.csv", ["--whisk=1.5,0", "--from", "90", "--to", "150", "--step", "1",
+                                                 "--back"])
+    assert by_whisk == by_file
+    assert by_whisk[0].startswith("x,y,heading,phase,") and len(by_whisk[0].splitlines()) == 1 + 121
+    assert '"kind": "touch"' in by_whisk[1]
+
+
+@pytest.mark.parametrize("args, expected", [
+    (["--whisk=1.5,0", "--from", "90", "--to", "150"], "--whisk X,Y needs the headings"),
+    (["--whisk=1.5,0", "--poses", "p.csv"], "either --poses or --whisk"),
+    (["--whisk=1.5,0", "--from", "90", "--to", "150", "--step", "0.5e-8"], "grid points"),
+])
+def test_scan_whisk_refuses_what_it_cannot_do_in_one_line(args, expected, tmp_path, capsys):
+    assert main(["scan", "--profile", "parabola", "--param", "p0=0.3"] + args + ["--csv", str(tmp_path / "x.csv")]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and expected in err
+
+
+def test_scan_whisk_takes_two_numbers(tmp_path, capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["scan", "--profile", "parabola", "--param", "p0=0.3", "--whisk=1.5", "--from", "90", "--to", "150",
+              "--step", "1", "--csv", str(tmp_path / "x.csv")])
+    assert exc.value.code == 2 and "is not X,Y" in capsys.readouterr().err

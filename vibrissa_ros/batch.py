@@ -2,11 +2,12 @@
 Studies at scale: run every task of a study on a Dask cluster and write the results as a dataset.
 
 One task is one scan, computed by the very function ``vibrissa scan`` calls
-(:func:`vibrissa_ros.core.scan.run_scan`), so every row equals that command's output value for
-value. The engine is Dask distributed: an embedded ``LocalCluster`` (one single-threaded worker
-process per core) or an existing cluster given by its scheduler's address. Dask schedules, balances
-(work stealing), retries a task that raised something unexpected and re-runs the tasks of a lost
-worker; nothing here queues or retries on its own.
+(:func:`vibrissa_ros.core.scan.run_scan`, :func:`~vibrissa_ros.core.scan.run_poses` for a whisk),
+so every row equals that command's output value for value. The engine is Dask distributed: an
+embedded ``LocalCluster`` (one single-threaded worker process per core) or an existing cluster
+given by its scheduler's address. Dask schedules, balances (work stealing), retries a task that
+raised something unexpected and re-runs the tasks of a lost worker; nothing here queues or retries
+on its own.
 
 The workers compute and return each task's tables; the driver writes them, task by task, atomically
 (:class:`vibrissa_ros.dataset.StudyWriter`), so workers need no shared file system and a killed run
@@ -25,7 +26,6 @@ from dataclasses import dataclass
 from typing import IO, List, Optional, Tuple
 
 from .core.errors import VibrissaError
-from .core.scan import run_scan
 from .dataset import Layout, StudyWriter, TaskFiles, encode, failure_tables, result_tables
 from .study import Study, Task
 
@@ -70,7 +70,7 @@ def run_task(task: Task, layout: Layout) -> TaskFiles:
             # scipy's bounded minimizer of the rod's clearance meets infinite gaps (no profile
             # point above); the result is right, the warning would only scramble the progress bar
             warnings.filterwarnings("ignore", category=RuntimeWarning, module="scipy.optimize")
-            result = run_scan(task.obstacle(), task.grid(), model=task.whisker_model())
+            result = task.run()
     except VibrissaError as exc:
         return encode(failure_tables(task, exc, layout))
     return encode(result_tables(task, result, layout))

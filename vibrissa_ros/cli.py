@@ -14,7 +14,7 @@ from .core.models import MODELS, make_model
 from .core.profiles import PROFILE_PARAMETERS, make_profile
 from .core.general import GeneralWhiskerModel, WhiskerShape
 from .core.profiles import Peg
-from .core.scan import run_poses, run_scan, scan_grid
+from .core.scan import run_poses, run_scan, scan_grid, whisk_poses
 from .parameters import ParameterSpec
 from .scan_io import read_poses_csv, write_events_json, write_scan_csv
 
@@ -78,6 +78,13 @@ def _placement(text: str):
     return tuple(_finite(p) for p in parts)
 
 
+def _foot(text: str):
+    parts = text.split(",")
+    if len(parts) != 2 or not all(p.strip() for p in parts):
+        raise argparse.ArgumentTypeError(f"{text!r} is not X,Y (e.g. --whisk=-1.5,0)")
+    return tuple(_finite(p) for p in parts)
+
+
 def _workers(text: str) -> int:
     try:
         value = int(text)
@@ -97,12 +104,22 @@ def build_parser() -> argparse.ArgumentParser:
         "scan",
         help="sweep the foot along the x-axis past an obstacle and write the states",
         description="Sweep the whisker's foot along the x-axis (heading +y) past a convex "
-        "obstacle. "
+        "obstacle, or whisk (--whisk), or follow any foot poses (--poses). "
         "Dimensionless units: length L, force EI/L^2, moment EI/L.",
     )
     names = ", ".join(f"{p} ({', '.join(ks)})" for p, ks in PROFILE_PARAMETERS.items())
     scan.add_argument(
-        "--profile", required=True, choices=sorted(PROFILE_PARAMETERS), help=f"obstacle: {names}"
+        "--profile", choices=sorted(PROFILE_PARAMETERS),
+        help=f"one obstacle: {names} (the shorthand of a one-obstacle --scene)"
+    )
+    scan.add_argument(
+        "--scene", metavar="SCENE.yaml",
+        help="several obstacles (pegs, polygons, curves, profiles) and friction from a scene "
+        "file, lengths in L (README: Scenes); instead of --profile/--param/--place",
+    )
+    scan.add_argument(
+        "--contacts", metavar="C.jsonl",
+        help="with --scene: write every contact of every pose, one JSON object per line",
     )
     scan.add_argument(
         "--param",
@@ -158,9 +175,30 @@ def build_parser() -> argparse.ArgumentParser:
         help="move the obstacle: turn it by DEG degrees counter-clockwise about its apex, then "
         "shift it by (X, Y) (whisker lengths); as a study's placement",
     )
-    scan.add_argument("--from", dest="x_from", type=_finite, help="first foot position x0")
-    scan.add_argument("--to", dest="x_to", type=_finite, help="last foot position x0 (inclusive)")
-    scan.add_argument("--step", type=_positive, help="grid spacing of x0 (> 0)")
+    scan.add_argument(
+        "--from",
+        dest="x_from",
+        type=_finite,
+        help="first foot position x0 (--whisk: first heading, deg)",
+    )
+    scan.add_argument(
+        "--to",
+        dest="x_to",
+        type=_finite,
+        help="last foot position x0, inclusive (--whisk: last heading, deg)",
+    )
+    scan.add_argument(
+        "--step", type=_positive, help="grid spacing of x0, > 0 (--whisk: of the heading, deg)"
+    )
+    scan.add_argument(
+        "--whisk",
+        type=_foot,
+        metavar="X,Y",
+        help="whisk instead of sliding: the foot fixed at (X, Y), the heading sweeping from --from "
+        "to --to by --step degrees (counter-clockwise from +x; 90 = the paper's set-up), and back "
+        "with --back; written as --poses is (columns x,y,heading, heading in rad). Write "
+        "--whisk=-1.5,0 for a negative X",
+    )
     scan.add_argument(
         "--poses",
         metavar="POSES.csv",
@@ -446,14 +484,20 @@ def rigid_output_path(path: str) -> str:
 
 
 def _scan_path(args):
-    """The foot positions (x0 grid) or poses (--poses) of a scan."""
+    """The foot positions (x0 grid) or poses (--poses, --whisk) of a scan."""
     sweep = (args.x_from, args.x_to, args.step)
     if args.poses is not None:
+        if args.whisk is not None:
+            raise VibrissaError("give either --poses or --whisk, not both")
         if any(v is not None for v in sweep) or args.back:
             raise VibrissaError("give either --poses or --from/--to/--step [--back], not both")
         return None, read_poses_csv(args.poses)
+    if args.whisk is not None:
+        if any(v is None for v in sweep):
+            raise VibrissaError("--whisk X,Y needs the headings: --from, --to and --step [deg]")
+        return None, list(whisk_poses(*args.whisk, args.x_from, args.x_to, args.step, args.back))
     if any(v is None for v in sweep):
-        raise VibrissaError("give --from, --to and --step (or --poses POSES.csv)")
+        raise VibrissaError("give --from, --to and --step (or --poses POSES.csv, or --whisk X,Y)")
     return scan_grid(args.x_from, args.x_to, args.step, args.back), None
 
 
@@ -474,7 +518,13 @@ def _elastica_model(args, profile):
 
 
 def _cmd_scan(args) -> int:
+    if args.scene is not None:
+        return _cmd_scan_scene(args)
     try:
+        if args.profile is None:
+            raise VibrissaError("give --profile (with --param) or --scene SCENE.yaml")
+        if args.contacts is not None:
+            raise VibrissaError("--contacts applies to --scene")
         from .study import place_obstacle
 
         profile = place_obstacle(make_profile(args.profile, _params(args.param)), *args.place)
@@ -552,6 +602,119 @@ def _cmd_scan(args) -> int:
         )
         figure.save(args.plot, small=args.small_png)
     return 0
+
+
+def _cmd_scan_scene(args) -> int:
+    """``vibrissa scan --scene``: several obstacles, several contacts, friction."""
+    from .core.scan import run_scene
+    from .scene_file import load_scene
+
+    try:
+        if args.profile is not None or args.param or args.place != (0.0, 0.0, 0.0):
+            raise VibrissaError("--scene replaces --profile, --param and --place (the scene "
+                                "file places its obstacles)")
+        if args.model != "elastica" or args.spring_stiffness is not None:
+            raise VibrissaError("--scene needs --model elastica (the rigid model has one contact)")
+        scene = load_scene(args.scene)
+        grid, poses = _scan_path(args)
+        k0, k1 = args.curvature or (0.0, 0.0)
+        shape = WhiskerShape(1.0 if args.taper is None else args.taper, k0, k1)
+        friction = [scene.mu_of(i) for i in range(len(scene))]
+        single = scene.single_profile() if not any(friction) else None
+        if single is not None:
+            # one convex profile or peg without friction: the single-contact problem itself,
+            # solved exactly as --profile would (identical numbers)
+            model = _elastica_model(args, single)
+        elif args.solver == "exact":
+            raise VibrissaError(
+                "--solver exact: the closed forms cover one convex profile without friction; this "
+                "scene needs --solver numeric or auto")
+        path = poses if poses is not None else [float(x) for x in grid]
+        scene.check_foot(*_first_foot(path))
+    except VibrissaError as exc:
+        print(f"vibrissa scan: error: {exc}", file=sys.stderr)
+        return 2
+    by_pose = poses is not None
+    try:
+        if single is not None:
+            result = (run_scan(single, grid, model=model) if poses is None
+                      else run_poses(single, poses, model=model))
+            states = [_as_scene_state(s) for s in result.states]
+            events = [_as_scene_event(e) for e in result.events]
+        else:
+            result = run_scene(list(scene), path, shape=shape, friction=friction)
+            states, events = list(result.states), list(result.events)
+    except VibrissaError as exc:
+        print(f"vibrissa scan: error: {exc}", file=sys.stderr)
+        return 2 if isinstance(exc, ValueError) else 1
+    from .scan_io import write_contacts_jsonl, write_scene_events_json
+
+    if args.csv == "-":
+        write_scan_csv(states, sys.stdout, by_pose, contacts=True)
+    else:
+        with open(args.csv, "w", newline="") as stream:
+            write_scan_csv(states, stream, by_pose, contacts=True)
+    if args.events:
+        with open(args.events, "w") as stream:
+            write_scene_events_json(events, stream, by_pose)
+    if args.contacts:
+        with open(args.contacts, "w") as stream:
+            write_contacts_jsonl(states, stream, by_pose)
+    if args.plot:
+        try:
+            from .plots import plot_scene_scan
+        except ImportError as exc:
+            print(f"vibrissa scan: error: --plot needs matplotlib ({exc}); pip install '.[plots]'",
+                  file=sys.stderr)
+            return 2
+        names = ", ".join(ob.name for ob in scene)
+        title = (f"scene {os.path.basename(args.scene)} ({names}), friction "
+                 f"{', '.join(f'{m:g}' for m in friction)}")
+        figure = plot_scene_scan(scene, states, events, title=title,
+                                 abscissa="heading" if by_pose and len(
+                                     {p.x for p in poses}) == 1 else "x0")
+        figure.save(args.plot, small=args.small_png)
+    return 0
+
+
+def _first_foot(path):
+    first = path[0]
+    return (first.x, first.y) if hasattr(first, "x") else (float(first), 0.0)
+
+
+def _as_scene_state(state):
+    """A single-contact state as a scene state (its one contact, frictionless)."""
+    from .core.scene_tracker import SceneContact
+
+    contacts = ()
+    if int(state.phase) != 0:
+        kind = "tip" if int(state.phase) == 2 else "side"
+        contacts = (SceneContact(0, kind, float(state.s1), float(state.contact[0]),
+                                 float(state.contact[1]), float(state.fx), float(state.fy),
+                                 float(state.f), 0.0, "slip"),)
+    return _SingleSceneState(state, contacts)
+
+
+class _SingleSceneState:
+    """A single-contact WhiskerState seen through the scene contract (adds ``contacts``)."""
+
+    def __init__(self, state, contacts):
+        self._state = state
+        self.contacts = contacts
+
+    def __getattr__(self, name):
+        return getattr(self._state, name)
+
+
+def _as_scene_event(event):
+    from .core.scene_tracker import SceneEvent
+
+    kind = {"touch": "touch", "release": "release", "snap": "snap"}.get(event.kind, "phase")
+    if event.kind == "phase":
+        kind = "tip" if int(event.to_phase) == 2 else "tangential"
+    contact = "tip" if int(event.from_phase if event.kind != "touch" else event.to_phase) == 2 \
+        else "side"
+    return SceneEvent(kind, event.pose, 0, contact, None)
 
 
 def _cmd_sweep(args) -> int:

@@ -10,6 +10,12 @@ pyarrow and dask.dataframe read as one table)::
     DIR/poses/task-*.parquet  one row per pose: task, step, the scan contract's columns, parameters
     DIR/events/task-*.parquet one row per event: task, step (the pose whose step crossed it), x0,
                               kind, from_phase, to_phase
+
+A study with whisking motions adds the foot pose of every row, ``foot_x``, ``foot_y``,
+``heading`` [L, L, rad] (the columns x, y, heading of ``vibrissa scan --whisk``'s CSV and events;
+a slide's rows: x0, 0, pi/2), after ``step`` in poses and events, and the motion's columns
+``motion`` (sweep or whisk) and ``whisk_x``, ``whisk_y``, ``whisk_from_deg``, ``whisk_to_deg``,
+``whisk_step_deg`` (null for a slide, as ``sweep_*`` are for a whisk) to the parameters.
     DIR/failures/task-*.parquet  one row per failed task: task, error (class), reason, parameters
 
 A task is done when its ``poses`` (or ``failures``) file exists. Every file is written to a
@@ -24,7 +30,7 @@ import functools
 import json
 import os
 from dataclasses import dataclass
-from typing import Dict, Iterable, List, Optional, Sequence, Set, Tuple
+from typing import Dict, Iterable, List, Optional, Set, Tuple
 
 import pyarrow as pa
 import pyarrow.parquet as pq
@@ -40,6 +46,9 @@ from .study import Study, Task
 FORMAT = "vibrissa-batch/1"
 TABLES = ("poses", "events", "failures")
 _NOISY = ("fx_noisy", "fy_noisy", "m0_noisy")
+#: a whisking study's per-pose columns: the foot pose (x, y, heading of ``vibrissa scan --whisk``)
+POSE_FIELDS = ("foot_x", "foot_y", "heading")
+_WHISK_FIELDS = ("whisk_x", "whisk_y", "whisk_from_deg", "whisk_to_deg", "whisk_step_deg")
 
 
 class DatasetError(VibrissaError):
@@ -52,17 +61,20 @@ class DatasetError(VibrissaError):
 @dataclass(frozen=True)
 class Layout:
     """
-    What decides a study's columns: its profile parameter names (in order), whether it has noise.
+    What decides a study's columns.
+
+    Its profile parameter columns (in order), whether it has noise, whether a task whisks.
 
     Small, so that it travels with every task to the workers; the schemas are built there, once.
     """
 
     param_names: Tuple[str, ...]
     noise: bool
+    whisking: bool = False
 
     @classmethod
     def of(cls, study: Study) -> "Layout":
-        return cls(tuple(study.param_names), bool(study.has_noise))
+        return cls(tuple(study.param_names), bool(study.has_noise), bool(study.has_whisking))
 
     @property
     def schemas(self) -> Dict[str, pa.Schema]:
@@ -85,9 +97,14 @@ def parameter_fields(layout: Layout) -> List[pa.Field]:
     ]
     fields += [pa.field(name, pa.float64()) for name in layout.param_names]
     fields += [pa.field(k, pa.float64(), nullable=False) for k in ("x", "y", "rotation_deg")]
+    if layout.whisking:
+        fields.append(pa.field("motion", pa.string(), nullable=False))
     fields += [
-        pa.field(k, pa.float64(), nullable=False) for k in ("sweep_from", "sweep_to", "sweep_step")
+        pa.field(k, pa.float64(), nullable=layout.whisking)
+        for k in ("sweep_from", "sweep_to", "sweep_step")
     ]
+    if layout.whisking:
+        fields += [pa.field(k, pa.float64()) for k in _WHISK_FIELDS]
     fields.append(pa.field("back", pa.bool_(), nullable=False))
     if layout.noise:
         fields += [pa.field(k, pa.float64(), nullable=False) for k in _NOISE_FIELDS]
@@ -113,13 +130,16 @@ def _schemas(layout: Layout) -> Dict[str, pa.Schema]:
             nullable = name in ("alpha", "s1", "contact_x", "contact_y")
             contract.append(pa.field(name, pa.float64(), nullable=nullable))
     noisy = [pa.field(k, pa.float64(), nullable=False) for k in _NOISY] if layout.noise else []
+    pose = (
+        [pa.field(k, pa.float64(), nullable=False) for k in POSE_FIELDS] if layout.whisking else []
+    )
     return {
         "tasks": pa.schema([task] + params + [pa.field("command", pa.string(), nullable=False)]),
-        "poses": pa.schema([task, step] + contract + noisy + params),
+        "poses": pa.schema([task, step] + pose + contract + noisy + params),
         "events": pa.schema(
-            [
-                task,
-                step,
+            [task, step]
+            + pose
+            + [
                 pa.field("x0", pa.float64(), nullable=False),
                 pa.field("kind", pa.string(), nullable=False),
                 pa.field("from_phase", pa.int8(), nullable=False),
@@ -137,9 +157,9 @@ def _schemas(layout: Layout) -> Dict[str, pa.Schema]:
     }
 
 
-def task_parameters(task: Task, study_params: Sequence[str]) -> Dict[str, object]:
+def task_parameters(task: Task, layout: Layout) -> Dict[str, object]:
     """Return the task's parameter columns (a value for each of :func:`parameter_fields`)."""
-    params = dict(task.params)
+    params = task.param_columns()
     row: Dict[str, object] = {
         "model": task.model,
         "spring_stiffness": task.spring_stiffness,
@@ -148,16 +168,16 @@ def task_parameters(task: Task, study_params: Sequence[str]) -> Dict[str, object
         "curvature_k1": task.curvature_k1,
         "profile": task.profile,
     }
-    row.update({name: params.get(name) for name in study_params})
-    row.update(
-        x=task.x,
-        y=task.y,
-        rotation_deg=task.rotation_deg,
-        sweep_from=task.sweep_from,
-        sweep_to=task.sweep_to,
-        sweep_step=task.sweep_step,
-        back=task.back,
-    )
+    row.update({name: params.get(name) for name in layout.param_names})
+    row.update(x=task.x, y=task.y, rotation_deg=task.rotation_deg)
+    if layout.whisking:
+        row["motion"] = task.motion
+    row.update(sweep_from=task.sweep_from, sweep_to=task.sweep_to, sweep_step=task.sweep_step)
+    if layout.whisking:
+        w = task.whisk
+        values = (None,) * 5 if w is None else (w.x, w.y, w.from_deg, w.to_deg, w.step_deg)
+        row.update(zip(_WHISK_FIELDS, values))
+    row["back"] = task.back
     if task.noise is not None:
         row.update({k: getattr(task.noise, k) for k in _NOISE_FIELDS})
         row["noise_seed"] = task.noise_seed
@@ -216,12 +236,16 @@ def _repeat(schema: pa.Schema, columns: Dict[str, object], n: int) -> Dict[str, 
 
 def result_tables(task: Task, result: ScanResult, layout: Layout) -> TaskTables:
     """Return the poses and events tables of a task's scan (columns as the scan contract's)."""
-    schema, study_params = layout.schemas, layout.param_names
+    schema = layout.schemas
     states = result.states
     n = len(states)
     cols: Dict[str, object] = {
         "task": pa.array([task.index] * n, pa.int64()),
         "step": pa.array(range(n), pa.int32()),
+    }
+    if layout.whisking:
+        cols.update(_pose_columns([s.pose for s in states]))
+    cols.update({
         "x0": pa.array([s.x0 for s in states], pa.float64()),
         "phase": pa.array([int(s.phase) for s in states], pa.int8()),
         "alpha": pa.array([s.alpha for s in states], pa.float64()),
@@ -233,7 +257,7 @@ def result_tables(task: Task, result: ScanResult, layout: Layout) -> TaskTables:
         "m0": pa.array([s.m0 for s in states], pa.float64()),
         "contact_x": pa.array([s.contact[0] if s.contact else None for s in states], pa.float64()),
         "contact_y": pa.array([s.contact[1] if s.contact else None for s in states], pa.float64()),
-    }
+    })
     if task.noise is not None:
         noise = SensorNoise(
             NoiseSpec(
@@ -246,34 +270,47 @@ def result_tables(task: Task, result: ScanResult, layout: Layout) -> TaskTables:
         for i, name in enumerate(_NOISY):
             cols[name] = pa.array([r[i] for r in readings], pa.float64())
     poses_schema = schema["poses"]
-    cols.update(_repeat(poses_schema, task_parameters(task, study_params), n))
+    cols.update(_repeat(poses_schema, task_parameters(task, layout), n))
     poses = pa.Table.from_pydict(cols, schema=poses_schema)
     events = None
     if result.events:
         k = len(result.events)
-        events = pa.Table.from_pydict(
+        ev: Dict[str, object] = {
+            "task": pa.array([task.index] * k, pa.int64()),
+            "step": pa.array(result.event_steps, pa.int32()),
+        }
+        if layout.whisking:
+            ev.update(_pose_columns([e.pose for e in result.events]))
+        ev.update(
             {
-                "task": pa.array([task.index] * k, pa.int64()),
-                "step": pa.array(result.event_steps, pa.int32()),
                 "x0": pa.array([float(e.x0) for e in result.events], pa.float64()),
                 "kind": pa.array([e.kind for e in result.events], pa.string()),
                 "from_phase": pa.array([int(e.from_phase) for e in result.events], pa.int8()),
                 "to_phase": pa.array([int(e.to_phase) for e in result.events], pa.int8()),
-            },
-            schema=schema["events"],
+            }
         )
+        events = pa.Table.from_pydict(ev, schema=schema["events"])
     return TaskTables(task.index, poses, events, None)
+
+
+def _pose_columns(poses) -> Dict[str, pa.Array]:
+    """Return the columns foot_x, foot_y, heading of these foot poses."""
+    return {
+        "foot_x": pa.array([float(p.x) for p in poses], pa.float64()),
+        "foot_y": pa.array([float(p.y) for p in poses], pa.float64()),
+        "heading": pa.array([float(p.heading) for p in poses], pa.float64()),
+    }
 
 
 def failure_tables(task: Task, exc: BaseException, layout: Layout) -> TaskTables:
     """Return the failures row of a task whose scan raised ``exc``."""
-    schema, study_params = layout.schemas, layout.param_names
+    schema = layout.schemas
     cols = {
         "task": pa.array([task.index], pa.int64()),
         "error": pa.array([type(exc).__name__]),
         "reason": pa.array([str(exc) or type(exc).__name__]),
     }
-    cols.update(_repeat(schema["failures"], task_parameters(task, study_params), 1))
+    cols.update(_repeat(schema["failures"], task_parameters(task, layout), 1))
     return TaskTables(
         task.index, None, None, pa.Table.from_pydict(cols, schema=schema["failures"])
     )
@@ -352,9 +389,10 @@ def manifest(study: Study) -> dict:
 
 
 def tasks_table(study: Study) -> pa.Table:
-    schema = schemas(study)["tasks"]
+    layout = Layout.of(study)
+    schema = layout.schemas["tasks"]
     rows = [
-        dict(task=t.index, **task_parameters(t, study.param_names), command=t.scan_command())
+        dict(task=t.index, **task_parameters(t, layout), command=t.scan_command())
         for t in study.tasks
     ]
     return pa.Table.from_pylist(rows, schema=schema)

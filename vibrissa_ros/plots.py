@@ -345,7 +345,133 @@ def si_units(length: float, force: float, moment: float, frame: str) -> AxisUnit
     return AxisUnits("m", "N", "N·m", length, force, moment, f"frame '{frame}'")
 
 
+#: shading of the observables by the number of contacts (1, 2, 3 or more)
+CONTACT_SHADES = {1: "#1f77b4", 2: "#d62728", 3: "#9467bd"}
+CONTACT_NAMES = {0: "free", 1: "one contact", 2: "two contacts", 3: "three or more"}
+CONTACT_COLORS = {0: "#7f7f7f", 1: "#1f77b4", 2: "#d62728", 3: "#9467bd"}
+
+
+def plot_scene_scan(scene, states: Sequence, events: Sequence = (), title: str = "",
+                    sketch_count: int = 14, abscissa: str = "x0",
+                    units: AxisUnits = AxisUnits()) -> Figure:
+    """
+    Draw a scene scan: the scene, whisker shapes and every contact, and the observables.
+
+    Top: the obstacles (:func:`draw_scene`), centerlines at evenly spread poses coloured by the
+    number of contacts, each contact marked (filled square: sticking, open circle: slipping).
+    Below: the base load m0 and fx, fy (what the follicle's sensor measures), the number of
+    contacts with the nearest contact's force, and every contact's arc length s; the spans
+    with one, two, three contacts are shaded and the events marked.
+    """
+    coord = ABSCISSAE[abscissa]
+    L, F, M = units.scale_length, units.scale_force, units.scale_moment
+    scale_key = L if abscissa == "x0" else 1.0
+    xlabel = f"foot position x0 [{units.length}]" if abscissa == "x0" else "foot heading [rad]"
+    fig = plt.figure(figsize=(11, 10), layout="constrained")
+    grid = fig.add_gridspec(3, 2, height_ratios=[1.35, 1, 1])
+    ax_sketch = fig.add_subplot(grid[0, :])
+    ax_m = fig.add_subplot(grid[1, 0])
+    ax_fxy = fig.add_subplot(grid[1, 1], sharex=ax_m)
+    ax_n = fig.add_subplot(grid[2, 0], sharex=ax_m)
+    ax_s = fig.add_subplot(grid[2, 1], sharex=ax_m)
+    out = Figure(fig, axes={"sketch": ax_sketch, "m0": ax_m, "fxy": ax_fxy, "contacts": ax_n,
+                            "s": ax_s})
+    states = list(states)
+    counts = np.array([len(s.contacts) for s in states])
+    # -- the scene and the whisker ---------------------------------------------------------------
+    first = direction_segments(states, coord)[0]
+    picks = set(np.linspace(first[0], first[1] - 1, min(sketch_count, first[1] - first[0]))
+                .round().astype(int).tolist())
+    picks |= {i for i in range(1, len(states)) if counts[i] != counts[i - 1]
+              and first[0] <= i < first[1]}
+    seen = set()
+    drawn = []
+    for i in sorted(picks):
+        s = states[i]
+        line = s.centerline(81)
+        drawn.append(line)
+        k = min(int(counts[i]), 3)
+        ax_sketch.plot(line[:, 0] * L, line[:, 1] * L, color=CONTACT_COLORS[k], lw=1.2,
+                       label=CONTACT_NAMES[k] if k not in seen else None, gid="centerline")
+        seen.add(k)
+        for c in s.contacts:
+            stick = c.state == "stick"
+            ax_sketch.plot(c.x * L, c.y * L, "s" if stick else "o", ms=4.5,
+                           mfc="black" if stick else "none", mec="black",
+                           gid=f"contact:{c.state}")
+        ax_sketch.plot(s.pose.x * L, s.pose.y * L, "^", ms=4, color="#444444", gid="foot")
+        out.sketch_states.append(s)
+    pts = np.vstack(drawn)
+    lo, hi = pts.min(axis=0) - 0.3, pts.max(axis=0) + 0.3
+    draw_scene(ax_sketch, scene, window=(lo[0], lo[1], hi[0], hi[1]), scale_length=L)
+    ax_sketch.plot([], [], "s", mfc="black", mec="black", label="contact, sticking")
+    ax_sketch.plot([], [], "o", mfc="none", mec="black", label="contact, slipping")
+    ax_sketch.set_xlim(lo[0] * L, hi[0] * L)
+    ax_sketch.set_ylim(lo[1] * L, hi[1] * L)
+    ax_sketch.set_aspect("equal", adjustable="box")
+    ax_sketch.set_xlabel(f"x [{units.length}] ({units.frame})")
+    ax_sketch.set_ylabel(f"y [{units.length}]")
+    ax_sketch.set_title("scene and whisker shapes"
+                        + (" (first sweep direction)"
+                           if len(direction_segments(states, coord)) > 1 else ""))
+    ax_sketch.legend(loc="upper right", fontsize=8)
+    # -- observables ---------------------------------------------------------------------------
+    x = np.array([coord(s) for s in states]) * scale_key
+    segments = direction_segments(states, coord)
+    series = {
+        "m0": (ax_m, np.array([s.m0 for s in states]) * M, "#2ca02c"),
+        "fx": (ax_fxy, np.array([s.fx for s in states]) * F, "#ff7f0e"),
+        "fy": (ax_fxy, np.array([s.fy for s in states]) * F, "#17becf"),
+        "f (nearest)": (ax_n, np.array([s.f for s in states]) * F, "#9467bd"),
+    }
+    for d, (a, b) in enumerate(segments):
+        alpha = 1.0 if d == 0 else 0.55
+        tag = f", sweep {d + 1}" if len(segments) > 1 else ""
+        for key, (ax, y, color) in series.items():
+            ax.plot(x[a:b], y[a:b], color=color, lw=1.4, alpha=alpha, label=f"{key}{tag}",
+                    gid=f"{key}:{d}")
+            if len(segments) > 1:
+                _arrows(ax, x[a:b], y[a:b], color, alpha)
+    ax_count = ax_n.twinx()
+    ax_count.step(x, counts, where="mid", color="black", lw=1.0, label="contacts",
+                  gid="contacts")
+    ax_count.set_ylabel("number of contacts")
+    ax_count.set_ylim(-0.1, max(3, int(counts.max()) + 0.5))
+    for i, s in enumerate(states):
+        for c in s.contacts:
+            ax_s.plot(x[i], c.s * L, "s" if c.state == "stick" else ".", ms=3,
+                      color=CONTACT_COLORS[min(c.obstacle + 1, 3)], gid="contact_s")
+    for ax in (ax_m, ax_fxy, ax_n, ax_s):
+        start = 0
+        for i in range(1, len(counts) + 1):
+            if i == len(counts) or counts[i] != counts[start]:
+                k = min(int(counts[start]), 3)
+                if k in CONTACT_SHADES:
+                    ax.axvspan(min(x[start], x[i - 1]), max(x[start], x[i - 1]),
+                               color=CONTACT_SHADES[k], alpha=0.08, lw=0, gid=f"contacts{k}")
+                start = i
+        for e in events:
+            ax.axvline(coord(e) * scale_key, color="black", lw=0.5, ls=":",
+                       gid=f"event:{e.kind}")
+        ax.set_xlabel(xlabel)
+        ax.grid(True, lw=0.3, alpha=0.5)
+    ax_m.set_ylabel(f"m0 [{units.moment}]")
+    ax_fxy.set_ylabel(f"fx, fy [{units.force}] ({units.frame})")
+    ax_n.set_ylabel(f"f [{units.force}]")
+    ax_s.set_ylabel(f"contact arc length s [{units.length}]")
+    ax_m.set_title("base moment m0 (total, ccw positive)")
+    ax_fxy.set_title("total force on the whisker fx, fy")
+    ax_n.set_title("number of contacts; force of the nearest")
+    ax_s.set_title("contact arc lengths (colour: obstacle; square: sticking)")
+    for ax in (ax_m, ax_fxy, ax_n):
+        ax.legend(fontsize=7, loc="best")
+    if title:
+        fig.suptitle(title)
+    return out
+
+
 __all__ = [
+    "plot_scene_scan",
     "Figure",
     "PlotRun",
     "AxisUnits",
@@ -354,3 +480,45 @@ __all__ = [
     "si_units",
     "sketch_selection",
 ]
+
+
+#: scene colours: obstacles filled and outlined like the single obstacle of the sketch
+SCENE_FILL, SCENE_EDGE = "#c8a27a", "#8c5a2b"
+
+
+def draw_scene(ax, scene, window: Optional[Tuple[float, float, float, float]] = None,
+               scale_length: float = 1.0, names: bool = True, n: int = 300) -> None:
+    """
+    Draw a scene's obstacles on matplotlib axes: filled, outlined, corners marked.
+
+    ``window`` (x_min, y_min, x_max, y_max) [L] bounds the infinite obstacles (default: the
+    scene's own window, :meth:`Scene.window`); ``scale_length`` converts L to the axes' unit.
+    Convex corners are drawn as filled dots, reflex ones as open circles, point pegs as "+".
+    Every artist of obstacle ``name`` has gid ``"obstacle:<name>"``. The axes' limits are left to
+    the caller.
+    """
+    window = scene.window() if window is None else window
+    L = scale_length
+    for ob in scene:
+        gid = f"obstacle:{ob.name}"
+        if getattr(ob, "is_point", False):
+            ax.plot(ob.x * L, ob.y * L, "+", color=SCENE_EDGE, ms=9, mew=2, gid=gid)
+        else:
+            for ring in ob.outline(n, window):
+                ax.fill(ring[:, 0] * L, ring[:, 1] * L, color=SCENE_FILL, alpha=0.6, lw=0,
+                        gid=gid)
+            for line in ob.boundary_lines(n, window):
+                ax.plot(line[:, 0] * L, line[:, 1] * L, color=SCENE_EDGE, lw=1.5, gid=gid)
+            corners = [v for v in ob.vertices]
+            convex = np.array([(v.x, v.y) for v in corners if v.convex]).reshape(-1, 2)
+            reflex = np.array([(v.x, v.y) for v in corners if not v.convex]).reshape(-1, 2)
+            if len(convex):
+                ax.plot(convex[:, 0] * L, convex[:, 1] * L, "o", color=SCENE_EDGE, ms=3.5,
+                        gid=gid)
+            if len(reflex):
+                ax.plot(reflex[:, 0] * L, reflex[:, 1] * L, "o", mfc="none", color=SCENE_EDGE,
+                        ms=4.5, gid=gid)
+        if names:
+            x0, y0, x1, y1 = ob.extent()
+            ax.annotate(ob.name, (0.5 * (x0 + x1) * L, 0.5 * (y0 + y1) * L), fontsize=7,
+                        color="#5a3a1b", ha="center", va="center", gid=gid)

@@ -31,6 +31,10 @@ CSV_COLUMNS = (
 )
 #: columns of a scan driven by foot poses (``vibrissa scan --poses``)
 POSE_CSV_COLUMNS = ("x", "y", "heading") + CSV_COLUMNS[1:]
+#: a scene scan (``vibrissa scan --scene``) adds the number of contacts; fx, fy, m0 are then the
+#: total base load and alpha, s1, f, contact_x, contact_y describe the contact nearest the foot
+#: (alpha: the direction of its force, f (sin alpha, -cos alpha); f its magnitude)
+CONTACTS_COLUMN = "contacts"
 
 
 def _num(value) -> str:
@@ -57,12 +61,62 @@ def state_row(state: WhiskerState, by_pose: bool = False) -> list:
     ]
 
 
-def write_scan_csv(states: Iterable[WhiskerState], stream: IO[str], by_pose: bool = False) -> None:
-    """Write the scan CSV; ``by_pose``: a row starts with the foot pose x,y,heading, not x0."""
+def write_scan_csv(states: Iterable[WhiskerState], stream: IO[str], by_pose: bool = False,
+                   contacts: bool = False) -> None:
+    """
+    Write the scan CSV; ``by_pose``: a row starts with the foot pose x,y,heading, not x0.
+
+    ``contacts``: a scene scan, with the last column ``contacts`` (their number, 0 when free).
+    """
     writer = csv.writer(stream, lineterminator="\n")
-    writer.writerow(POSE_CSV_COLUMNS if by_pose else CSV_COLUMNS)
+    header = POSE_CSV_COLUMNS if by_pose else CSV_COLUMNS
+    writer.writerow(header + ((CONTACTS_COLUMN,) if contacts else ()))
     for state in states:
-        writer.writerow(state_row(state, by_pose))
+        row = state_row(state, by_pose)
+        if contacts:
+            row.append(str(len(state.contacts)))
+        writer.writerow(row)
+
+
+def _where(pose: FootPose, by_pose: bool) -> dict:
+    if by_pose:
+        return {"x": float(pose.x), "y": float(pose.y), "heading": float(pose.heading)}
+    return {"x0": float(pose.x)}
+
+
+def contacts_record(state, by_pose: bool = False) -> dict:
+    """One line of ``--contacts``: the pose and every contact (world frame, dimensionless)."""
+    return {
+        **_where(state.pose, by_pose),
+        "contacts": [
+            {"s": float(c.s), "x": float(c.x), "y": float(c.y), "fx": float(c.fx),
+             "fy": float(c.fy), "kind": c.report_kind, "state": c.state,
+             "obstacle": int(c.obstacle)}
+            for c in state.contacts
+        ],
+    }
+
+
+def write_contacts_jsonl(states, stream: IO[str], by_pose: bool = False) -> None:
+    """Write one JSON object per pose and line (``vibrissa scan --contacts``)."""
+    for state in states:
+        stream.write(json.dumps(contacts_record(state, by_pose)))
+        stream.write("\n")
+
+
+def scene_event_record(event, by_pose: bool = False) -> dict:
+    """Describe a scene event: where, what (README "Scenes"), which contact."""
+    record = {**_where(event.pose, by_pose), "kind": event.kind, "contact": event.contact_kind}
+    if event.obstacle is not None:
+        record["obstacle"] = int(event.obstacle)
+    if event.s is not None:
+        record["s"] = float(event.s)
+    return record
+
+
+def write_scene_events_json(events, stream: IO[str], by_pose: bool = False) -> None:
+    json.dump([scene_event_record(e, by_pose) for e in events], stream, indent=1)
+    stream.write("\n")
 
 
 def event_record(event: Event, by_pose: bool = False) -> dict:

@@ -15,8 +15,18 @@ grid axis: the study takes every value) or a random draw ``{uniform: [lo, hi]}``
         samples: 10                  # 10 random ellipses
         params: {p0: {uniform: [0.15, 0.5]}, a: {uniform: [0.3, 1.0]}, b: {uniform: [1.0, 2.0]}}
     placement: {x: 0, y: 0, rotation_deg: [-10, 0, 10], samples: 1}
-    motion:    {from: -2, to: 2, step: 0.05, back: [false, true]}   # or a list of such blocks
-    noise:     {force_stddev: 1e-3, torque_stddev: 1e-3}            # optional
+    motion:                          # a block or a list of blocks
+      - {from: -2, to: 2, step: 0.05, back: [false, true]}              # the foot slides along x
+      - whisk: {x: 0, y: 0, from_deg: 60, to_deg: 120, step_deg: 1, back: true}
+    noise:     {force_stddev: 0.001, torque_stddev: 0.001}          # optional
+
+A sliding motion moves the foot along the x-axis from ``from`` to ``to`` by ``step`` [L], heading
++y (the paper's scan, ``vibrissa scan --from --to --step``). A whisking motion keeps the foot at
+(``x``, ``y``) [L] and turns its heading from ``from_deg`` to ``to_deg`` by ``step_deg`` [deg,
+counter-clockwise from +x: 90 is the paper's set-up], and back with ``back`` (``vibrissa scan
+--whisk X,Y``). A peg, ``{profile: peg, params: {x: [-0.3, 0.3], y: 0.6, r: 0.05}}`` (a disk
+centred at (x, y), r = 0 a point), is placed by its own parameters: a study with pegs has no
+placement (other than 0).
 
 Random draws are seeded: an obstacle's random parameters are drawn once per obstacle (so the same
 object is swept under every whisker, placement and motion), a placement's once per obstacle and
@@ -43,11 +53,12 @@ from .core.general import GeneralWhiskerModel, WhiskerShape
 from .core.models import MODELS, make_model
 from .core.profiles import PROFILE_PARAMETERS as _ALL_PROFILE_PARAMETERS
 from .core.profiles import ConvexProfile, make_profile
-from .core.scan import scan_grid
+from .core.scan import ScanResult, run_poses, run_scan, scan_grid, whisk_poses
+from .core.state import FootPose
 
-#: obstacles a study can scan: the convex profiles (a peg needs the general whisker model, which
-#: studies do not offer yet)
-PROFILE_PARAMETERS = {k: v for k, v in _ALL_PROFILE_PARAMETERS.items() if k != "peg"}
+#: obstacles a study can scan: every profile of ``vibrissa scan`` (a peg is computed by the general
+#: whisker model, as ``vibrissa scan --solver auto`` picks it)
+PROFILE_PARAMETERS = dict(_ALL_PROFILE_PARAMETERS)
 
 #: the keys each block allows (a new axis of the study is a new key here, with the code that
 #: computes it)
@@ -55,7 +66,8 @@ TOP_KEYS = ("description", "seed", "whisker", "obstacles", "placement", "motion"
 WHISKER_KEYS = ("model", "spring_stiffness", "taper", "curvature_k0", "curvature_k1")
 OBSTACLE_KEYS = ("profile", "params", "samples")
 PLACEMENT_KEYS = ("x", "y", "rotation_deg", "samples")
-MOTION_KEYS = ("from", "to", "step", "back")
+MOTION_KEYS = ("from", "to", "step", "back", "whisk")
+WHISK_KEYS = ("x", "y", "from_deg", "to_deg", "step_deg", "back")
 NOISE_KEYS = (
     "force_stddev",
     "torque_stddev",
@@ -72,6 +84,32 @@ MAX_TASKS = 10_000_000
 
 class StudyError(VibrissaError, ValueError):
     """The study file is not a valid study (unknown key, empty range, wrong type, ...)."""
+
+
+def param_column(profile: str, key: str) -> str:
+    """
+    Return the dataset column of a profile parameter.
+
+    Its own name (p0, k, R, ...), except a peg's centre and radius: ``peg_x``, ``peg_y``,
+    ``peg_r`` (the columns ``x``, ``y`` are the placement's).
+    """
+    return f"peg_{key}" if profile == "peg" else key
+
+
+@dataclass(frozen=True)
+class Whisk:
+    """
+    A whisking motion: the foot fixed at (x, y) [L], the heading sweeping [deg].
+
+    Headings are counter-clockwise from +x (90: the paper's set-up, the whisker along +y), from
+    ``from_deg`` to ``to_deg`` inclusive by ``step_deg`` (the task's ``back`` adds the way back).
+    """
+
+    x: float
+    y: float
+    from_deg: float
+    to_deg: float
+    step_deg: float
 
 
 @dataclass(frozen=True)
@@ -98,7 +136,9 @@ class Task:
 
     ``params`` are the profile's parameters as (name, value) pairs in contract order;
     ``rotation_deg`` turns the obstacle about its apex (counter-clockwise), then (``x``, ``y``)
-    moves it. Lengths in whisker lengths L.
+    moves it. The motion is a slide of the foot along x (``sweep_from``, ``sweep_to``,
+    ``sweep_step``) or, when ``whisk`` is given, a whisk (the sweep fields are then None); ``back``
+    adds the way back to either. Lengths in whisker lengths L.
     """
 
     index: int
@@ -109,9 +149,9 @@ class Task:
     x: float
     y: float
     rotation_deg: float
-    sweep_from: float
-    sweep_to: float
-    sweep_step: float
+    sweep_from: Optional[float]
+    sweep_to: Optional[float]
+    sweep_step: Optional[float]
     back: bool
     noise: Optional[Noise] = None
     noise_seed: Optional[int] = None
@@ -120,6 +160,17 @@ class Task:
     taper: float = 1.0
     curvature_k0: float = 0.0
     curvature_k1: float = 0.0
+    #: a whisking motion (None: the foot slides along x)
+    whisk: Optional[Whisk] = None
+
+    @property
+    def motion(self) -> str:
+        """Return ``"sweep"`` (the foot slides along x) or ``"whisk"`` (the heading sweeps)."""
+        return "sweep" if self.whisk is None else "whisk"
+
+    def param_columns(self) -> Dict[str, float]:
+        """Return the profile parameters by their dataset columns (:func:`param_column`)."""
+        return {param_column(self.profile, k): v for k, v in self.params}
 
     def obstacle(self) -> ConvexProfile:
         return place_obstacle(
@@ -127,17 +178,38 @@ class Task:
         )
 
     def grid(self) -> np.ndarray:
+        """
+        Return the scan's path grid, one value per pose.
+
+        The foot positions x0 [L] of a slide; the headings [deg] of a whisk.
+        """
+        if self.whisk is not None:
+            w = self.whisk
+            return scan_grid(w.from_deg, w.to_deg, w.step_deg, self.back)
         return scan_grid(self.sweep_from, self.sweep_to, self.sweep_step, self.back)
+
+    def foot_poses(self) -> Optional[Tuple[FootPose, ...]]:
+        """Return the foot poses of a whisk (``vibrissa scan --whisk``'s); None for a slide."""
+        if self.whisk is None:
+            return None
+        w = self.whisk
+        return whisk_poses(w.x, w.y, w.from_deg, w.to_deg, w.step_deg, self.back)
+
+    def run(self) -> ScanResult:
+        """Compute the task's scan with the functions ``vibrissa scan`` calls."""
+        if self.whisk is not None:
+            return run_poses(self.obstacle(), self.foot_poses(), model=self.whisker_model())
+        return run_scan(self.obstacle(), self.grid(), model=self.whisker_model())
 
     def whisker_model(self):
         """
         Return the model ``vibrissa scan --solver auto`` picks for this task.
 
-        The exact elastica for the paper's whisker, the general solver for a tapered or curved
-        one, the rigid model with its stiffness.
+        The exact elastica for the paper's whisker against a convex profile, the general solver
+        for a tapered or curved one or a peg, the rigid model with its stiffness.
         """
         shape = WhiskerShape(self.taper, self.curvature_k0, self.curvature_k1)
-        if self.model == "elastica" and not shape.is_paper:
+        if self.model == "elastica" and (not shape.is_paper or self.profile == "peg"):
             return GeneralWhiskerModel(shape)
         if self.model == "rigid":
             return make_model(
@@ -163,11 +235,20 @@ class Task:
             words += [f"--curvature={self.curvature_k0!r},{self.curvature_k1!r}"]
         if (self.x, self.y, self.rotation_deg) != (0.0, 0.0, 0.0):
             words += [f"--place={self.x!r},{self.y!r},{self.rotation_deg!r}"]
-        words += [
-            f"--from={self.sweep_from!r}",
-            f"--to={self.sweep_to!r}",
-            f"--step={self.sweep_step!r}",
-        ]
+        if self.whisk is not None:
+            w = self.whisk
+            words += [
+                f"--whisk={w.x!r},{w.y!r}",
+                f"--from={w.from_deg!r}",
+                f"--to={w.to_deg!r}",
+                f"--step={w.step_deg!r}",
+            ]
+        else:
+            words += [
+                f"--from={self.sweep_from!r}",
+                f"--to={self.sweep_to!r}",
+                f"--step={self.sweep_step!r}",
+            ]
         if self.back:
             words.append("--back")
         return " ".join(words + ["--csv", f"task-{self.index}.csv"])
@@ -203,10 +284,11 @@ class Study:
     digest: str
     seed: int
     tasks: Tuple[Task, ...]
-    #: the profile parameter names the study uses, in a stable order (the dataset's parameter
-    #: columns)
+    #: the profile parameter columns the study uses (:func:`param_column`), in a stable order
     param_names: Tuple[str, ...]
     has_noise: bool
+    #: whether a task whisks (the dataset then has pose and whisking columns)
+    has_whisking: bool = False
 
     @property
     def poses(self) -> int:
@@ -268,6 +350,12 @@ def parse_study(text: str) -> Study:
                 rng = np.random.default_rng([seed, 2, ob_index, combo_index, sample])
                 rows.append(tuple(_draw(combo[k], rng) for k in ("x", "y", "rotation_deg")))
         placements.append(rows)
+        if name == "peg" and any(row != (0.0, 0.0, 0.0) for row in rows):
+            raise StudyError(
+                f"placement turns a convex profile about its apex and moves it; obstacles"
+                f"[{ob_index}] is a peg, placed by its own params x, y: scan pegs in a study "
+                "without placement (or with placement 0)"
+            )
     count = len(whiskers) * sum(len(p) for p in placements) * len(motions) * len(noises)
     if count > MAX_TASKS:
         raise StudyError(
@@ -276,7 +364,7 @@ def parse_study(text: str) -> Study:
     for model, stiffness, shape in whiskers:
         for ob_index, (name, params) in enumerate(obstacles):
             for x, y, rot in placements[ob_index]:
-                for sweep_from, sweep_to, step, back in motions:
+                for sweep_from, sweep_to, step, back, whisk in motions:
                     for noise in noises:
                         index = len(tasks)
                         tasks.append(
@@ -296,6 +384,7 @@ def parse_study(text: str) -> Study:
                                 noise,
                                 None if noise is None else _noise_seed(seed, index),
                                 *shape,
+                                whisk,
                             )
                         )
     if not tasks:
@@ -303,9 +392,11 @@ def parse_study(text: str) -> Study:
     names: List[str] = []
     for profile in PROFILE_PARAMETERS:
         if any(name == profile for name, _ in obstacles):
-            names += [k for k in PROFILE_PARAMETERS[profile] if k not in names]
+            columns = [param_column(profile, k) for k in PROFILE_PARAMETERS[profile]]
+            names += [c for c in columns if c not in names]
     digest = hashlib.sha256(text.encode("utf-8")).hexdigest()
-    return Study(text, digest, seed, tuple(tasks), tuple(names), noises != [None])
+    whisking = any(m[4] is not None for m in motions)
+    return Study(text, digest, seed, tuple(tasks), tuple(names), noises != [None], whisking)
 
 
 def _noise_seed(seed: int, index: int) -> int:
@@ -384,8 +475,15 @@ def _obstacles(block, seed: int) -> List[Tuple[str, Tuple[Tuple[str, float], ...
             tuple(allowed),
             required=tuple(k for k, d in allowed.items() if d is None),
         )
+        # a peg's centre lies anywhere, its radius is >= 0 (0: a point); the convex profiles'
+        # shape parameters are > 0, their apex height p0 is checked by the profile
         axes = {
-            k: _axis(f"{where}.params.{k}", params[k], positive=(k != "p0"))
+            k: _axis(
+                f"{where}.params.{k}",
+                params[k],
+                positive=name != "peg" and k != "p0",
+                nonnegative=name == "peg" and k == "r",
+            )
             for k in allowed
             if k in params
         }
@@ -408,15 +506,23 @@ def _obstacles(block, seed: int) -> List[Tuple[str, Tuple[Tuple[str, float], ...
     return out
 
 
-def _motions(block) -> List[Tuple[float, float, float, bool]]:
+_Motion = Tuple[Optional[float], Optional[float], Optional[float], bool, Optional[Whisk]]
+
+
+def _motions(block) -> List[_Motion]:
+    """Return (sweep from, to, step, back, whisk) of every motion: a slide or a whisk."""
     blocks = block if isinstance(block, list) else [block]
     if not blocks:
         raise StudyError(
-            "motion must be a {from, to, step, back} block or a non-empty list of them"
+            "motion must be a {from, to, step, back} or {whisk: {...}} block or a non-empty list "
+            "of them"
         )
     out = []
     for i, entry in enumerate(blocks):
         where = "motion" if not isinstance(block, list) else f"motion[{i}]"
+        if isinstance(entry, dict) and "whisk" in entry:
+            out += _whisks(where, entry)
+            continue
         entry = _block(where, entry, MOTION_KEYS, required=("from", "to", "step"))
         axes = {
             k: _values(f"{where}.{k}", entry[k], positive=(k == "step"))
@@ -425,12 +531,48 @@ def _motions(block) -> List[Tuple[float, float, float, bool]]:
         axes["back"] = _values(f"{where}.back", entry.get("back", False), kind=bool)
         for combo in _grid(where, axes):
             motion = (combo["from"], combo["to"], combo["step"], combo["back"])
+            _range(where, "from", "to", motion[0], motion[1])
             try:
                 scan_grid(*motion)
             except VibrissaError as exc:
                 raise StudyError(f"{where}: {exc}") from None
-            out.append(motion)
+            out.append(motion + (None,))
     return out
+
+
+def _whisks(where: str, entry: Mapping) -> list:
+    """Return the motions of a ``{whisk: {x, y, from_deg, to_deg, step_deg, back}}`` block."""
+    others = [k for k in entry if k != "whisk"]
+    if others:
+        raise StudyError(
+            f"{where}: unknown key {others[0]!r} beside 'whisk'; a whisking motion is "
+            "{whisk: {" + ", ".join(WHISK_KEYS) + "}}"
+        )
+    where = f"{where}.whisk"
+    block = _block(where, entry["whisk"], WHISK_KEYS, required=("from_deg", "to_deg", "step_deg"))
+    axes = {
+        k: _values(f"{where}.{k}", block.get(k, 0.0), positive=(k == "step_deg"))
+        for k in ("x", "y", "from_deg", "to_deg", "step_deg")
+    }
+    axes["back"] = _values(f"{where}.back", block.get("back", False), kind=bool)
+    out = []
+    for combo in _grid(where, axes):
+        whisk = Whisk(*(combo[k] for k in ("x", "y", "from_deg", "to_deg", "step_deg")))
+        _range(where, "from_deg", "to_deg", whisk.from_deg, whisk.to_deg)
+        try:
+            whisk_poses(whisk.x, whisk.y, whisk.from_deg, whisk.to_deg, whisk.step_deg)
+        except VibrissaError as exc:
+            raise StudyError(f"{where}: {exc}") from None
+        out.append((None, None, None, combo["back"], whisk))
+    return out
+
+
+def _range(where: str, lo_key: str, hi_key: str, lo: float, hi: float) -> None:
+    if lo == hi:
+        raise StudyError(
+            f"{where}: {lo_key} = {hi_key} = {lo!r} is an empty range; the motion needs "
+            f"{lo_key} != {hi_key}"
+        )
 
 
 def _noises(block) -> List[Optional[Noise]]:
@@ -500,7 +642,13 @@ def _integer(where: str, value, minimum: int) -> int:
 
 def _number(where: str, value, positive=False, nonnegative=False) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise StudyError(f"{where} = {_show(value)} must be a number")
+        hint = ""
+        if isinstance(value, str):
+            try:
+                hint = f" (YAML reads {value} as text: write {float(value)!r})"
+            except ValueError:
+                pass
+        raise StudyError(f"{where} = {_show(value)} must be a number{hint}")
     value = float(value)
     if not math.isfinite(value):
         raise StudyError(f"{where} = {value!r} must be finite")
@@ -533,7 +681,7 @@ def _values(where: str, value, kind=float, positive=False, nonnegative=False) ->
     return out
 
 
-def _axis(where: str, value, positive=False) -> list:
+def _axis(where: str, value, positive=False, nonnegative=False) -> list:
     """
     Check and return a number, a list of numbers or a random draw.
 
@@ -548,14 +696,16 @@ def _axis(where: str, value, positive=False) -> list:
         kind, bounds = next(iter(value.items()))
         if not isinstance(bounds, list) or len(bounds) != 2:
             raise StudyError(f"{where}.{kind} must be [lo, hi], not {_show(bounds)}")
-        lo = _number(f"{where}.{kind}", bounds[0], positive=positive or kind == "loguniform")
-        hi = _number(f"{where}.{kind}", bounds[1], positive=positive)
+        lo = _number(
+            f"{where}.{kind}", bounds[0], positive or kind == "loguniform", nonnegative
+        )
+        hi = _number(f"{where}.{kind}", bounds[1], positive, nonnegative)
         if not lo < hi:
             raise StudyError(
                 f"{where}.{kind} = [{lo!r}, {hi!r}] is an empty range; lo < hi is required"
             )
         return [_Random(kind, lo, hi)]
-    return _values(where, value, positive=positive)
+    return _values(where, value, positive=positive, nonnegative=nonnegative)
 
 
 def _grid(where: str, axes: Mapping[str, list]) -> List[Dict[str, Any]]:

@@ -27,7 +27,7 @@ from .profiles import (
     TwoCircles,
     make_profile,
 )
-from .scan import ScanResult, run_scan, scan_grid
+from .scan import ScanResult, run_poses, run_scan, scan_grid, whisk_poses
 from .state import Event, FootPose, Phase, StepResult, WhiskerState
 from .tracker import QuasistaticTracker, TrackerOptions
 
@@ -61,7 +61,9 @@ __all__ = [
     "WhiskerState",
     "make_model",
     "make_profile",
+    "run_poses",
     "run_scan",
     "scan_grid",
     "tip_loaded_elastica",
+    "whisk_poses",
 ]

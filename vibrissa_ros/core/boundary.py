@@ -23,6 +23,7 @@ Lengths are in whisker lengths L (dimensionless), like the rest of the core.
 from __future__ import annotations
 
 import math
+from bisect import bisect_right
 from dataclasses import dataclass, field
 from functools import lru_cache
 from typing import Optional, Tuple
@@ -31,7 +32,7 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 
 from .errors import ParameterError
-from .profiles import ConvexProfile
+from .profiles import ConvexProfile, PlacedProfile, TwoCircles
 
 TWO_PI = 2.0 * math.pi
 
@@ -83,12 +84,27 @@ class Arc:
         return self.periodic or self.u_min <= u <= self.u_max
 
     def sigma_between(self, u_a: float, u_b: float) -> float:
-        """Arc length from u_a to u_b (negative when u_b < u_a): Gauss-Legendre, 48 points."""
+        """
+        Arc length from u_a to u_b (negative when u_b < u_a): Gauss-Legendre, 48 points.
+
+        The interval is split at the arc's :meth:`breaks` (where the speed is not smooth, e.g. a
+        spline's knots), so every piece is integrated to rounding.
+        """
         if u_a == u_b:
             return 0.0
+        lo, hi = min(u_a, u_b), max(u_a, u_b)
+        cuts = [lo] + [b for b in self.breaks() if lo < b < hi] + [hi]
+        total = sum(self._gauss_length(a, b) for a, b in zip(cuts[:-1], cuts[1:]))
+        return float(total if u_b > u_a else -total)
+
+    def breaks(self) -> Tuple[float, ...]:
+        """Parameters where the speed is not smooth (none for an analytic arc)."""
+        return ()
+
+    def _gauss_length(self, a: float, b: float) -> float:
         x, w = _gauss()
-        half = 0.5 * (u_b - u_a)
-        u = u_a + half * (x + 1.0)
+        half = 0.5 * (b - a)
+        u = a + half * (x + 1.0)
         return float(half * sum(wi * self.at(float(ui)).speed for ui, wi in zip(u, w)))
 
     def project(self, x: float, y: float) -> Tuple[float, float]:
@@ -228,6 +244,40 @@ class SegmentArc(Arc):
 
 
 @dataclass(frozen=True)
+class RayArc(Arc):
+    """
+    A half-line through (x, y) of direction phi, obstacle to its left: u = signed arc length.
+
+    ``incoming``: the ray comes from infinity and ends at (x, y) (u <= 0); otherwise it starts
+    there and goes to infinity (u >= 0). The straight walls of a profile's strip are rays.
+    """
+
+    x: float
+    y: float
+    phi: float
+    incoming: bool = False
+    u_min: float = field(init=False)
+    u_max: float = field(init=False)
+
+    def __post_init__(self):
+        object.__setattr__(self, "u_min", -math.inf if self.incoming else 0.0)
+        object.__setattr__(self, "u_max", 0.0 if self.incoming else math.inf)
+
+    def at(self, u):
+        c, s = math.cos(self.phi), math.sin(self.phi)
+        return ArcPoint(self.x + u * c, self.y + u * s, self.phi, 0.0, 1.0)
+
+    def project(self, x, y):
+        c, s = math.cos(self.phi), math.sin(self.phi)
+        u = min(max((x - self.x) * c + (y - self.y) * s, self.u_min), self.u_max)
+        p = self.at(u)
+        return u, (x - p.x) * s - (y - p.y) * c
+
+    def sigma_between(self, u_a, u_b):
+        return u_b - u_a
+
+
+@dataclass(frozen=True)
 class ProfileArc(Arc):
     """A (placed) convex profile of ``profiles.py``: u = its slope alpha, speed = rho(alpha)."""
 
@@ -242,6 +292,13 @@ class ProfileArc(Arc):
     def at(self, u):
         x, y = self.profile.point(u)
         return ArcPoint(float(x), float(y), u, 1.0, float(self.profile.radius_of_curvature(u)))
+
+    def breaks(self):
+        """Return the slope where two circles meet (their radii differ there), else none."""
+        prof, shift = self.profile, 0.0
+        while isinstance(prof, PlacedProfile):
+            prof, shift = prof.base, shift + prof.rotation
+        return (shift,) if isinstance(prof, TwoCircles) else ()
 
 
 @dataclass(frozen=True)
@@ -260,6 +317,9 @@ class GraphArc(Arc):
     u_min: float = field(default=-math.inf, init=False)
     u_max: float = field(default=math.inf, init=False)
     _spline: CubicSpline = field(init=False, repr=False, compare=False)
+    _knots: Tuple[float, ...] = field(init=False, repr=False, compare=False)
+    _pieces: Tuple[Tuple[float, float, float, float], ...] = field(init=False, repr=False,
+                                                                   compare=False)
 
     def __post_init__(self):
         pts = np.asarray(self.points, dtype=float)
@@ -269,17 +329,29 @@ class GraphArc(Arc):
             raise ParameterError("curve: point x values must be strictly increasing")
         if self.side not in ("above", "below"):
             raise ParameterError(f"curve: side {self.side!r} must be 'above' or 'below'")
-        object.__setattr__(self, "_spline", CubicSpline(pts[:, 0], pts[:, 1], bc_type="natural"))
+        sp = CubicSpline(pts[:, 0], pts[:, 1], bc_type="natural")
+        object.__setattr__(self, "_spline", sp)
+        # the pieces as plain floats: evaluated by Horner's rule without scipy's call overhead
+        object.__setattr__(self, "_knots", tuple(float(k) for k in sp.x))
+        object.__setattr__(self, "_pieces", tuple(tuple(float(v) for v in col) for col in sp.c.T))
 
     def height(self, x: float) -> Tuple[float, float, float]:
         """Return g(x), g'(x), g''(x), continued linearly beyond the end points."""
-        sp = self._spline
-        x0, x1 = sp.x[0], sp.x[-1]
-        xe = min(max(x, x0), x1)
-        g, d1, d2 = float(sp(xe)), float(sp(xe, 1)), float(sp(xe, 2))
+        knots = self._knots
+        xe = min(max(x, knots[0]), knots[-1])
+        i = min(max(bisect_right(knots, xe) - 1, 0), len(knots) - 2)
+        t = xe - knots[i]
+        a0, a1, a2, a3 = self._pieces[i]
+        g = ((a0 * t + a1) * t + a2) * t + a3
+        d1 = (3.0 * a0 * t + 2.0 * a1) * t + a2
         if x != xe:
             return g + d1 * (x - xe), d1, 0.0
-        return g, d1, d2
+        return g, d1, 6.0 * a0 * t + 2.0 * a1
+
+    def breaks(self):
+        """Return the spline's knots (in u)."""
+        knots = self._spline.x if self.side == "above" else -self._spline.x[::-1]
+        return tuple(float(k) for k in knots)
 
     def _seed_range(self, x, y):
         u = x if self.side == "above" else -x

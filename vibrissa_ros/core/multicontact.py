@@ -60,6 +60,19 @@ KINDS = ("side", "corner", "tip", "tip_corner")
 _FD_STEP = 1e-7
 
 
+class _Ones(dict):
+    """Read-only arrays of ones by length (1/B of a cylinder)."""
+
+    def __missing__(self, n):
+        a = np.ones(n)
+        a.setflags(write=False)
+        self[n] = a
+        return a
+
+
+_ONES = _Ones()
+
+
 @dataclass(frozen=True)
 class ContactMode:
     """
@@ -155,8 +168,12 @@ class _Segment:
     def __init__(self, shape: WhiskerShape, t: np.ndarray, S: np.ndarray, a: float, b: float):
         self.a, self.b = a, b
         if shape.taper == 1.0:
-            s = a + (b - a) * t
-            sp = np.full_like(t, b - a)
+            self.s = s = a + (b - a) * t
+            self.Sig = (0.5 * (b - a)) * S
+            self.w = self.Sig[-1].copy()
+            self.binv = _ONES[t.size]
+            self.k = shape.k0 + shape.k1 * s if shape.k1 else np.full(t.size, shape.k0)
+            return
         else:
             # s_p - s = (s_p - a) r^t: B(s(t)) = ((s_p - a) / s_p)^4 r^(4 t) is entire in t
             s_p = 1.0 / (1.0 - shape.taper)
@@ -355,9 +372,9 @@ class MultiContactSolver:
             col_x, col_y = A[c] @ s_, -(A[c] @ c_)
             for j, dF in d.items():
                 J[:K, j] += dF[0] * col_x + dF[1] * col_y
-            if dth is not None:
+            if dth is not None:  # a corner's force turns with the whisker's slope there
                 jc = (c + 1) * n - 1
-                J[:K, jc] += dth[0] * col_x + dth[1] * col_y
+                Jth[:, jc] += dth[0] * col_x + dth[1] * col_y
         J[:K, :K] = Jth
         for c, (m, o) in enumerate(zip(modes, offsets)):
             # positions: d(Px, Py)/dtheta = E_c (-sin, cos)
@@ -451,16 +468,23 @@ class MultiContactSolver:
                 lu = None  # chord iterations converge slowly: fresh Jacobian
                 prev = size
                 continue
+            rate = size / prev if (not fresh and math.isfinite(prev)) else None
             prev = size
             step = sla.lu_solve(lu, R, check_finite=False)
             big = float(np.max(np.abs(step)))
             if not math.isfinite(big):
                 raise ConvergenceError("multi-contact: Newton step is not finite")
-            if big > 0.3:
+            damped = big > 0.3
+            if damped:
                 step *= 0.3 / big
             vec = vec - step
             if not self._admissible(modes, vec):
                 raise ConvergenceError("multi-contact: Newton left the configuration's domain")
+            if rate is not None and not damped and rate * size <= 0.01 * self._NEWTON_TOL:
+                # the iteration contracts by ``rate`` (measured on the last two residuals): the
+                # residual after this step is below a hundredth of the tolerance
+                self.iterations = it + 1
+                return vec, lu
         raise ConvergenceError(
             f"multi-contact: no convergence in {max_iter} iterations (residual {prev:.3g})")
 
@@ -545,6 +569,34 @@ class MultiContactSolver:
         return Configuration(modes, tuple(float(b) for b in breaks), theta.copy(),
                              tuple(contacts), float(fx), float(fy), float(m0),
                              (tip_x, tip_y), tip_slope, vec.copy())
+
+    def node_points(self, modes, vec, pose, spacing: float):
+        """
+        Return arc lengths and world points sampling the whisker: the collocation nodes.
+
+        Beyond the last contact the unloaded part is sampled every ``spacing`` or closer.
+        """
+        modes = tuple(modes)
+        if modes:
+            breaks = self.breaks_of(modes, vec)
+            segs, G, E, A, kap = self._assemble(breaks)
+            K = self.n * len(modes)
+            theta = vec[:K]
+            c_, s_ = np.cos(theta), np.sin(theta)
+            s_nodes = np.concatenate([seg.s for seg in segs])
+            px, py = pose.x + G @ c_, pose.y + G @ s_
+            last, th_last, x_last, y_last = breaks[-1], float(theta[-1]), px[-1], py[-1]
+        else:
+            s_nodes, px, py = np.zeros(1), np.array([pose.x]), np.array([pose.y])
+            last, th_last, x_last, y_last = 0.0, pose.heading, pose.x, pose.y
+        if last < 1.0:
+            m = max(2, int(math.ceil((1.0 - last) / spacing)) + 1)
+            s_free = np.linspace(last, 1.0, m)[1:]
+            ox, oy = _unloaded_offsets(self.shape, last, th_last, s_free)
+            s_nodes = np.concatenate((s_nodes, s_free))
+            px = np.concatenate((px, x_last + ox))
+            py = np.concatenate((py, y_last + oy))
+        return s_nodes, np.column_stack((px, py))
 
     def chebyshev_matrix(self, x: np.ndarray) -> np.ndarray:
         """T_k(x) for k < n at points x in [-1, 1], shape (len(x), n)."""

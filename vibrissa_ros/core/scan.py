@@ -1,4 +1,4 @@
-"""Quasistatic scans along the paper's foot line: the x0 grid and the run over it."""
+"""Quasistatic scans: the paper's foot line (the x0 grid), whisking (a heading grid), the runs."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import numpy as np
 
 from .errors import ParameterError
 from .profiles import ConvexProfile
-from .state import Event, WhiskerState
+from .state import Event, FootPose, WhiskerState
 from .tracker import QuasistaticTracker
 
 
@@ -55,6 +55,24 @@ def scan_grid(x_from: float, x_to: float, step: float, back: bool = False) -> np
     return grid
 
 
+def whisk_poses(
+    x: float, y: float, from_deg: float, to_deg: float, step_deg: float, back: bool = False
+) -> Tuple[FootPose, ...]:
+    """
+    Foot poses of a whisk: the foot fixed at (``x``, ``y``) [L], the heading sweeping.
+
+    The headings [deg, counter-clockwise from +x; 90 is the paper's set-up, the whisker along +y]
+    are the grid of :func:`scan_grid` from ``from_deg`` to ``to_deg`` inclusive, spaced by
+    ``step_deg`` (> 0), and back when ``back`` (a protraction and its retraction); each is turned
+    into radians by :func:`math.radians`.
+    """
+    for name, value in (("x", x), ("y", y)):
+        if not math.isfinite(value):
+            raise ParameterError(f"the whisking foot's {name} = {value!r} must be a finite number")
+    headings = scan_grid(from_deg, to_deg, step_deg, back)
+    return tuple(FootPose(x, y, math.radians(float(h))) for h in headings)
+
+
 def run_scan(profile: ConvexProfile, grid, model="elastica") -> ScanResult:
     """Place the whisker at the first grid point (straight, free) and step through the grid."""
     grid = np.asarray(grid, dtype=float)
@@ -79,6 +97,32 @@ def run_poses(profile: ConvexProfile, poses, model="elastica") -> ScanResult:
     if not poses:
         raise ParameterError("no foot poses")
     tracker = QuasistaticTracker(profile, poses[0], model=model)
+    states = [tracker.state]
+    events, steps = [], []
+    for pose in poses[1:]:
+        result = tracker.step(pose)
+        states.append(result.state)
+        events.extend(result.events)
+        steps.extend([len(states) - 1] * len(result.events))
+    return ScanResult(tuple(states), tuple(events), tuple(steps))
+
+
+def run_scene(obstacles, poses, shape=None, friction=None, model=None) -> ScanResult:
+    """
+    Scan a scene: place the whisker at the first pose (unloaded) and step through the rest.
+
+    ``obstacles``: scene obstacles (``core/scene.py``), ``friction`` their Coulomb coefficients;
+    ``poses``: foot poses or the paper's x0 values. A scene of one convex profile or peg without
+    friction is the single-contact problem: ``model`` (a single-contact model, e.g. the exact
+    elastica) then runs the single-contact tracker, whose numbers the scene tracker reproduces to
+    ~1e-12; otherwise the multi-contact :class:`~.scene_tracker.SceneTracker` runs.
+    """
+    from .scene_tracker import SceneTracker
+
+    poses = [p if isinstance(p, FootPose) else FootPose(float(p)) for p in poses]
+    if not poses:
+        raise ParameterError("no foot poses")
+    tracker = SceneTracker(obstacles, poses[0], shape=shape, friction=friction)
     states = [tracker.state]
     events, steps = [], []
     for pose in poses[1:]:

@@ -63,9 +63,12 @@ _MAX_EVENTS = 64
 _MAX_SUBSTEPS = 20000
 #: penetration below which a sample point counts as cutting an obstacle
 _CUT = -1e-10
-#: points sampling the whisker for touch detection
+#: points sampling the whisker for touch detection (and their spacing)
 _SAMPLES = np.linspace(0.0, 1.0, 81)
+_SPACING = 1.0 / 80.0
 _NUMERICAL_ERRORS = (ArithmeticError, ValueError, np.linalg.LinAlgError)
+#: geometric switches of one contact; two at one pose mean neither configuration goes on
+_SWITCHES = ("tip", "tangential", "end_min", "end_max", "edge_in", "edge_out")
 
 
 @dataclass(frozen=True)
@@ -280,10 +283,18 @@ class SceneTracker:
         values = self._event_values(modes, vec, path.pose(0.0), dpose)
         for key, v in list(values.items()):
             if key[0] == "stick" and v < 0.0:
-                # the motion reverses the slip: the contact sticks where the step starts
-                modes, vec, ev = self._transition(modes, vec, path, 0.0, ("event", key), dpose)
+                # the motion reverses the slip: the contact sticks where the step starts, unless
+                # sticking there needs more than mu N the same way (then the slip goes on: the
+                # quasistatic Coulomb problem has no sticking solution, Painleve's case)
+                s_modes, s_vec, ev = self._transition(modes, vec, path, 0.0, ("event", key),
+                                                      dpose)
+                s_values = self._event_values(s_modes, s_vec, path.pose(0.0), dpose)
+                c = key[1]
+                back = "slip+" if modes[c].slip_sign < 0 else "slip-"
+                if s_values.get((back, c), 1.0) < 0.0:
+                    continue
+                modes, vec, values = s_modes, s_vec, s_values
                 events.append(ev)
-                values = self._event_values(modes, vec, path.pose(0.0), dpose)
         substeps = 0
         last_switch = None
         while t < 1.0:
@@ -312,21 +323,23 @@ class SceneTracker:
             if crossed or cut is not None:
                 t_star, what = self._first_event(modes, vec, path, t, t_new, dpose, crossed, cut)
                 vec_star = self._solve_at(modes, vec, path, t, t_star, dpose)
-                if (what[0] == "event" and what[1][0] in ("tip", "tangential") and last_switch
+                if (what[0] == "event" and what[1][0] in _SWITCHES and last_switch
                         and abs(t_star - last_switch[0]) <= 1e-12
                         and last_switch[1] == what[1][1]):
-                    # side -> tip -> side at one pose: neither branch goes on (the tip slides off
-                    # the obstacle's edge): the whisker snaps
+                    # side -> tip -> side (or corner -> edge -> corner) at one pose: neither
+                    # configuration goes on (the tip slides off the edge or corner): a snap
                     modes, vec, ev = self._snap(modes, vec_star, path, t_star, dpose,
                                                 only=what[1][1])
                     last_switch = None
                 else:
                     modes, vec, ev = self._transition(modes, vec_star, path, t_star, what, dpose)
                     last_switch = ((t_star, what[1][1]) if what[0] == "event"
-                                   and what[1][0] in ("tip", "tangential") else None)
+                                   and what[1][0] in _SWITCHES else None)
                 if ev is not None:
                     events.append(ev)
                 t = t_star
+                if ev is not None and ev.kind == "touch":
+                    modes, vec, t = self._first_friction(modes, vec, path, t, t_new, dpose)
                 values = self._event_values(modes, vec, path.pose(t), dpose)
                 h = max(h * 0.25, 1e-6)
                 continue
@@ -357,8 +370,10 @@ class SceneTracker:
             raise ConvergenceError("sub-step too large")
         guess = vec + dt * tan
         before = self.solver.evaluations
-        new, lu = self.solver.solve(modes, path.pose(t_new), guess, max_iter=8, lu=lu)
-        self._lu_cache = (modes, lu) if self.solver.iterations <= 3 else None
+        # a fresh Jacobian at the predicted point: Newton converges quadratically from there (a
+        # Jacobian from the step's start converges only linearly, at ~ the step's size)
+        new, lu = self.solver.solve(modes, path.pose(t_new), guess, max_iter=8)
+        self._lu_cache = (modes, lu)  # for the next sub-step's tangent
         if self._change(modes, new - vec) > 2.0 * _MAX_CHANGE:
             raise ConvergenceError("sub-step jumped")
         return new, self.solver.evaluations - before
@@ -519,41 +534,48 @@ class SceneTracker:
         """
         Return the first (obstacle, s) where the whisker cuts an obstacle, or None.
 
-        The whisker is sampled at 81 points; around every local minimum of an obstacle's
-        distance that comes near (< 0.05 L) it is resampled densely (33 points over two
-        sample spacings) so that a shallow cut of a small obstacle is not missed.
+        The whisker is sampled at its collocation nodes (and every 1/80 L beyond the last
+        contact); around every local minimum of an obstacle's distance that could hide a cut
+        between samples (closer than half the local spacing: the distance changes at most as
+        fast as the arc length) it is resampled densely (33 points), so that a shallow cut of a
+        small obstacle is not missed. The neighbourhood of a contact (2/80 L) is left to that
+        contact's own events.
         """
-        pts = None
+        s_all = pts = None
         first = None
         for i, ob in enumerate(self.obstacles):
             if float(ob.signed_distance(np.array([[pose.x, pose.y]]))[0]) > 1.1:
                 continue  # out of reach of a whisker of length 1
             if pts is None:
-                pts = self._points(modes, vec, pose, _SAMPLES)
+                s_all, pts = self.solver.node_points(modes, vec, pose, _SPACING)
+                gaps = np.diff(s_all)
+                local = np.zeros(s_all.size)
+                local[:-1] = gaps
+                np.maximum(local[1:], gaps, out=local[1:])
             d = ob.signed_distance(pts)
-            held = [sc for m, sc in zip(modes, self._contact_s(modes, vec)) if m.obstacle == i]
-            spacing = _SAMPLES[1] - _SAMPLES[0]
-            for sc in held:  # an existing contact's neighbourhood is its own events' business
-                d[np.abs(_SAMPLES - sc) <= 2.0 * spacing] = np.inf
-            cuts = []
+            for m, sc in zip(modes, self._contact_s(modes, vec)):
+                if m.obstacle == i:
+                    d[np.abs(s_all - sc) <= 2.0 * _SPACING] = np.inf
+            cut = None
             bad = np.nonzero(d < _CUT)[0]
             if bad.size:
                 run = bad[: int(np.argmax(np.diff(np.r_[bad, bad[-1] + 2]) > 1)) + 1]
-                cuts.append(float(_SAMPLES[run[np.argmin(d[run])]]))
+                cut = float(s_all[run[np.argmin(d[run])]])
             else:
-                lower = np.r_[np.inf, d[:-1]]
-                upper = np.r_[d[1:], np.inf]
-                for j in np.nonzero((d <= lower) & (d <= upper) & (d < 0.05))[0]:
-                    lo = _SAMPLES[max(j - 1, 0)]
-                    hi = _SAMPLES[min(j + 1, len(_SAMPLES) - 1)]
+                near = d < 0.5 * local
+                near[1:] &= d[1:] <= d[:-1]
+                near[:-1] &= d[:-1] <= d[1:]
+                for j in np.nonzero(near)[0]:
+                    lo = s_all[max(j - 1, 0)]
+                    hi = s_all[min(j + 1, len(s_all) - 1)]
                     s_fine = np.linspace(lo, hi, 33)
                     d_fine = ob.signed_distance(self._points(modes, vec, pose, s_fine))
                     k = int(np.argmin(d_fine))
                     if d_fine[k] < _CUT:
-                        cuts.append(float(s_fine[k]))
+                        cut = float(s_fine[k])
                         break
-            if cuts and (first is None or cuts[0] < first[1]):
-                first = (i, cuts[0])
+            if cut is not None and (first is None or cut < first[1]):
+                first = (i, cut)
         return first
 
     def _contact_s(self, modes, vec):
@@ -614,11 +636,9 @@ class SceneTracker:
             return mode, np.array([s, 0.0]), s
         p = feature.at(u)
         e = 1 if math.cos(theta - p.phi) >= 0.0 else -1
-        if kind_tip:
-            mode = ContactMode("tip", feature, obstacle, index, mu, stick=mu > 0.0,
-                               anchor=(u, 1.0))
-            params = [u, 0.0] + ([0.0] if mode.has_tangential_unknown else [])
-            return mode, np.array(params), 1.0
+        if kind_tip:  # starts frictionless: the first motion decides (_first_friction)
+            mode = ContactMode("tip", feature, obstacle, index, mu, stick=False, anchor=(u, 1.0))
+            return mode, np.array([u, 0.0]), 1.0
         # a side contact starts slipping (its direction is found from the first motion, see
         # _transition): a tangential force along a whisker that is still unloaded bends nothing,
         # so sticking with zero load is not determined
@@ -680,11 +700,6 @@ class SceneTracker:
             new_params = params[:index] + [p] + params[index:]
             new_vec = self._rebuild(modes, vec, pose, new_modes, new_params)
             new_vec = self._settle(new_modes, new_vec, pose)
-            if mode.kind in ("side", "corner") and mode.mu > 0.0 and not mode.stick:
-                # the slip direction of the first motion (the force is zero at the touch, so the
-                # frictionless rate decides): T = -sign(dq/dt) mu N
-                rate = self._slip_rates(tuple(new_modes), new_vec, pose, dpose)[index]
-                new_modes[index] = mode.with_(slip_sign=1 if rate >= 0.0 else -1)
             settled = self.solver.configuration(tuple(new_modes), new_vec, pose)
             s_new = settled.contacts[index].s
             return (tuple(new_modes), new_vec,
@@ -715,7 +730,6 @@ class SceneTracker:
             e = 1 if math.cos(cfg.tip_slope - p_arc.phi) >= 0.0 else -1
             modes[c] = m.with_(kind="side", e=e, anchor=(sol.u, 1.0))
             params[c] = np.concatenate(([1.0 - 1e-15], p))
-            ev_kind = "phase"
         elif name in ("end_min", "end_max"):
             arc = m.feature
             u_end = arc.u_min if name == "end_min" else arc.u_max
@@ -796,6 +810,47 @@ class SceneTracker:
         new_vec = self._settle(tuple(modes), new_vec, pose)
         return tuple(modes), new_vec, SceneEvent(ev_kind, pose, m.obstacle, m.kind, sol.s)
 
+    def _first_friction(self, modes, vec, path, t, t_end, dpose):
+        """
+        Decide whether a contact just made sticks or slips.
+
+        At the touch the force is zero and a force along the still unloaded whisker bends
+        nothing, so the sticking solution is not determined there. The first motion decides:
+        the contact is followed frictionless over a tiny probe step (the foot moves 1e-5 L), then
+        solved sticking (held at the touch point); it sticks if that needs |T| <= mu N, and slips
+        against the sticking force's direction otherwise. The probe step becomes part of the path.
+        """
+        c = next((i for i, m in enumerate(modes) if m.mu > 0.0 and m.kind != "tip_corner"
+                  and not m.stick and m.slip_sign == 0), None)
+        if c is None:
+            return modes, vec, t
+        m = modes[c]
+        dt = min(1e-5 / path.length, 0.5 * (t_end - t))
+        if dt <= 0.0:
+            return modes, vec, t
+        pose_p = path.pose(t + dt)
+        touch = self.solver.configuration(modes, vec, path.pose(t)).contacts[c]
+        anchor = (touch.u if touch.u is not None else 0.0, touch.s)
+        free = tuple(x.with_(mu=0.0) if i == c else x for i, x in enumerate(modes))
+        vec_p = self._solve_at(free, vec, path, t, t + dt, dpose)
+        stick = list(modes)
+        stick[c] = m.with_(stick=True, slip_sign=0, anchor=anchor)
+        params = self._params(modes, vec_p)
+        params[c] = np.concatenate((params[c], [0.0]))
+        try:
+            guess = self._rebuild(modes, vec_p, pose_p, stick, params)
+            sv = self._settle(tuple(stick), guess, pose_p)
+            sol = self.solver.configuration(tuple(stick), sv, pose_p).contacts[c]
+            if abs(sol.T) <= m.mu * sol.N:
+                return tuple(stick), sv, t + dt
+            sign = -1 if sol.T > 0.0 else 1  # slip against the force sticking would need
+        except ConvergenceError:
+            sign = 1 if self._slip_rates(free, vec_p, pose_p, dpose)[c] >= 0.0 else -1
+        slip = list(modes)
+        slip[c] = m.with_(slip_sign=sign)
+        sv = self._settle(tuple(slip), vec_p, pose_p)
+        return tuple(slip), sv, t + dt
+
     def _settle(self, modes, vec, pose):
         if not modes:
             return vec
@@ -821,8 +876,11 @@ class SceneTracker:
                 continue
             if self._penetration(new_modes, new_vec, pose) is not None:
                 continue
-            return new_modes, new_vec, SceneEvent("snap", pose, modes[c].obstacle,
-                                                  modes[c].kind, None)
+            # a contact dropped while its force is zero is a release, not a jump
+            gone = self.solver.configuration(modes, vec, pose).contacts[c]
+            kind = "release" if abs(gone.N) + abs(gone.T) <= 1e-9 else "snap"
+            return new_modes, new_vec, SceneEvent(kind, pose, modes[c].obstacle,
+                                                  modes[c].kind, gone.s)
         raise ModelAssumptionError(
             f"the equilibrium folds at {pose} and no configuration with one contact less is "
             "admissible (the whisker would jump into another contact): not modelled")
@@ -845,6 +903,19 @@ def _cone_mid(V: Vertex) -> float:
 
 def _nearest_feature(obstacle, x, y):
     """(feature, index, u): the arc (with its parameter) or convex vertex nearest to (x, y)."""
+    closest = getattr(obstacle, "closest", None)
+    if closest is not None:  # a scene obstacle: global and exact
+        near = closest(x, y)
+        if near.on_vertex:
+            return obstacle.vertices[near.vertex_index], near.vertex_index, None
+        arc = obstacle.arcs[near.arc_index]
+        for end in (arc.u_min, arc.u_max):
+            # at an edge's end (to rounding) the touch is the corner's
+            if math.isfinite(end) and abs(near.u - end) <= 1e-9 * max(1.0, abs(end)):
+                found = _vertex_at(obstacle, arc.at(end))
+                if found is not None and found[1].convex:
+                    return found[1], found[0], None
+        return arc, near.arc_index, near.u
     best = None
     for i, arc in enumerate(obstacle.arcs):
         u, d = arc.project(x, y)

@@ -15,7 +15,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import Point, PointStamped, PoseStamped, Vector3Stamped, WrenchStamped
 from nav_msgs.msg import Path
 from std_msgs.msg import ColorRGBA, Float64, String, UInt8
-from visualization_msgs.msg import Marker
+from visualization_msgs.msg import Marker, MarkerArray
 
 from ..core.errors import VibrissaError
 from ..core.profiles import Peg
@@ -124,6 +124,59 @@ def obstacle_marker(profile, length: float, frame: str, stamp) -> Marker:
     for x, y in obstacle_points(profile) * length:
         marker.points.append(Point(x=float(x), y=float(y)))
     return marker
+
+
+def scene_markers(scene, length: float, frame: str, stamp,
+                  window: Optional[Tuple[float, float, float, float]] = None,
+                  n: int = 200) -> MarkerArray:
+    """
+    Return every obstacle of a scene as a MarkerArray [m] (latched on a transient-local topic).
+
+    A DELETEALL first (namespace ``scene``: a new scene replaces the old one), then per obstacle
+    one LINE_STRIP (id = 1 + its index; a closed outline, or for an infinite obstacle its
+    boundary within ``window`` [L], default the scene's window widened by 1 L; a point peg: a
+    circle of 0.005 L), then one POINTS marker of all corners and point pegs (id = obstacles + 1).
+    ``length`` [m] is the whisker's length (scene lengths are in L).
+    """
+    window = scene.window(margin=2.0) if window is None else window
+    array = MarkerArray()
+    clear = Marker()
+    clear.header.frame_id, clear.header.stamp = frame, stamp
+    clear.ns, clear.id, clear.action = "scene", 0, Marker.DELETEALL
+    array.markers.append(clear)
+    corners = []
+    for index, ob in enumerate(scene):
+        marker = Marker()
+        marker.header.frame_id, marker.header.stamp = frame, stamp
+        marker.ns, marker.id = "scene", index + 1
+        marker.type, marker.action = Marker.LINE_STRIP, Marker.ADD
+        marker.pose.orientation.w = 1.0
+        marker.scale.x = 0.01 * length
+        marker.color.r, marker.color.g, marker.color.b, marker.color.a = OBSTACLE_COLOR
+        marker.text = ob.name
+        if getattr(ob, "is_point", False):
+            t = np.linspace(0.0, 2.0 * math.pi, 33)
+            lines = [np.column_stack((ob.x + 0.005 * np.cos(t), ob.y + 0.005 * np.sin(t)))]
+        else:
+            lines = list(ob.boundary_lines(n, window))
+        # one strip per obstacle: the pieces of an infinite boundary cut by the window are
+        # joined (the strip may then cross the window's edge once between two pieces)
+        for line in lines:
+            for x, y in line * length:
+                marker.points.append(Point(x=float(x), y=float(y)))
+        array.markers.append(marker)
+        corners.extend((v.x, v.y) for v in ob.vertices)
+    dots = Marker()
+    dots.header.frame_id, dots.header.stamp = frame, stamp
+    dots.ns, dots.id = "scene", len(scene) + 1
+    dots.type, dots.action = Marker.POINTS, Marker.ADD
+    dots.pose.orientation.w = 1.0
+    dots.scale.x = dots.scale.y = 0.02 * length
+    dots.color.r, dots.color.g, dots.color.b, dots.color.a = OBSTACLE_COLOR
+    for x, y in corners:
+        dots.points.append(Point(x=float(x * length), y=float(y * length)))
+    array.markers.append(dots)
+    return array
 
 
 def contour_marker(points: Iterable[Tuple[float, float, int]], frame: str, stamp,
