@@ -813,8 +813,10 @@ def _cmd_info(args) -> int:
         print(f"phases:    {phases}")
         print(f"events:    {len(info.events)}")
         for e in info.events:
+            what = (f"{e['from_phase']} -> {e['to_phase']}" if "from_phase" in e
+                    else f"{e['contact']} on obstacle {e['obstacle']}")  # a scene's event
             print(
-                f"  {e['kind']:<8} {e['from_phase']} -> {e['to_phase']} at x = {e['x']:.9g} m, "
+                f"  {e['kind']:<8} {what} at x = {e['x']:.9g} m, "
                 f"y = {e['y']:.9g} m, "
                 f"yaw = {e['yaw']:.9g} rad"
             )
