@@ -150,6 +150,13 @@ def test_the_scene_file_is_read_in_metres_with_its_friction():
     assert again.scene == cfg.scene and again.friction == cfg.friction
 
 
+def test_a_package_path_finds_the_shipped_scene():
+    """package://vibrissa_ros/...: the ament index, else the install prefix or the checkout."""
+    cfg = build_config(dict(TWO_PEGS, **{
+        "obstacle.scene_file": "package://vibrissa_ros/config/scene_two_pegs_m.yaml"}))
+    assert cfg.scene == build_config(TWO_PEGS).scene
+
+
 def test_taper_and_curvature_go_to_the_scene_tracker():
     cfg = build_config(dict(TWO_PEGS, **{"whisker.taper": 0.2, "whisker.curvature_k0": 10.0,
                                          "whisker.curvature_k1": -100.0}))

@@ -376,11 +376,31 @@ def resolve_scene_file(path: str) -> str:
         try:
             share = get_package_share_directory(package)
         except (PackageNotFoundError, LookupError, ValueError, OSError) as exc:
-            raise ParameterError(f"obstacle.scene_file = {path!r}: package {package!r} is not "
-                                 f"in the ament index ({exc}); source its workspace or give a "
-                                 "file path") from None
+            share = _own_share(package)
+            if share is None:
+                raise ParameterError(f"obstacle.scene_file = {path!r}: package {package!r} is "
+                                     f"not in the ament index ({exc}); source its workspace or "
+                                     "give a file path") from None
         return os.path.join(share, rest)
     return os.path.abspath(os.path.expanduser(path))
+
+
+def _own_share(package: str) -> Optional[str]:
+    """
+    Return this package's share folder without the ament index, or None.
+
+    A pip install puts it under the environment's prefix; a source checkout (editable install)
+    has the same layout (config/, launch/, package.xml) at its root.
+    """
+    if package != "vibrissa_ros":
+        return None
+    import sys
+
+    checkout = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    for folder in (os.path.join(sys.prefix, "share", package), checkout):
+        if os.path.isfile(os.path.join(folder, "package.xml")):
+            return folder
+    return None
 
 
 def _scene_config(values: Dict[str, Any], recorded: Optional[str]) -> WhiskerConfig:
