@@ -222,6 +222,13 @@ def test_a_recorded_scene_run_is_reproduced_by_resim(installed, ros_env, rcl_con
                           timeout=120)
     assert proc.returncode == 0, proc.stdout + proc.stderr
     assert "contacts.fx" in proc.stdout and "OK" in proc.stdout
+    out = tmp_path / "scene.csv"
+    proc = subprocess.run([VIBRISSA, "export", str(log), "--csv", str(out)], capture_output=True,
+                          text=True, timeout=120)
+    assert proc.returncode == 0 and not proc.stderr, proc.stderr
+    lines = out.read_text().splitlines()
+    assert lines[0].endswith(",contacts,time") and len(lines) == 1 + len(sim.states)
+    assert {line.split(",")[-2] for line in lines[1:]} == {"0", "1", "2"}
     proc = subprocess.run([VIBRISSA, "info", str(log)], capture_output=True, text=True,
                           timeout=120)
     assert proc.returncode == 0, proc.stderr
