@@ -299,3 +299,16 @@ def test_tapered_whiskers_slip_off_a_pole_cylindrical_ones_do_not(d):
     _, cylinder = _rotate_against_point(WhiskerShape(1.0), d, push)
     assert not [e for e in cylinder.events if e.kind == "snap"]
     assert cylinder.state.phase == Phase.TANGENTIAL
+
+
+def test_a_point_peg_released_on_the_way_back_is_not_touched_again():
+    # the release leaves the point exactly on the straight whisker: the touch search must take
+    # the side the motion leaves it on (it once re-touched from the other side, pulling)
+    from vibrissa_ros.core.profiles import Peg
+    from vibrissa_ros.core.scan import run_scan, scan_grid
+
+    result = run_scan(Peg(0.3, 0.6, 0.0), scan_grid(1.0, 0.2, 0.02, back=True),
+                      model=GeneralWhiskerModel(WhiskerShape()))
+    assert [e.kind for e in result.events] == ["touch", "release"]
+    assert result.states[-1].phase == 0 and result.states[-1].m0 == 0.0
+    assert all(s.m0 <= 0.0 for s in result.states)  # the point only ever pushes

@@ -281,10 +281,18 @@ class SceneTracker:
         values = self._event_values(modes, vec, path.pose(0.0), dpose)
         for key, v in list(values.items()):
             if key[0] == "stick" and v < 0.0:
-                # the motion reverses the slip: the contact sticks where the step starts
-                modes, vec, ev = self._transition(modes, vec, path, 0.0, ("event", key), dpose)
+                # the motion reverses the slip: the contact sticks where the step starts, unless
+                # sticking there needs more than mu N the same way (then the slip goes on: the
+                # quasistatic Coulomb problem has no sticking solution, Painleve's case)
+                s_modes, s_vec, ev = self._transition(modes, vec, path, 0.0, ("event", key),
+                                                      dpose)
+                s_values = self._event_values(s_modes, s_vec, path.pose(0.0), dpose)
+                c = key[1]
+                back = "slip+" if modes[c].slip_sign < 0 else "slip-"
+                if s_values.get((back, c), 1.0) < 0.0:
+                    continue
+                modes, vec, values = s_modes, s_vec, s_values
                 events.append(ev)
-                values = self._event_values(modes, vec, path.pose(0.0), dpose)
         substeps = 0
         last_switch = None
         while t < 1.0:
@@ -626,11 +634,9 @@ class SceneTracker:
             return mode, np.array([s, 0.0]), s
         p = feature.at(u)
         e = 1 if math.cos(theta - p.phi) >= 0.0 else -1
-        if kind_tip:
-            mode = ContactMode("tip", feature, obstacle, index, mu, stick=mu > 0.0,
-                               anchor=(u, 1.0))
-            params = [u, 0.0] + ([0.0] if mode.has_tangential_unknown else [])
-            return mode, np.array(params), 1.0
+        if kind_tip:  # starts frictionless: the first motion decides (_first_friction)
+            mode = ContactMode("tip", feature, obstacle, index, mu, stick=False, anchor=(u, 1.0))
+            return mode, np.array([u, 0.0]), 1.0
         # a side contact starts slipping (its direction is found from the first motion, see
         # _transition): a tangential force along a whisker that is still unloaded bends nothing,
         # so sticking with zero load is not determined
@@ -804,15 +810,15 @@ class SceneTracker:
 
     def _first_friction(self, modes, vec, path, t, t_end, dpose):
         """
-        Decide whether a side or corner contact just made sticks or slips.
+        Decide whether a contact just made sticks or slips.
 
-        At the touch the force is zero and a tangential force along the still unloaded whisker
-        bends nothing, so the sticking solution is not determined there. The first motion decides:
+        At the touch the force is zero and a force along the still unloaded whisker bends
+        nothing, so the sticking solution is not determined there. The first motion decides:
         the contact is followed frictionless over a tiny probe step (the foot moves 1e-5 L), then
         solved sticking (held at the touch point); it sticks if that needs |T| <= mu N, and slips
         against the sticking force's direction otherwise. The probe step becomes part of the path.
         """
-        c = next((i for i, m in enumerate(modes) if m.mu > 0.0 and m.on_side
+        c = next((i for i, m in enumerate(modes) if m.mu > 0.0 and m.kind != "tip_corner"
                   and not m.stick and m.slip_sign == 0), None)
         if c is None:
             return modes, vec, t

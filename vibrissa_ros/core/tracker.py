@@ -155,6 +155,7 @@ class QuasistaticTracker:
                 raise
             raise InvalidPoseError(f"the initial pose {pose} cannot be placed: {exc}") from exc
         self._pose = pose
+        self._left_at_end = False
         self._contact: Optional[_Contact] = None
         self._alpha_hint = 0.0
         self._state = self._free_state(pose)
@@ -201,7 +202,7 @@ class QuasistaticTracker:
         if path.length == 0.0:
             return StepResult(self._state, (), 0, 0)
         if contact is None:
-            exiting = self._starts_leaving(path)
+            exiting = self._starts_leaving(path) or self._left_at_end
         for _ in range(4 * _MAX_EVENTS):
             if len(events) > _MAX_EVENTS:
                 raise ConvergenceError(
@@ -260,6 +261,9 @@ class QuasistaticTracker:
             state = self._contact_state(final_pose, contact.phase, contact.side, contact.z)
         # commit
         self._pose = final_pose
+        # a release (or graze) exactly at the target: the next step starts leaving the obstacle
+        self._left_at_end = (contact is None and exiting and t >= 1.0 - 1e-12
+                             and hasattr(self.profile, "signed_distance"))
         self._contact = (
             None if contact is None
             else _Contact(contact.phase, contact.side, contact.z, 0.0, contact.jac)
@@ -382,7 +386,7 @@ class QuasistaticTracker:
         at t and leaves it (a release or a graze); the search starts where it is out again.
         """
         if self._shape_mode:
-            return self._find_touch_shape(path, t)
+            return self._find_touch_shape(path, t, exiting)
         if exiting:
             t = self._leave_profile(path, t)
             if t is None:
@@ -635,7 +639,7 @@ class QuasistaticTracker:
         cross = math.cos(th) * (self.profile.y - py) - math.sin(th) * (self.profile.x - px)
         return 1 if cross > 0.0 else -1
 
-    def _find_touch_shape(self, path: _Path, t: float) -> Optional[float]:
+    def _find_touch_shape(self, path: _Path, t: float, exiting: bool = False) -> Optional[float]:
         """
         First t in [t, 1] where the unloaded whisker meets the obstacle anywhere along it.
 
@@ -647,7 +651,16 @@ class QuasistaticTracker:
         self._peg_side_ref = None
         if hasattr(self.profile, "signed_distance"):
             pose0 = path.pose(t)
-            self._peg_side_ref = self._peg_side(pose0, self._free_clearance(pose0)[1]) or None
+            clear, s_near = self._free_clearance(pose0)
+            if clear <= 1e-12 and t < 1.0:
+                # the peg lies on the whisker where the search starts. After a release there
+                # (e.g. of a point peg) its side is the one the motion leaves it on; otherwise
+                # the one the whisker comes from (the path continued backwards)
+                u = t + (1e-7 if exiting else -1e-7) / path.length
+                pose0 = FootPose(path.x0 + u * path.dx, path.y0 + u * path.dy,
+                                 path.h0 + u * path.dh)
+                s_near = self._free_clearance(pose0)[1]
+            self._peg_side_ref = self._peg_side(pose0, s_near) or None
         try:
             return self._find_touch_shape_signed(path, t)
         finally:
