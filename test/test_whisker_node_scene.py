@@ -183,6 +183,7 @@ def test_a_bad_scene_file_is_refused_at_startup_and_at_runtime(installed, ros_en
         for w, (_, r, _, _) in zip(first + rest, expected[1:]):
             assert _rel(w.wrench.torque.z, r.torque_z, 1e-6)
         assert "scene of 2 obstacle(s)" in probe.diagnostics_value("configuration")
+        assert probe.diagnostics_value("contacts") == str(len(expected[-1][2]))
     finally:
         probe.destroy()
         assert stop(proc) == 0

@@ -253,8 +253,10 @@ class WhiskerNode(Node):
             recorder = None
         state = self._pipeline.state
         phase = None if state is None else int(state.phase)
+        contacts = "" if state is None else len(contact_records(state, self.config.units))
         values = {
             "phase": "none" if phase is None else str(phase),
+            "contacts": contacts,
             **stats.values(),
             "configuration": self.config.describe(),
             "recording": recorder.path if recorder is not None else "",
