@@ -280,14 +280,12 @@ class MultiContactSolver:
                 G[rows, ell * n:(ell + 1) * n] = segs[ell].w
             G[rows, rows] = seg.Sig
             E[j:, rows] = seg.w
-        binv = np.concatenate([seg.binv for seg in segs])
         kap = np.concatenate([seg.k for seg in segs])
-        Gb = G * binv
+        Gb = G if self.shape.taper == 1.0 else G * np.concatenate([seg.binv for seg in segs])
         A = []
         for c in range(k):
-            D = E[c] - G
-            D[(c + 1) * n:] = 0.0
-            A.append(Gb @ D)
+            r = (c + 1) * n  # H_c: only the rows up to segment c
+            A.append(Gb[:, :r] @ (E[c] - G[:r]))
         return segs, G, E, A, kap
 
     def _forces(self, modes, vec, offsets, theta):
@@ -389,7 +387,8 @@ class MultiContactSolver:
             vs = [F[1] * c_ - F[0] * s_ for F, _, _ in forces]
             for c, (m, o) in enumerate(zip(modes, offsets)):
                 if m.on_side:
-                    self._break_column(c, modes, offsets, G, E, kap, vs, c_, s_, J[:, o])
+                    self._break_column(c, modes, offsets, breaks, G, E, kap, vs, c_, s_,
+                                       J[:, o])
                     if m.has_tangential_unknown:
                         J[o + 3 if m.kind == "side" else o + 2, o] = (
                             -m.e if m.kind == "side" else 1.0)
@@ -404,40 +403,54 @@ class MultiContactSolver:
             J[:, o] = (R2 - R) / h
         return R, J
 
-    def _break_column(self, c, modes, offsets, G, E, kap, vs, c_, s_, out):
+    def _break_column(self, c, modes, offsets, breaks, G, E, kap, vs, c_, s_, out):
         """
         Write d(residual)/d(s_c) for a cylinder (B = 1) into ``out``.
 
-        The segments' lengths L_j enter G, E and the nodes linearly: G = sum_j L_j G^(j), and
-        s_c lengthens segment c and shortens segment c + 1, so dG = G^(c) - G^(c+1), dE likewise,
-        and kappa0 at the nodes moves with k1 (t on segment c, 1 - t on segment c + 1).
+        The segments' lengths L_j enter G, E and the nodes linearly: G = sum_j L_j G^(j), where
+        G^(j) is G's block column j over L_j; s_c lengthens segment c and shortens segment c + 1,
+        so dG = G^(c) - G^(c+1), dE likewise, and kappa0 at the nodes moves with k1 (t on
+        segment c, 1 - t on segment c + 1).
         """
         n, k = self.n, len(modes)
         K = n * k
-        half_S, half_w = 0.5 * self._S, 0.5 * self._S[-1]
-        dG = np.zeros((K, K))
-        dE = np.zeros((k, K))
+        parts = []  # (columns, sign / L_j, j)
         dk = np.zeros(K)
-        for j, sign in ((c, 1.0), (c + 1, -1.0)):
-            if j >= k:
-                continue
-            cols = slice(j * n, (j + 1) * n)
-            dG[cols, cols] += sign * half_S
-            dG[(j + 1) * n:, cols] += sign * half_w
-            dE[j:, cols] += sign * half_w
-            dk[cols] = self.shape.k1 * (self._t if sign > 0 else 1.0 - self._t)
-        res = -(dG @ kap) - G @ dk
+        a = 0.0
+        for j in range(k):
+            b = breaks[j]
+            if j in (c, c + 1):
+                sign = 1.0 if j == c else -1.0
+                cols = slice(j * n, (j + 1) * n)
+                parts.append((cols, sign / (b - a), j))
+                if self.shape.k1:
+                    dk[cols] = self.shape.k1 * (self._t if sign > 0 else 1.0 - self._t)
+            a = b
+        res = -(G @ dk) if self.shape.k1 else np.zeros(K)
+        for cols, f, _ in parts:
+            res -= f * (G[:, cols] @ kap[cols])
         for ell, v in enumerate(vs):
             rows = (ell + 1) * n
             y = E[ell] @ v - G[:rows] @ v  # H_l (E_l - G) v, rows up to segment l
-            dy = dE[ell] @ v - dG[:rows] @ v
-            res -= dG[:, :rows] @ y + G[:, :rows] @ dy
+            dy = np.zeros(rows)
+            for cols, f, j in parts:
+                if j <= ell:  # dE_l v: E_l's block j scales with L_j
+                    dy += f * (E[ell, cols] @ v[cols])
+                if cols.start < rows:
+                    dy -= f * (G[:rows, cols] @ v[cols])
+                    res -= f * (G[:, cols] @ y[cols])
+            res -= G[:, :rows] @ dy
         out[:K] = res
         for ell, o in enumerate(offsets):
-            out[o] = dE[ell] @ c_  # the contact's position moves with the lengths
-            out[o + 1] = dE[ell] @ s_
-            m = modes[ell]
-            if m.kind == "side":
+            # the contact's position moves with the lengths: dE_l (cos, sin) theta
+            dx = dy_ = 0.0
+            for cols, f, j in parts:
+                if j <= ell:
+                    dx += f * (E[ell, cols] @ c_[cols])
+                    dy_ += f * (E[ell, cols] @ s_[cols])
+            out[o] = dx
+            out[o + 1] = dy_
+            if modes[ell].kind == "side":
                 out[o + 2] = 0.0
         return out
 

@@ -224,6 +224,9 @@ class SceneTracker:
             if not (math.isfinite(m) and m >= 0.0):
                 raise ParameterError(f"friction coefficient {m!r} must be finite and >= 0")
         self.friction = tuple(mu)
+        #: bounding boxes of the bounded obstacles (None: unbounded), to skip the far ones
+        self._boxes = tuple(tuple(ob.extent()) if getattr(ob, "bounded", False)
+                            and hasattr(ob, "extent") else None for ob in self.obstacles)
         for i, ob in enumerate(self.obstacles):
             if not ob.arcs and any(v.turn >= TWO_PI for v in ob.vertices):
                 raise ParameterError(
@@ -237,6 +240,7 @@ class SceneTracker:
         self._h = 1.0
         self._start = 0
         self._lu_cache = None
+        self._values_cache = None
         cut = self._penetration(self._modes, self._vec, pose)
         if cut is not None:
             raise InvalidPoseError(
@@ -431,6 +435,16 @@ class SceneTracker:
         out = {}
         if not modes:
             return out
+        moving = any(m.mu > 0.0 and not m.stick and m.kind != "tip_corner" for m in modes)
+        key = (modes, pose, vec.tobytes())
+        if not moving and self._values_cache is not None and self._values_cache[0] == key:
+            return dict(self._values_cache[1])  # (without slip rates they ignore the motion)
+        out = self._event_values_new(modes, vec, pose, dpose, lu)
+        self._values_cache = (key, dict(out)) if not moving else None
+        return out
+
+    def _event_values_new(self, modes, vec, pose, dpose, lu):
+        out = {}
         cfg = self.solver.configuration(modes, vec, pose)
         need_rate = any(m.mu > 0.0 and not m.stick and m.kind != "tip_corner" for m in modes)
         rates = self._slip_rates(modes, vec, pose, dpose, lu) if need_rate else None
@@ -560,9 +574,16 @@ class SceneTracker:
         """
         s_all = pts = None
         first = None
+        held = [(m.obstacle, sc) for m, sc in zip(modes, self._contact_s(modes, vec))]
         for i, ob in enumerate(self.obstacles):
-            if float(ob.signed_distance(np.array([[pose.x, pose.y]]))[0]) > 1.1:
-                continue  # out of reach of a whisker of length 1
+            box = self._boxes[i]
+            if box is not None:
+                dx = max(box[0] - pose.x, 0.0, pose.x - box[2])
+                dy = max(box[1] - pose.y, 0.0, pose.y - box[3])
+                if dx * dx + dy * dy > 1.21:
+                    continue  # out of reach of a whisker of length 1
+            elif float(ob.signed_distance(np.array([[pose.x, pose.y]]))[0]) > 1.1:
+                continue
             if pts is None:
                 s_all, pts = self.solver.node_points(modes, vec, pose, _SPACING)
                 gaps = np.diff(s_all)
@@ -570,8 +591,8 @@ class SceneTracker:
                 local[:-1] = gaps
                 np.maximum(local[1:], gaps, out=local[1:])
             d = ob.signed_distance(pts)
-            for m, sc in zip(modes, self._contact_s(modes, vec)):
-                if m.obstacle == i:
+            for oi, sc in held:
+                if oi == i:
                     d[np.abs(s_all - sc) <= 2.0 * _SPACING] = np.inf
             cut = None
             bad = np.nonzero(d < _CUT)[0]
@@ -582,6 +603,10 @@ class SceneTracker:
                 near = d < 0.5 * local
                 near[1:] &= d[1:] <= d[:-1]
                 near[:-1] &= d[:-1] <= d[1:]
+                # next to a contact's neighbourhood the distance falls towards the contact
+                masked = np.isinf(d)
+                near[1:] &= ~masked[:-1]
+                near[:-1] &= ~masked[1:]
                 for j in np.nonzero(near)[0]:
                     lo = s_all[max(j - 1, 0)]
                     hi = s_all[min(j + 1, len(s_all) - 1)]
