@@ -212,7 +212,7 @@ class SceneTracker:
 
     def __init__(self, obstacles: Sequence[Any], pose=2.0, shape: Optional[WhiskerShape] = None,
                  friction: Optional[Sequence[float]] = None, n: Optional[int] = None,
-                 max_evaluations: int = 100_000):
+                 max_evaluations: int = 10_000):
         self.obstacles = tuple(obstacles)
         self.shape = shape if shape is not None else WhiskerShape()
         self.solver = MultiContactSolver(self.shape) if n is None else MultiContactSolver(
