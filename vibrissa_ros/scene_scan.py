@@ -4,9 +4,9 @@ A scene's scan, as ``vibrissa scan --scene`` and a study's scene task both compu
 One code path for both, so that a study's rows equal the command's value for value: a scene of one
 convex profile or peg without friction is the single-contact problem, solved by the single-contact
 tracker exactly as ``--profile`` would (its states and events seen through the scene contract);
-any other scene runs the multi-contact :func:`~vibrissa_ros.core.scan.run_scene`. ``friction``
-overrides the scene's global Coulomb coefficient (``vibrissa scan --friction``); an obstacle with its
-own coefficient keeps it.
+any other scene runs the multi-contact :func:`~vibrissa_ros.core.scan.run_scene`.
+``friction`` overrides the scene's global Coulomb coefficient (``vibrissa scan --friction``); an
+obstacle with its own coefficient keeps it.
 """
 
 from __future__ import annotations
@@ -36,8 +36,8 @@ def elastica_model(shape: WhiskerShape, solver: str, profile):
     if solver == "exact" and not exact_ok:
         why = "a peg" if isinstance(profile, Peg) else "a tapered or curved whisker"
         raise VibrissaError(
-            f"--solver exact: the closed forms cover a uniform straight whisker (taper 1, curvature "
-            f"0) against a convex profile, not {why}; use --solver numeric or auto"
+            "--solver exact: the closed forms cover a uniform straight whisker (taper 1, "
+            f"curvature 0) against a convex profile, not {why}; use --solver numeric or auto"
         )
     if solver == "exact" or (solver == "auto" and exact_ok):
         return make_model("elastica")
@@ -114,7 +114,7 @@ def plan_scene_scan(scene: Scene, grid=None, poses: Optional[Sequence] = None,
 
 
 def as_scene_state(state):
-    """A single-contact state as a scene state (its one contact, frictionless)."""
+    """Return a single-contact state as a scene state (its one contact, frictionless)."""
     from .core.scene_tracker import SceneContact
 
     contacts = ()
@@ -144,7 +144,7 @@ class _SingleSceneState:
 
 
 def as_scene_event(event):
-    """A single-contact event as a scene event (touch, tip, tangential, release, snap)."""
+    """Return a single-contact event as a scene event (touch, tip, tangential, release, snap)."""
     from .core.scene_tracker import SceneEvent
 
     kind = {"touch": "touch", "release": "release", "snap": "snap"}.get(event.kind, "phase")

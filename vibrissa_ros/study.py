@@ -253,7 +253,8 @@ class Task:
             from .scene_scan import plan_scene_scan
 
             shape = WhiskerShape(self.taper, self.curvature_k0, self.curvature_k1)
-            grid, poses = (None, self.foot_poses()) if self.whisk is not None else (self.grid(), None)
+            whisk = self.whisk is not None
+            grid, poses = (None, self.foot_poses()) if whisk else (self.grid(), None)
             return plan_scene_scan(
                 self.scene.load(), grid, poses, shape, "auto", self.scene.friction
             ).run()
@@ -565,8 +566,8 @@ def _obstacles(block, seed: int, base_dir: Optional[str], read_scenes: bool) -> 
         block = [block]
     if not isinstance(block, list) or not block:
         raise StudyError(
-            "obstacles must be a non-empty list of {profile, params, samples} or {scene, friction} "
-            "blocks"
+            "obstacles must be a non-empty list of {profile, params, samples} or "
+            "{scene, friction} blocks"
         )
     out: List[_Obstacle] = []
     for i, entry in enumerate(block):
@@ -655,7 +656,8 @@ def _scenes(where: str, entry: Mapping, base_dir: Optional[str], read: bool) -> 
             except VibrissaError as exc:
                 raise StudyError(f"{where}.scene = {name!r}: {exc}") from None
         for mu in frictions:
-            out.append(("scene", (), SceneRef(name, path, text, scene_friction if mu is None else mu)))
+            ref = SceneRef(name, path, text, scene_friction if mu is None else mu)
+            out.append(("scene", (), ref))
     return out
 
 
