@@ -245,8 +245,10 @@ def test_the_whisking_example_study_is_small():
 
 def test_the_readme_shows_the_whisking_example_study():
     section = (ROOT / "README.md").read_text().split("## Studies at scale", 1)[1].split("\n## ", 1)[0]
-    shown = [parse_study(block) for block in re.findall(r"```yaml\n(.+?)```", section, re.S)]
+    # scene files are found beside the example studies
+    shown = [parse_study(block, str(ROOT / "config")) for block in re.findall(r"```yaml\n(.+?)```", section, re.S)]
     assert any(s.tasks == load_study(str(ROOT / "config" / "study_whisk.yaml")).tasks for s in shown)
+    assert any(s.tasks == load_study(str(ROOT / "config" / "study_scenes.yaml")).tasks for s in shown)
 
 
 _PARABOLA = "obstacles: [{profile: parabola, params: {p0: 0.3}}]\n"
