@@ -60,7 +60,7 @@ import itertools
 import math
 import os
 import shlex
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
@@ -126,8 +126,8 @@ class SceneRef:
 
     file: str
     path: str
-    text: str
-    friction: Optional[float]
+    text: str = field(repr=False)
+    friction: Optional[float] = None
 
     def load(self):
         """Return the :class:`~vibrissa_ros.core.scene.Scene` (parsed once per process)."""
