@@ -20,10 +20,11 @@ import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PointStamped, PoseStamped, Vector3Stamped, WrenchStamped
 from nav_msgs.msg import Path as PathMsg
+from sensor_msgs.msg import PointCloud2
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import Float64, String, UInt8
-from visualization_msgs.msg import Marker
+from visualization_msgs.msg import Marker, MarkerArray
 
 from vibrissa_ros.edge import header_ns
 from vibrissa_ros.ros.messages import pose_stamped
@@ -122,7 +123,10 @@ class Probe:
         "events": (String, RELIABLE),
         "centerline": (PathMsg, RELIABLE),
         "obstacle": (Marker, LATCHED),
+        "obstacles": (MarkerArray, LATCHED),
+        "contacts": (PointCloud2, RELIABLE),
     }
+    LATCHED_TOPICS = ("obstacle", "obstacles")
 
     def __init__(self, context, prefix: str = "/whisker_node", name: str = "probe",
                  qos: Optional[QoSProfile] = None, pose_qos: QoSProfile = RELIABLE):
@@ -133,7 +137,7 @@ class Probe:
         self.got: Dict[str, List] = {k: [] for k in self.TOPICS}
         self.got["diagnostics"] = []
         for topic, (kind, default_qos) in self.TOPICS.items():
-            use = default_qos if (qos is None or topic == "obstacle") else qos
+            use = default_qos if (qos is None or topic in self.LATCHED_TOPICS) else qos
             self.node.create_subscription(kind, f"{prefix}/{topic}", self._keep(topic), use)
         self.node.create_subscription(DiagnosticArray, "/diagnostics", self._keep("diagnostics"), 50)
         self.pub = self.node.create_publisher(PoseStamped, f"{prefix}/foot_pose", pose_qos)
@@ -170,7 +174,7 @@ class Probe:
 
     def clear(self) -> None:
         for key in self.got:
-            if key != "obstacle":
+            if key not in self.LATCHED_TOPICS:
                 self.got[key] = []
 
     def step(self, msg: PoseStamped, timeout: float = 10.0, centerline: bool = False):

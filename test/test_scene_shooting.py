@@ -448,6 +448,15 @@ def test_an_unreachable_contact_raises_convergence_error():
                                                                       u=0.0, N=1.0)])
 
 
+def test_a_load_far_too_large_fails_instead_of_hanging():
+    """A straight whisker pushed along its axis onto a held tip: singular, Newton overshoots."""
+    free = solve_scene_equilibrium(STRAIGHT, FootPose(0.0, 0.0, 1.3), [])
+    corner = Vertex(free.tip[0], free.tip[1], -0.4, 0.4)
+    with pytest.raises(ConvergenceError):
+        solve_scene_equilibrium(STRAIGHT, FootPose(0.0, 0.01, 1.3),
+                                [ContactSpec("tip_corner", corner, s=1.0)])
+
+
 def test_nearest_approach_of_a_free_whisker():
     eq = solve_scene_equilibrium(STRAIGHT, FootPose(0.0), [])
     assert eq.m0 == 0.0 and eq.tip == pytest.approx((0.0, 1.0), abs=1e-13)

@@ -756,8 +756,10 @@ def _cmd_info(args) -> int:
         print(f"phases:    {phases}")
         print(f"events:    {len(info.events)}")
         for e in info.events:
+            what = (f"{e['from_phase']} -> {e['to_phase']}" if "from_phase" in e
+                    else f"{e['contact']} on obstacle {e['obstacle']}")  # a scene's event
             print(
-                f"  {e['kind']:<8} {e['from_phase']} -> {e['to_phase']} at x = {e['x']:.9g} m, "
+                f"  {e['kind']:<8} {what} at x = {e['x']:.9g} m, "
                 f"y = {e['y']:.9g} m, "
                 f"yaw = {e['yaw']:.9g} rad"
             )
@@ -807,14 +809,18 @@ def _cmd_resim(args) -> int:
 def _cmd_export(args) -> int:
     def run():
         from .log_tools import export_rows
-        from .scan_io import CSV_COLUMNS, state_row
+        from .scan_io import CONTACTS_COLUMN, CSV_COLUMNS, state_row
 
         rows, sim = export_rows(args.log)
+        # a run of the scene tracker: its number of contacts too, as `vibrissa scan --scene`
+        scene = any(hasattr(state, "contacts") for _, state in rows)
         stream = sys.stdout if args.csv == "-" else open(args.csv, "w", newline="")
         try:
-            stream.write(",".join(CSV_COLUMNS + ("time",)) + "\n")
+            extra = (CONTACTS_COLUMN,) if scene else ()
+            stream.write(",".join(CSV_COLUMNS + extra + ("time",)) + "\n")
             for t, state in rows:
-                stream.write(",".join(state_row(state) + [repr(t)]) + "\n")
+                count = [str(len(state.contacts))] if scene else []
+                stream.write(",".join(state_row(state) + count + [repr(t)]) + "\n")
         finally:
             if stream is not sys.stdout:
                 stream.close()

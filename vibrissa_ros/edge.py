@@ -13,6 +13,7 @@ testable without ROS. Every node and tool converts through this module and nowhe
 * SI units: the core works in length L, force EI/L^2 and moment EI/L (elastica) or c/L and c
   (rigid model).
 * Event payloads: the JSON object of ``~/events``, encoded and decoded here only.
+* Contacts: every contact of a state in SI (``~/contacts``).
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ from dataclasses import dataclass
 from typing import Optional, Sequence, Tuple
 
 from .core.errors import VibrissaError
-from .core.state import Event, FootPose, WhiskerState
+from .core.state import FootPose, WhiskerState
 
 NS_PER_S = 1_000_000_000
 #: how far a quaternion's norm may be from 1
@@ -206,44 +207,135 @@ def wrench_to_core(yaw: float, force_x: float, force_y: float, torque_z: float,
     return wx / units.force, wy / units.force, torque_z / units.moment
 
 
+# -- contacts -------------------------------------------------------------------------------------
+#: ``~/contacts`` codes of a contact's kind (a corner on the side or at the tip is a corner)
+CONTACT_KINDS = {"side": 0, "tip": 1, "corner": 2}
+#: ``~/contacts`` codes of a contact's friction state (frictionless contacts slip)
+CONTACT_STATES = {"slip": 0, "stick": 1}
+
+
+@dataclass(frozen=True)
+class ContactRecord:
+    """
+    One contact of ``~/contacts`` in SI: where (world frame), the obstacle's force on the whisker.
+
+    ``s`` [m] is the whisker's arc length at the contact; ``kind`` and ``state`` are the codes of
+    :data:`CONTACT_KINDS` and :data:`CONTACT_STATES`; ``obstacle`` the obstacle's index (0 for the
+    one obstacle of a profile or peg).
+    """
+
+    x: float
+    y: float
+    fx: float
+    fy: float
+    s: float
+    kind: int
+    state: int
+    obstacle: int
+
+
+def contact_records(state, units: Units) -> Tuple[ContactRecord, ...]:
+    """
+    Return every contact of a state, foot to tip, in SI.
+
+    A scene state lists its contacts; a single-contact state has one (frictionless: ``slip``)
+    while in contact, side or tip by its phase.
+    """
+    contacts = getattr(state, "contacts", None)
+    L, F = units.length, units.force
+    if contacts is not None:
+        return tuple(ContactRecord(c.x * L, c.y * L, c.fx * F, c.fy * F, c.s * L,
+                                   CONTACT_KINDS[c.report_kind], CONTACT_STATES[c.state],
+                                   int(c.obstacle)) for c in contacts)
+    if state.contact is None:
+        return ()
+    kind = CONTACT_KINDS["tip" if int(state.phase) == 2 else "side"]
+    return (ContactRecord(state.contact[0] * L, state.contact[1] * L, state.fx * F,
+                          state.fy * F, state.s1 * L, kind, CONTACT_STATES["slip"], 0),)
+
+
 # -- event payloads -------------------------------------------------------------------------------
+#: the single-contact tracker's events (with the phases before and after)
 EVENT_KINDS = ("touch", "phase", "snap", "release")
+#: the scene tracker's events (README "Scenes"; with the obstacle, the contact's kind and s)
+SCENE_EVENT_KINDS = ("touch", "release", "tip", "tangential", "corner", "edge", "slip", "stick",
+                     "merge", "snap")
 
 
 @dataclass(frozen=True)
 class EventRecord:
-    """One ``~/events`` payload: what happened and the pose where it did (m, m, rad)."""
+    """
+    One ``~/events`` payload: what happened and the pose where it did (m, m, rad).
+
+    A single-contact event has ``from_phase`` and ``to_phase``; a scene event has instead
+    ``obstacle`` (its index), ``contact`` (side, corner, tip or tip_corner) and the contact's
+    arc length ``s`` [m] where known.
+    """
 
     kind: str
-    from_phase: int
-    to_phase: int
+    from_phase: Optional[int]
+    to_phase: Optional[int]
     x: float
     y: float
     yaw: float
+    obstacle: Optional[int] = None
+    contact: Optional[str] = None
+    s: Optional[float] = None
+
+    @property
+    def scene(self) -> bool:
+        return self.from_phase is None
 
 
-def event_record(event: Event, units: Units) -> EventRecord:
-    """Return the SI payload of a core event."""
-    return EventRecord(event.kind, int(event.from_phase), int(event.to_phase),
-                       event.pose.x * units.length, event.pose.y * units.length,
-                       event.pose.heading)
+def event_record(event, units: Units) -> EventRecord:
+    """Return the SI payload of a core event (a tracker's Event or a scene's SceneEvent)."""
+    x, y, yaw = event.pose.x * units.length, event.pose.y * units.length, event.pose.heading
+    if hasattr(event, "from_phase"):
+        return EventRecord(event.kind, int(event.from_phase), int(event.to_phase), x, y, yaw)
+    return EventRecord(event.kind, None, None, x, y, yaw,
+                       None if event.obstacle is None else int(event.obstacle),
+                       event.contact_kind or None,
+                       None if event.s is None else float(event.s) * units.length)
 
 
 def encode_event(record: EventRecord) -> str:
-    """Return the JSON of ``~/events``: ``{"kind", "from_phase", "to_phase", "x", "y", "yaw"}``."""
-    return json.dumps({"kind": record.kind, "from_phase": record.from_phase,
-                       "to_phase": record.to_phase, "x": record.x, "y": record.y,
-                       "yaw": record.yaw})
+    """
+    Return the JSON of ``~/events``.
+
+    ``{"kind", "from_phase", "to_phase", "x", "y", "yaw"}`` for the single-contact tracker,
+    ``{"kind", "x", "y", "yaw", "obstacle", "contact", "s"}`` for a scene (``obstacle`` and ``s``
+    only where known).
+    """
+    data = {"kind": record.kind}
+    if not record.scene:
+        data.update(from_phase=record.from_phase, to_phase=record.to_phase)
+    data.update(x=record.x, y=record.y, yaw=record.yaw)
+    if record.scene:
+        if record.obstacle is not None:
+            data["obstacle"] = record.obstacle
+        data["contact"] = record.contact or ""
+        if record.s is not None:
+            data["s"] = record.s
+    return json.dumps(data)
 
 
 def decode_event(text: str) -> EventRecord:
     """Parse an ``~/events`` payload; raises :class:`BadInput` (``bad_event``) if it is not one."""
     try:
         data = json.loads(text)
-        record = EventRecord(str(data["kind"]), int(data["from_phase"]), int(data["to_phase"]),
-                             float(data["x"]), float(data["y"]), float(data["yaw"]))
-    except (ValueError, KeyError, TypeError) as exc:
+        where = (float(data["x"]), float(data["y"]), float(data["yaw"]))
+        if "from_phase" in data:
+            record = EventRecord(str(data["kind"]), int(data["from_phase"]),
+                                 int(data["to_phase"]), *where)
+            kinds = EVENT_KINDS
+        else:
+            obstacle, s = data.get("obstacle"), data.get("s")
+            record = EventRecord(str(data["kind"]), None, None, *where,
+                                 None if obstacle is None else int(obstacle),
+                                 str(data["contact"]) or None, None if s is None else float(s))
+            kinds = SCENE_EVENT_KINDS
+    except (ValueError, KeyError, TypeError, AttributeError) as exc:
         raise BadInput("bad_event", f"not an event payload ({exc}): {text!r}") from None
-    if record.kind not in EVENT_KINDS:
-        raise BadInput("bad_event", f"event kind {record.kind!r} is not one of {EVENT_KINDS}")
+    if record.kind not in kinds:
+        raise BadInput("bad_event", f"event kind {record.kind!r} is not one of {kinds}")
     return record

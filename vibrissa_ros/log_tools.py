@@ -12,12 +12,12 @@ from __future__ import annotations
 import json
 import math
 from collections import Counter, defaultdict
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 from typing import Dict, List, Tuple
 
 from .core.errors import VibrissaError
 from .core.state import WhiskerState
-from .edge import decode_event, header_ns
+from .edge import contact_records, decode_event, encode_event, event_record, header_ns
 from .mcap_log import CONFIGURATION_METADATA, LogError, LogMessage, read_log
 from .node_config import build_config
 from .pipeline import PosePipeline, drop_reason
@@ -54,7 +54,7 @@ class LogInfo:
     end_ns: int
     configurations: List[Tuple[int, Dict[str, object]]]
     phases: Dict[int, int]
-    events: List[dict]  # the fields of an EventRecord
+    events: List[dict]  # the fields of each ~/events payload
 
     @property
     def duration(self) -> float:
@@ -74,7 +74,8 @@ def log_info(path: str) -> LogInfo:
         if m.topic.endswith("/phase"):
             phases[decode(m).data] += 1
         elif m.topic.endswith("/events"):
-            events.append(asdict(decode_event(decode(m).data)))
+            # the payload's fields (a scene's event has no phases, a profile's no obstacle)
+            events.append(json.loads(encode_event(decode_event(decode(m).data))))
     times = [m.log_time for m in messages] or [0]
     return LogInfo(
         topics={t: (types.get(t, ""), counts.get(t, 0)) for t in sorted(types)},
@@ -117,12 +118,35 @@ def _relative(a: float, b: float) -> float:
     return abs(a - b) / max(abs(a), abs(b))
 
 
+#: the compared values of one contact of ``~/contacts`` (one point of its cloud)
+CONTACT_VALUES = ("x", "y", "fx", "fy", "s", "kind", "state", "obstacle")
+#: the compared values of one event of ``~/events`` (None where an event kind has none)
+EVENT_VALUES = ("kind", "from_phase", "to_phase", "x", "y", "obstacle", "contact", "s")
+
+
+def _contact_values(contact) -> tuple:
+    return tuple(getattr(contact, name) for name in CONTACT_VALUES)
+
+
+def _event_values(record) -> tuple:
+    return tuple(getattr(record, name) for name in EVENT_VALUES)
+
+
+def decode_contacts(cloud):
+    """Return the contacts of a logged ``~/contacts`` cloud (needs ROS 2's message packages)."""
+    from .ros.messages import decode_contacts as decode_cloud
+
+    return decode_cloud(cloud)
+
+
 def resimulate(path: str) -> Resimulation:
     """Re-run every recorded foot pose with the recorded configuration(s), compare each field."""
-    _, _, metadata, messages = read_log(path)
+    _, channels, metadata, messages = read_log(path)
     configs = configurations(metadata)
     node = configs[0][1].get("node", "/whisker_node")
     prefix = f"{node}/"
+    # logs made before the node had ~/contacts: nothing of it to compare
+    has_contacts = any(c.topic == f"{prefix}contacts" for c in channels.values())
     recorded: Dict[str, list] = defaultdict(list)
     poses = []
     for m in messages:
@@ -138,6 +162,7 @@ def resimulate(path: str) -> Resimulation:
             "contact_force_magnitude",
             "contact_point",
             "arc_length",
+            "contacts",
             "events",
         ):
             recorded[key].append(decode(m))
@@ -162,7 +187,7 @@ def resimulate(path: str) -> Resimulation:
         result.events.extend(events)
         result.event_steps.extend([len(result.states) - 1] * len(events))
         r, sensed = pipeline.reading(state)
-        L = pipeline.config.units.length
+        units = pipeline.config.units
         expected["wrench"].append((stamp, sensed))
         expected["phase"].append((None, (float(r.phase),)))
         expected["contact_force"].append((stamp, r.force_world))
@@ -170,10 +195,10 @@ def resimulate(path: str) -> Resimulation:
         if r.contact_world is not None:
             expected["contact_point"].append((stamp, r.contact_world))
             expected["arc_length"].append((None, (r.s1,)))
+        for c in contact_records(state, units):
+            expected["contacts"].append((stamp, _contact_values(c)))
         for e in events:
-            expected["events"].append(
-                (None, (e.kind, int(e.from_phase), int(e.to_phase), e.pose.x * L, e.pose.y * L))
-            )
+            expected["events"].append((None, _event_values(event_record(e, units))))
     got = {
         "wrench": [
             (header_ns(w), (w.wrench.force.x, w.wrench.force.y, w.wrench.torque.z))
@@ -190,11 +215,10 @@ def resimulate(path: str) -> Resimulation:
             (header_ns(v), (v.point.x, v.point.y)) for v in recorded["contact_point"]
         ],
         "arc_length": [(None, (x.data,)) for x in recorded["arc_length"]],
-        "events": [],
+        "contacts": [(header_ns(cloud), _contact_values(c)) for cloud in recorded["contacts"]
+                     for c in decode_contacts(cloud)],
+        "events": [(None, _event_values(decode_event(e.data))) for e in recorded["events"]],
     }
-    for e in recorded["events"]:
-        d = decode_event(e.data)
-        got["events"].append((None, (d.kind, d.from_phase, d.to_phase, d.x, d.y)))
     names = {
         "wrench": ("force.x", "force.y", "torque.z"),
         "phase": ("data",),
@@ -202,8 +226,11 @@ def resimulate(path: str) -> Resimulation:
         "contact_force_magnitude": ("data",),
         "contact_point": ("x", "y"),
         "arc_length": ("data",),
-        "events": ("kind", "from_phase", "to_phase", "x", "y"),
+        "contacts": CONTACT_VALUES,
+        "events": EVENT_VALUES,
     }
+    if not has_contacts:
+        del names["contacts"]
     for topic, fields in names.items():
         want, have = expected[topic], got[topic]
         if len(want) != len(have):
@@ -218,7 +245,7 @@ def resimulate(path: str) -> Resimulation:
                 key = f"{topic}.{name}"
                 dev = (
                     _relative(float(a), float(b))
-                    if not isinstance(a, str)
+                    if isinstance(a, (int, float)) and isinstance(b, (int, float))
                     else (0.0 if a == b else math.inf)
                 )
                 result.deviations[key] = max(result.deviations.get(key, 0.0), dev)

@@ -8,13 +8,15 @@ machinery (types, ranges, reasons) is :mod:`vibrissa_ros.parameters`, shared by 
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass
-from typing import Any, Dict, Mapping, Tuple
+from typing import Any, Dict, Mapping, Optional, Tuple
 
 from .core.errors import ParameterError
 from .core.general import GeneralWhiskerModel, WhiskerShape
 from .core.models import make_model
 from .core.profiles import ConvexProfile, Peg, make_profile
+from .core.scene import Scene
 from .edge import NS_PER_S, Units
 from .parameters import ParameterSpec, nonnegative, positive, validate
 
@@ -28,6 +30,11 @@ SHAPE_PARAMETERS = {
     "ellipse": (("a", "obstacle.a"), ("b", "obstacle.b")),
     "peg": (("r", "obstacle.peg_radius"),),
 }
+#: obstacle.type of a scene file (several obstacles, friction: README "Scenes in the node")
+SCENE = "scene"
+#: the key under which a recorded configuration carries the scene file's text (not a parameter:
+#: ``vibrissa resim`` rebuilds the scene from it, whatever became of the file)
+SCENE_TEXT = "obstacle.scene_text"
 #: relative tolerance between whisker.bending_stiffness and E pi r^4 / 4 when a file gives both
 EI_TOLERANCE = 1e-6
 
@@ -89,9 +96,17 @@ PARAMETERS: Tuple[ParameterSpec, ...] = (
             "obstacle.type",
             "parabola",
             "obstacle profile: parabola, catenary, circle, two_circles or ellipse (they open "
-            "towards world +y, lowest point at apex_x, apex_y), or peg (a pole: a disk at "
-            "peg_x, peg_y of radius peg_radius)",
-            choices=tuple(SHAPE_PARAMETERS),
+            "towards world +y, lowest point at apex_x, apex_y), peg (a pole: a disk at "
+            "peg_x, peg_y of radius peg_radius), or scene (the obstacles and friction of "
+            "obstacle.scene_file)",
+            choices=tuple(SHAPE_PARAMETERS) + (SCENE,),
+        ),
+        ParameterSpec(
+            "obstacle.scene_file",
+            "",
+            "scene: a scene YAML file (README 'Scenes') with lengths in metres; a relative path "
+            "is taken from the working directory, package://<package>/<path> from the "
+            "package's share folder",
         ),
         positive("obstacle.k", 10.0, "parabola: y = apex_y + k (x - apex_x)^2 / 2", "1/m"),
         positive("obstacle.c", 0.06, "catenary: y = apex_y + c (cosh((x - apex_x)/c) - 1)", "m"),
@@ -214,9 +229,34 @@ class WhiskerConfig:
     """A validated configuration of whisker_node and the core objects it builds (dimensionless)."""
 
     values: Mapping[str, Any]
-    profile: ConvexProfile
+    profile: Optional[ConvexProfile]
     model: Any
     units: Units
+    #: obstacle.type = scene: the scene (whisker lengths), its file's text, its friction
+    #: coefficients (one per obstacle) and the whisker's shape for the scene tracker
+    scene: Optional[Scene] = None
+    scene_text: str = ""
+    friction: Tuple[float, ...] = ()
+    shape: WhiskerShape = WhiskerShape()
+
+    @property
+    def multi_contact(self) -> bool:
+        """
+        Whether the scene tracker runs (several obstacles, or friction).
+
+        A scene of one profile or peg without friction is the single-contact problem: its
+        :attr:`profile` is set and the single-contact tracker runs, as ``vibrissa scan --scene``
+        does.
+        """
+        return self.scene is not None and self.profile is None
+
+    @property
+    def record_values(self) -> Dict[str, Any]:
+        """Return the parameter values as a log records them (a scene's text included)."""
+        values = dict(self.values)
+        if self.scene is not None:
+            values[SCENE_TEXT] = self.scene_text
+        return values
 
     @property
     def world_frame(self) -> str:
@@ -240,22 +280,30 @@ class WhiskerConfig:
     def describe(self) -> str:
         """One line: model, length, obstacle and where its apex is."""
         v = self.values
+        if self.scene is not None:
+            return self._describe_whisker() + (
+                f", obstacle.scene_file {v['obstacle.scene_file']!r}: "
+                f"{self.scene.describe()} (lengths in L) in '{v['world_frame']}'")
         shape = ", ".join(f"{node}={v[node]!r} {SPECS[node].unit}"
                           for _, node in SHAPE_PARAMETERS[v["obstacle.type"]])
         if v["obstacle.type"] == "peg":
             where = f"centred at ({v['obstacle.peg_x']!r}, {v['obstacle.peg_y']!r}) m"
         else:
             where = f"with apex at ({v['obstacle.apex_x']!r}, {v['obstacle.apex_y']!r}) m"
+        return (
+            f"{self._describe_whisker()}, obstacle "
+            f"{v['obstacle.type']} ({shape}) {where} in '{v['world_frame']}'"
+        )
+
+    def _describe_whisker(self) -> str:
+        v = self.values
         whisker = ""
         ei = self.units.moment * self.units.length
         if v["model"] != "rigid":
+            solver = "scene tracker" if self.multi_contact else self.model.name
             whisker = (f", taper={v['whisker.taper']!r}, k0={v['whisker.curvature_k0']!r} 1/m, "
-                       f"k1={v['whisker.curvature_k1']!r} 1/m^2, EI={ei!r} N m^2 "
-                       f"({self.model.name})")
-        return (
-            f"{v['model']} whisker L={v['whisker.length']!r} m{whisker}, obstacle "
-            f"{v['obstacle.type']} ({shape}) {where} in '{v['world_frame']}'"
-        )
+                       f"k1={v['whisker.curvature_k1']!r} 1/m^2, EI={ei!r} N m^2 ({solver})")
+        return f"{v['model']} whisker L={v['whisker.length']!r} m{whisker}"
 
 
 def build_config(values: Mapping[str, Any]) -> WhiskerConfig:
@@ -266,8 +314,11 @@ def build_config(values: Mapping[str, Any]) -> WhiskerConfig:
     ``node``, ``resets``) are ignored. Raises :class:`ParameterError` naming the parameter, its
     value and what is allowed.
     """
+    recorded_scene = values.get(SCENE_TEXT)
     values = validate(PARAMETERS, values)
     length = values["whisker.length"]
+    if values["obstacle.type"] == SCENE:
+        return _scene_config(values, recorded_scene)
     if values["obstacle.type"] == "peg":
         profile = Peg(values["obstacle.peg_x"] / length, values["obstacle.peg_y"] / length,
                       values["obstacle.peg_radius"] / length, scan_checks=False)
@@ -295,7 +346,99 @@ def build_config(values: Mapping[str, Any]) -> WhiskerConfig:
                                  "covers the paper's convex profiles only)")
         units = Units.rigid(length, values["rigid.spring_stiffness"])
         model = make_model(values["model"])
-    return WhiskerConfig(values, profile, model, units)
+    return WhiskerConfig(values, profile, model, units, shape=shape)
+
+
+def resolve_scene_file(path: str) -> str:
+    """
+    Return the file ``obstacle.scene_file`` names.
+
+    ``package://<package>/<path>``: in the package's share folder (the ament index, as after
+    sourcing a workspace); ``~`` is expanded; a relative path is taken from the working directory.
+    Raises :class:`ParameterError` with the reason.
+    """
+    if not path.strip():
+        raise ParameterError("obstacle.type = 'scene' needs obstacle.scene_file: the path of a "
+                             "scene YAML file with lengths in metres")
+    if path.startswith("package://"):
+        package, _, rest = path[len("package://"):].partition("/")
+        if not package or not rest:
+            raise ParameterError(f"obstacle.scene_file = {path!r}: a package path is "
+                                 "package://<package>/<path in its share folder>")
+        try:
+            from ament_index_python.packages import (
+                PackageNotFoundError,
+                get_package_share_directory,
+            )
+        except ImportError as exc:  # pragma: no cover - a dependency of the package
+            raise ParameterError(f"obstacle.scene_file = {path!r}: package paths need "
+                                 f"ament_index_python ({exc})") from None
+        try:
+            share = get_package_share_directory(package)
+        except (PackageNotFoundError, LookupError, ValueError, OSError) as exc:
+            share = _own_share(package)
+            if share is None:
+                raise ParameterError(f"obstacle.scene_file = {path!r}: package {package!r} is "
+                                     f"not in the ament index ({exc}); source its workspace or "
+                                     "give a file path") from None
+        return os.path.join(share, rest)
+    return os.path.abspath(os.path.expanduser(path))
+
+
+def _own_share(package: str) -> Optional[str]:
+    """
+    Return this package's share folder without the ament index, or None.
+
+    A pip install puts it under the environment's prefix; a source checkout (editable install)
+    has the same layout (config/, launch/, package.xml) at its root.
+    """
+    if package != "vibrissa_ros":
+        return None
+    import sys
+
+    checkout = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    for folder in (os.path.join(sys.prefix, "share", package), checkout):
+        if os.path.isfile(os.path.join(folder, "package.xml")):
+            return folder
+    return None
+
+
+def _scene_config(values: Dict[str, Any], recorded: Optional[str]) -> WhiskerConfig:
+    """Build the configuration of obstacle.type = scene (``recorded``: a log's scene text)."""
+    from .scene_file import load_scene
+
+    name = values["obstacle.scene_file"]
+    if values["model"] != "elastica":
+        raise ParameterError("obstacle.type = 'scene' needs model 'elastica' (the rigid model has "
+                             "one obstacle and one contact)")
+    if isinstance(recorded, str):
+        text = recorded
+    else:
+        path = resolve_scene_file(name)
+        try:
+            with open(path, encoding="utf-8") as stream:
+                text = stream.read()
+        except (OSError, UnicodeDecodeError) as exc:
+            reason = getattr(exc, "strerror", None) or str(exc)
+            raise ParameterError(f"obstacle.scene_file = {name!r}: cannot read {path!r}: "
+                                 f"{reason}") from None
+    length = values["whisker.length"]
+    try:
+        # YAML text (a path never reaches here): the file's lines, or a log's record of them
+        scene = load_scene(text if "\n" in text else text + "\n", length_scale=length)
+    except ParameterError as exc:
+        reason = str(exc)
+        if reason.startswith("scene text: "):
+            reason = reason[len("scene text: "):]
+        raise ParameterError(f"obstacle.scene_file = {name!r}: {reason}") from None
+    shape = whisker_shape(values)
+    friction = tuple(scene.mu_of(i) for i in range(len(scene)))
+    units = Units.elastica(length, base_stiffness(values))
+    single = scene.single_profile() if not any(friction) else None
+    # one profile or peg without friction: the single-contact problem, solved as for pegs and
+    # profiles (identical numbers); otherwise the scene tracker (its model: the general one)
+    model = whisker_model(shape, single) if single is not None else GeneralWhiskerModel(shape)
+    return WhiskerConfig(values, single, model, units, scene, text, friction, shape)
 
 
 def base_stiffness(values: Mapping[str, Any]) -> float:
@@ -400,5 +543,6 @@ def build_contour_config(values: Mapping[str, Any]) -> ContourConfig:
                          whisker_shape(values))
 
 
-__all__ = ["PARAMETERS", "SPECS", "CONTOUR_PARAMETERS", "CONTOUR_SPECS", "WhiskerConfig",
+__all__ = ["PARAMETERS", "SPECS", "SCENE", "SCENE_TEXT", "resolve_scene_file",
+           "CONTOUR_PARAMETERS", "CONTOUR_SPECS", "WhiskerConfig",
            "ContourConfig", "build_config", "build_contour_config", "ParameterError"]

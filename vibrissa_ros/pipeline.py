@@ -14,6 +14,7 @@ from typing import List, Optional, Sequence, Tuple
 import numpy as np
 
 from .core.errors import ConvergenceError, InvalidPoseError, VibrissaError
+from .core.scene_tracker import SceneTracker
 from .core.state import Event, WhiskerState
 from .core.tracker import MAX_POSE_MAGNITUDE, QuasistaticTracker
 from .edge import BadInput, SensorReading, planar_pose, sensor_reading
@@ -98,6 +99,9 @@ class PosePipeline:
         """
         Check a pose and take the quasistatic step to it.
 
+        A scene with several obstacles or friction steps the
+        :class:`~vibrissa_ros.core.scene_tracker.SceneTracker` (its states and events instead).
+
         Raises :class:`BadInput` (with a ``reason``) or another :class:`VibrissaError`; the
         pipeline then keeps its state.
         """
@@ -116,7 +120,7 @@ class PosePipeline:
             raise BadInput("out_of_range", f"pose ({x!r}, {y!r}) m is farther than the model "
                            f"allows from the world origin (|x|, |y| <= {limit:g} m)")
         if self.tracker is None:
-            tracker = QuasistaticTracker(cfg.profile, pose, model=cfg.fresh_model())
+            tracker = self._place(pose)
             state, events = tracker.state, ()
         else:
             tracker = self.tracker
@@ -125,6 +129,13 @@ class PosePipeline:
         self.tracker = tracker
         self.last_stamp_ns = stamp_ns
         return state, events
+
+    def _place(self, pose):
+        """Return a new tracker with the whisker unloaded at ``pose`` (it must be free there)."""
+        cfg = self.config
+        if cfg.multi_contact:
+            return SceneTracker(list(cfg.scene), pose, shape=cfg.shape, friction=cfg.friction)
+        return QuasistaticTracker(cfg.profile, pose, model=cfg.fresh_model())
 
 
 class PoseStats:

@@ -321,12 +321,20 @@ class SceneTracker:
                 h = _H_MIN * 16
                 continue
             pose_new = path.pose(t_new)
-            new_values = self._event_values(modes, new_vec, pose_new, dpose)
+            # the slip rates' signs from the corrector's Jacobian (a crossing is then located
+            # with fresh ones)
+            lu = self._lu_cache[1] if self._lu_cache and self._lu_cache[0] == modes else None
+            new_values = self._event_values(modes, new_vec, pose_new, dpose, lu)
             crossed = [key for key, v in new_values.items()
                        if v < 0.0 and values.get(key, 1.0) >= 0.0]
             cut = self._penetration(modes, new_vec, pose_new)
             if crossed or cut is not None:
-                t_star, what = self._first_event(modes, vec, path, t, t_new, dpose, crossed, cut)
+                found = self._first_event(modes, vec, path, t, t_new, dpose, crossed, cut)
+                if found is None:  # nothing crossed after all: take the sub-step
+                    t, vec = t_new, new_vec
+                    values = self._event_values(modes, vec, pose_new, dpose)
+                    continue
+                t_star, what = found
                 vec_star = self._solve_at(modes, vec, path, t, t_star, dpose)
                 if (what[0] == "event" and what[1][0] in _SWITCHES and last_switch
                         and abs(t_star - last_switch[0]) <= 1e-12
@@ -418,14 +426,14 @@ class SceneTracker:
         raise ConvergenceError(f"no equilibrium at t = {t_target!r} on the configuration")
 
     # -- events ------------------------------------------------------------------------------
-    def _event_values(self, modes, vec, pose, dpose):
+    def _event_values(self, modes, vec, pose, dpose, lu=None):
         """Evaluate the configuration's inequalities (each >= 0 while it holds), by (name, c)."""
         out = {}
         if not modes:
             return out
         cfg = self.solver.configuration(modes, vec, pose)
         need_rate = any(m.mu > 0.0 and not m.stick and m.kind != "tip_corner" for m in modes)
-        rates = self._slip_rates(modes, vec, pose, dpose) if need_rate else None
+        rates = self._slip_rates(modes, vec, pose, dpose, lu) if need_rate else None
         prev_s = 0.0
         for c, (m, sol) in enumerate(zip(modes, cfg.contacts)):
             if m.kind == "tip_corner":
@@ -473,9 +481,9 @@ class SceneTracker:
                     out[("stick", c)] = m.slip_sign * rates[c]
         return out
 
-    def _slip_rates(self, modes, vec, pose, dpose):
+    def _slip_rates(self, modes, vec, pose, dpose, lu=None):
         """dq/dt of every contact along the path (from the tangent)."""
-        tan = self.solver.tangent(modes, vec, pose, dpose)
+        tan = self.solver.tangent(modes, vec, pose, dpose, lu=lu)
         K, offsets, _ = self.solver.layout(modes)
         out = []
         for m, o in zip(modes, offsets):
@@ -497,7 +505,9 @@ class SceneTracker:
             def g(tau, key=key):
                 v = self._solve_at(modes, vec, path, t, tau, dpose)
                 return self._event_values(modes, v, path.pose(tau), dpose).get(key, 0.0)
-            t_star = self._root(g, t, t_new)
+            t_star = self._root(g, t, t_new, strict=key[0] == "stick")
+            if t_star is None:
+                continue  # the estimated slip rate's sign was wrong: no crossing
             if best is None or t_star < best[0] - 1e-15 or (
                     abs(t_star - best[0]) <= 1e-15 and key[0] == "release"):
                 best = (t_star, ("event", key))
@@ -522,11 +532,13 @@ class SceneTracker:
                 best = (t_star, ("touch", (obstacle, s_cut)))
         return best
 
-    def _root(self, g, a, b):
+    def _root(self, g, a, b, strict=False):
         ga, gb = g(a), g(b)
         if ga == 0.0:
             return a
         if ga * gb > 0.0:
+            if strict and abs(gb) > 1e-12:
+                return None
             # the crossing is at the end of the interval within rounding
             return b
         return brentq(g, a, b, xtol=_EVENT_XTOL, rtol=4 * np.finfo(float).eps, maxiter=200)

@@ -14,12 +14,13 @@ import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import Point, PointStamped, PoseStamped, Vector3Stamped, WrenchStamped
 from nav_msgs.msg import Path
+from sensor_msgs.msg import PointCloud2, PointField
 from std_msgs.msg import ColorRGBA, Float64, String, UInt8
 from visualization_msgs.msg import Marker, MarkerArray
 
 from ..core.errors import VibrissaError
 from ..core.profiles import Peg
-from ..edge import EventRecord, encode_event, set_stamp, yaw_quaternion
+from ..edge import ContactRecord, EventRecord, encode_event, set_stamp, yaw_quaternion
 
 OBSTACLE_COLOR = (0.85, 0.35, 0.1, 1.0)
 PHASE_COLORS = {1: (0.12, 0.47, 0.71), 2: (0.84, 0.15, 0.16)}
@@ -177,6 +178,111 @@ def scene_markers(scene, length: float, frame: str, stamp,
         dots.points.append(Point(x=float(x * length), y=float(y * length)))
     array.markers.append(dots)
     return array
+
+
+def profile_markers(profile, length: float, frame: str, stamp) -> MarkerArray:
+    """Return a single obstacle as ``~/obstacles`` carries it: a DELETEALL, then its strip."""
+    array = MarkerArray()
+    clear = Marker()
+    clear.header.frame_id, clear.header.stamp = frame, stamp
+    clear.ns, clear.id, clear.action = "scene", 0, Marker.DELETEALL
+    array.markers.append(clear)
+    marker = obstacle_marker(profile, length, frame, stamp)
+    marker.ns, marker.id = "scene", 1
+    array.markers.append(marker)
+    return array
+
+
+def outline_marker(array: MarkerArray) -> Marker:
+    """
+    Return every LINE_STRIP of a MarkerArray as one LINE_LIST (``~/obstacle`` of a scene).
+
+    Each strip's consecutive points become segments; frame, stamp, width and colour are the
+    first strip's.
+    """
+    strips = [mk for mk in array.markers
+              if mk.action == Marker.ADD and mk.type == Marker.LINE_STRIP]
+    marker = Marker()
+    if strips:
+        first = strips[0]
+        marker.header = first.header
+        marker.scale.x = first.scale.x
+        marker.color = first.color
+    marker.ns, marker.id = "obstacle", 0
+    marker.type, marker.action = Marker.LINE_LIST, Marker.ADD
+    marker.pose.orientation.w = 1.0
+    for strip in strips:
+        points = list(strip.points)
+        for a, b in zip(points[:-1], points[1:]):
+            marker.points.extend((a, b))
+    return marker
+
+
+#: the fields of one ``~/contacts`` point: name, PointField datatype, numpy type, offset
+CONTACT_FIELDS = (
+    ("x", PointField.FLOAT64, "<f8", 0), ("y", PointField.FLOAT64, "<f8", 8),
+    ("z", PointField.FLOAT64, "<f8", 16), ("fx", PointField.FLOAT64, "<f8", 24),
+    ("fy", PointField.FLOAT64, "<f8", 32), ("s", PointField.FLOAT64, "<f8", 40),
+    ("kind", PointField.UINT8, "u1", 48), ("state", PointField.UINT8, "u1", 49),
+    ("obstacle", PointField.UINT32, "<u4", 52),
+)
+CONTACT_POINT_STEP = 56
+CONTACT_DTYPE = np.dtype({"names": [f[0] for f in CONTACT_FIELDS],
+                          "formats": [f[2] for f in CONTACT_FIELDS],
+                          "offsets": [f[3] for f in CONTACT_FIELDS],
+                          "itemsize": CONTACT_POINT_STEP})
+
+
+def contacts_cloud(stamp, frame: str, contacts: Sequence[ContactRecord]) -> PointCloud2:
+    """
+    Return every contact of a pose as a PointCloud2 (one point per contact, foot to tip).
+
+    Fields (little-endian; float64 so that nothing is lost to rounding): x, y, z [m] (z = 0),
+    fx, fy [N] (the obstacle's force on the whisker, world frame), s [m] (arc length), kind
+    (uint8: 0 side, 1 tip, 2 corner), state (uint8: 0 slip, 1 stick), obstacle (uint32, its
+    index). No contact: an empty cloud (width 0).
+    """
+    points = np.zeros(len(contacts), dtype=CONTACT_DTYPE)
+    for i, c in enumerate(contacts):
+        points[i] = (float(c.x), float(c.y), 0.0, float(c.fx), float(c.fy), float(c.s),
+                     int(c.kind), int(c.state), int(c.obstacle))
+    cloud = PointCloud2()
+    cloud.header.stamp, cloud.header.frame_id = stamp, frame
+    cloud.height, cloud.width = 1, len(contacts)
+    cloud.fields = [PointField(name=name, offset=offset, datatype=kind, count=1)
+                    for name, kind, _, offset in CONTACT_FIELDS]
+    cloud.is_bigendian = False
+    cloud.point_step = CONTACT_POINT_STEP
+    cloud.row_step = CONTACT_POINT_STEP * len(contacts)
+    cloud.data = points.tobytes()
+    cloud.is_dense = True
+    return cloud
+
+
+def decode_contacts(cloud) -> Tuple[ContactRecord, ...]:
+    """
+    Read the contacts back from a ``~/contacts`` cloud (by its field table, not by position).
+
+    Raises ValueError if a field is missing or the cloud is not little-endian.
+    """
+    if cloud.is_bigendian:
+        raise ValueError("a big-endian contacts cloud")
+    names, formats, offsets = [], [], []
+    types = {PointField.FLOAT64: "<f8", PointField.UINT8: "u1", PointField.UINT32: "<u4"}
+    by_name = {f.name: f for f in cloud.fields}
+    for name, _, _, _ in CONTACT_FIELDS:
+        if name not in by_name or by_name[name].datatype not in types:
+            raise ValueError(f"the contacts cloud has no field {name!r} of a known type")
+        names.append(name)
+        formats.append(types[by_name[name].datatype])
+        offsets.append(by_name[name].offset)
+    dtype = np.dtype({"names": names, "formats": formats, "offsets": offsets,
+                      "itemsize": cloud.point_step})
+    n = cloud.width * cloud.height
+    points = np.frombuffer(bytes(cloud.data), dtype=dtype, count=n)
+    return tuple(ContactRecord(float(p["x"]), float(p["y"]), float(p["fx"]), float(p["fy"]),
+                               float(p["s"]), int(p["kind"]), int(p["state"]),
+                               int(p["obstacle"])) for p in points)
 
 
 def contour_marker(points: Iterable[Tuple[float, float, int]], frame: str, stamp,

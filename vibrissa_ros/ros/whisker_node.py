@@ -3,7 +3,8 @@ ROS 2 virtual whisker: foot poses in, the follicle sensor's wrench and the conta
 
 In: ``~/foot_pose`` (geometry_msgs/PoseStamped in ``world_frame``). Out: ``~/wrench`` (base frame),
 ``~/phase``, ``~/contact_force``, ``~/contact_force_magnitude``, ``~/contact_point``,
-``~/arc_length``, ``~/events``, ``~/centerline``, ``~/obstacle`` (latched) and ``/diagnostics``;
+``~/arc_length``, ``~/contacts``, ``~/events``, ``~/centerline``, ``~/obstacle`` and
+``~/obstacles`` (latched) and ``/diagnostics``;
 the README's topic table says what each carries. Every message with a header carries the stamp
 of the pose that produced it; the wrench and events are always published, the other per-pose
 topics only while somebody subscribes (or the node records). This module only wires: checks and
@@ -21,7 +22,7 @@ from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseStamped, WrenchStamped
 from rclpy.node import Node
 
-from ..edge import event_record, header_ns
+from ..edge import contact_records, event_record, header_ns
 from ..mcap_log import LogError
 from ..node_config import PARAMETERS, WhiskerConfig, build_config
 from ..pipeline import PosePipeline, PoseStats, drop_reason
@@ -79,7 +80,7 @@ class WhiskerNode(Node):
             self._start_recording(config.values["record.path"])
         resets = self._params.resets(names)
         if self._recorder is not None:
-            self._recorder.configuration(config.values, self._now_ns(), resets)
+            self._recorder.configuration(config.record_values, self._now_ns(), resets)
         self._pipeline.reconfigure(config, resets)
         if resets:
             self.get_logger().info(
@@ -93,7 +94,7 @@ class WhiskerNode(Node):
             return
         endpoints = {**self._pub, "foot_pose": self._sub}
         try:
-            self._recorder = Recorder(path, endpoints, self.config.values,
+            self._recorder = Recorder(path, endpoints, self.config.record_values,
                                       self.get_fully_qualified_name(), self._recording_failed)
         except LogError as exc:
             self._recording_failed(str(exc))
@@ -214,6 +215,9 @@ class WhiskerNode(Node):
                        lambda: m.point_stamped(stamp, world, reading.contact_world), now,
                        listening)
             self._emit("arc_length", lambda: m.float_msg(reading.s1), now, listening)
+        self._emit("contacts",
+                   lambda: m.contacts_cloud(stamp, world, contact_records(state, cfg.units)),
+                   now, listening)
         for event in events:
             record = event_record(event, cfg.units)
             msg = m.event_msg(record)
@@ -230,10 +234,18 @@ class WhiskerNode(Node):
                        now, listening)
 
     def _publish_obstacle(self) -> None:
+        """Publish the obstacles (latched): all of them, and as one marker for ~/obstacle."""
         cfg = self.config
-        marker = m.obstacle_marker(cfg.profile, cfg.units.length, cfg.world_frame,
-                                   self.get_clock().now().to_msg())
-        self._send("obstacle", marker, self._now_ns())
+        stamp = self.get_clock().now().to_msg()
+        if cfg.scene is not None:
+            array = m.scene_markers(cfg.scene, cfg.units.length, cfg.world_frame, stamp)
+            marker = m.outline_marker(array)
+        else:
+            marker = m.obstacle_marker(cfg.profile, cfg.units.length, cfg.world_frame, stamp)
+            array = m.profile_markers(cfg.profile, cfg.units.length, cfg.world_frame, stamp)
+        now = self._now_ns()
+        self._send("obstacle", marker, now)
+        self._send("obstacles", array, now)
 
     def _publish_diagnostics(self) -> None:
         stats, recorder = self._stats, self._recorder
@@ -241,8 +253,10 @@ class WhiskerNode(Node):
             recorder = None
         state = self._pipeline.state
         phase = None if state is None else int(state.phase)
+        contacts = "" if state is None else len(contact_records(state, self.config.units))
         values = {
             "phase": "none" if phase is None else str(phase),
+            "contacts": contacts,
             **stats.values(),
             "configuration": self.config.describe(),
             "recording": recorder.path if recorder is not None else "",
