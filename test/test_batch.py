@@ -303,3 +303,77 @@ def test_a_cluster_worker_needs_no_ros():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
                          env=dict(os.environ, PYTHONPATH=str(ROOT))).stdout
     assert out.strip() == "[]"
+
+
+# scene files in a study: two pegs (peg1 with its own coefficient) and one peg, each with friction 0 and 0.3
+# (the frictionless one-peg scene is the single-contact problem), beside a peg profile; a slide and a whisk
+SCENE_STUDY = """
+whisker: {model: elastica}
+obstacles:
+  - scene: [pegs.yaml, one_peg.yaml]
+    friction: [0, 0.3]
+  - profile: peg
+    params: {x: 0.2, y: 0.6, r: 0.05}
+motion:
+  - {from: -0.15, to: 0.25, step: 0.01}
+  - whisk: {x: 0, y: 0, from_deg: 120, to_deg: 60, step_deg: 3}
+"""
+
+
+def test_a_scene_study_equals_vibrissa_scan_scene_friction_value_for_value(client, tmp_path, capsys):
+    (tmp_path / "pegs.yaml").write_text((ROOT / "config" / "scene_two_pegs.yaml").read_text())
+    (tmp_path / "one_peg.yaml").write_text("obstacles:\n  - {type: peg, x: 0.0, y: 0.45, r: 0.05}\n")
+    path = tmp_path / "study.yaml"
+    path.write_text(SCENE_STUDY)
+    from vibrissa_ros.study import load_study
+
+    sub = load_study(str(path))
+    out = tmp_path / "ds"
+    report = run_study(sub, str(out), client=client, progress=None)
+    assert report.complete and report.computed == 10 and report.failed == 0 and not report.errors
+    ds = dataset.open(str(out))
+    poses, events, tasks = ds.poses, ds.events, ds.tasks
+    assert list(tasks.scene[:8:2]) == ["pegs.yaml", "pegs.yaml", "one_peg.yaml", "one_peg.yaml"]
+    assert list(tasks.friction[:8:2]) == [0.0, 0.3, 0.0, 0.3] and tasks.scene.isna()[8] and tasks.friction.isna()[8]
+    assert list(tasks.profile) == ["scene"] * 8 + ["peg"] * 2 and list(tasks.peg_x.isna()) == [True] * 8 + [False] * 2
+    assert poses[poses.task == 0].contacts.max() == 2
+    assert set(poses[poses.task == 8].contacts) == {0, 1}  # a profile: one contact or none
+    assert list(events.columns[-3:]) == ["obstacle", "contact", "s"]
+    for task in sub.tasks:
+        args = task.scan_command().split()[1:]
+        csv_path, ev_path = tmp_path / f"{task.index}.csv", tmp_path / f"{task.index}.json"
+        args[args.index("--csv") + 1] = str(csv_path)
+        assert main(args + ["--events", str(ev_path)]) == 0, capsys.readouterr().err
+        rows = list(csv.DictReader(io.StringIO(csv_path.read_text())))
+        mine = poses[poses.task == task.index]
+        scene, whisk = task.scene is not None, task.whisk is not None
+        columns = (POSE_CSV_COLUMNS if whisk else CSV_COLUMNS) + (("contacts",) if scene else ())
+        assert list(rows[0]) == list(columns) and len(rows) == len(mine) == (21 if whisk else 41)
+        for row, (_, got) in zip(rows, mine.iterrows()):
+            for col in columns:
+                want = int(row[col]) if col in ("phase", "contacts") else _float(row[col])
+                value = got[{"x": "foot_x", "y": "foot_y"}.get(col, col)]
+                value = None if value != value else value
+                assert value == want, (task.index, col)
+        want_events = json.loads(ev_path.read_text())
+        got_events = events[events.task == task.index]
+        assert len(want_events) == len(got_events) > 0
+        for want, (_, got) in zip(want_events, got_events.iterrows()):
+            if whisk:
+                assert (got.foot_x, got.foot_y, got.heading, got.kind) == \
+                    tuple(want[k] for k in ("x", "y", "heading", "kind"))
+            else:
+                assert (got.x0, got.kind) == (want["x0"], want["kind"])
+            if scene:
+                assert got.contact == want["contact"] and got.from_phase != got.from_phase  # null
+                assert got.obstacle == want.get("obstacle") and _none(got.s) == want.get("s")
+            else:
+                assert (got.from_phase, got.to_phase) == (want["from_phase"], want["to_phase"])
+                assert _none(got.contact) is None and _none(got.s) is None and _none(got.obstacle) is None
+    # friction changes what the two pegs do; the one-peg scene without friction is the single-contact problem
+    assert not poses[poses.task == 0].fx.equals(poses[poses.task == 2].fx)
+    assert set(events[events.task == 0].kind) <= {"touch", "release", "tip", "tangential", "slip", "stick", "snap"}
+
+
+def _none(value):
+    return None if value is None or value != value else value

@@ -245,8 +245,10 @@ def test_the_whisking_example_study_is_small():
 
 def test_the_readme_shows_the_whisking_example_study():
     section = (ROOT / "README.md").read_text().split("## Studies at scale", 1)[1].split("\n## ", 1)[0]
-    shown = [parse_study(block) for block in re.findall(r"```yaml\n(.+?)```", section, re.S)]
+    # scene files are found beside the example studies
+    shown = [parse_study(block, str(ROOT / "config")) for block in re.findall(r"```yaml\n(.+?)```", section, re.S)]
     assert any(s.tasks == load_study(str(ROOT / "config" / "study_whisk.yaml")).tasks for s in shown)
+    assert any(s.tasks == load_study(str(ROOT / "config" / "study_scenes.yaml")).tasks for s in shown)
 
 
 _PARABOLA = "obstacles: [{profile: parabola, params: {p0: 0.3}}]\n"
@@ -333,3 +335,94 @@ def test_scan_whisk_takes_two_numbers(tmp_path, capsys):
         main(["scan", "--profile", "parabola", "--param", "p0=0.3", "--whisk=1.5", "--from", "90", "--to", "150",
               "--step", "1", "--csv", str(tmp_path / "x.csv")])
     assert exc.value.code == 2 and "is not X,Y" in capsys.readouterr().err
+
+
+# -- scene files as study obstacles ---------------------------------------------------------------
+
+_TWO_PEGS = (ROOT / "config" / "scene_two_pegs.yaml").read_text()
+_SLIDE = "motion: {from: -0.15, to: 0.25, step: 0.05}\n"
+BAD_SCENES = [
+    ("scene: missing file", "obstacles: [{scene: nope.yaml}]\n" + _SLIDE,
+     "obstacles[0].scene = 'nope.yaml': "),
+    ("scene: bad file", "obstacles: [{scene: bad.yaml}]\n" + _SLIDE,
+     "obstacles[0].scene = 'bad.yaml': "),
+    ("scene: overlapping obstacles", "obstacles: [{scene: overlap.yaml}]\n" + _SLIDE, "overlap"),
+    ("scene: not a path", "obstacles: [{scene: 3}]\n" + _SLIDE, "obstacles[0].scene = 3 must be a scene file's path"),
+    ("scene: empty list", "obstacles: [{scene: []}]\n" + _SLIDE, "obstacles[0].scene is an empty list"),
+    ("scene: a file twice", "obstacles: [{scene: [pegs.yaml, pegs.yaml]}]\n" + _SLIDE, "lists a file twice"),
+    ("scene: unknown key", "obstacles: [{scene: pegs.yaml, params: {p0: 0.3}}]\n" + _SLIDE,
+     "obstacles[0]: unknown key 'params'; allowed: scene, friction"),
+    ("scene: negative friction", "obstacles: [{scene: pegs.yaml, friction: [0, -0.1]}]\n" + _SLIDE,
+     "obstacles[0].friction = -0.1 must be >= 0"),
+    ("scene: friction as text", "obstacles: [{scene: pegs.yaml, friction: low}]\n" + _SLIDE,
+     "obstacles[0].friction = 'low' must be a number"),
+    ("scene: placed", "obstacles: [{scene: pegs.yaml}]\nplacement: {x: [0, 0.1]}\n" + _SLIDE,
+     "a scene file (pegs.yaml) places its own obstacles"),
+    ("scene: rigid model", "whisker: {model: [elastica, rigid]}\nobstacles: [{scene: pegs.yaml}]\n" + _SLIDE,
+     "whisker.model 'rigid' cannot scan a scene file"),
+]
+
+
+@pytest.mark.parametrize("case", BAD_SCENES, ids=[c[0] for c in BAD_SCENES])
+def test_a_bad_scene_entry_is_refused_with_one_line_before_anything_runs(case, tmp_path, capsys):
+    _, text, expected = case
+    (tmp_path / "pegs.yaml").write_text(_TWO_PEGS)
+    (tmp_path / "bad.yaml").write_text("obstacles:\n  - {type: peg, x: 0, y: 0.5, r: -1}\n")
+    (tmp_path / "overlap.yaml").write_text("obstacles:\n  - {type: peg, x: 0, y: 0.5, r: 0.1}\n"
+                                           "  - {type: peg, x: 0.05, y: 0.5, r: 0.1}\n")
+    path = tmp_path / "study.yaml"
+    path.write_text(text)
+    with pytest.raises(StudyError) as err:
+        load_study(str(path))
+    assert expected in str(err.value)
+    out = tmp_path / "out"
+    assert main(["batch", str(path), "--out", str(out)]) == 2
+    stderr = capsys.readouterr().err
+    assert len(stderr.strip().splitlines()) == 1 and expected in stderr
+    assert not out.exists()
+
+
+def test_scene_files_are_a_grid_axis_with_friction_found_beside_the_study(tmp_path):
+    (tmp_path / "scenes").mkdir()
+    (tmp_path / "scenes" / "pegs.yaml").write_text(_TWO_PEGS)
+    (tmp_path / "scenes" / "one.yaml").write_text("friction: 0.2\nobstacles:\n  - {type: peg, x: 0, y: 0.5, r: 0.05}\n")
+    path = tmp_path / "study.yaml"
+    path.write_text("whisker: {taper: [1, 0.5]}\nobstacles:\n  - {scene: [scenes/pegs.yaml, scenes/one.yaml],"
+                    " friction: [0, 0.3]}\n  - {scene: scenes/one.yaml}\n  - {profile: parabola, params: {p0: 0.3}}\n"
+                    + _SLIDE)
+    study = load_study(str(path))
+    assert study.has_scenes and len(study.tasks) == 2 * (4 + 1 + 1)
+    scenes = [(t.scene.file, t.scene.friction, t.taper) for t in study.tasks if t.scene is not None]
+    assert scenes[:5] == [("scenes/pegs.yaml", 0.0, 1.0), ("scenes/pegs.yaml", 0.3, 1.0), ("scenes/one.yaml", 0.0, 1.0),
+                          ("scenes/one.yaml", 0.3, 1.0), ("scenes/one.yaml", 0.2, 1.0)]  # the file's own coefficient
+    task = study.tasks[1]
+    assert task.profile == "scene" and task.params == () and task.model == "elastica"
+    assert task.scan_command().split()[:5] == ["vibrissa", "scan", "--scene", str(tmp_path / "scenes" / "pegs.yaml"),
+                                               "--friction=0.3"]
+    # a scene file's text is part of the study: edited, it is another study (no resume into old results)
+    (tmp_path / "scenes" / "one.yaml").write_text("friction: 0.1\nobstacles:\n  - {type: peg, x: 0, y: 0.5, r: 0.05}\n")
+    assert load_study(str(path)).digest != study.digest
+    assert parse_study(path.read_text(), read_scenes=False).tasks[4].scene.friction is None
+
+
+def test_a_study_without_scenes_keeps_its_columns_and_digest():
+    """Datasets written before scenes were study obstacles still resume: same digest, same columns."""
+    from vibrissa_ros.dataset import manifest
+
+    found = manifest(parse_study(_PARABOLA + "motion: {from: 1, to: -1, step: 0.1}\n"))
+    assert found["study_sha256"] == "0d38f7089440e00fa4f1173b5e8b7489a2ad1cd12132f748ed9af516c33765d5"
+    params = ["model", "spring_stiffness", "taper", "curvature_k0", "curvature_k1", "profile", "p0", "k", "x", "y",
+              "rotation_deg", "sweep_from", "sweep_to", "sweep_step", "back"]
+    assert found["tables"] == {
+        "tasks": ["task"] + params + ["command"],
+        "poses": ["task", "step", "x0", "phase", "alpha", "s1", "tip_slope", "f", "fx", "fy", "m0", "contact_x",
+                  "contact_y"] + params,
+        "events": ["task", "step", "x0", "kind", "from_phase", "to_phase"],
+        "failures": ["task", "error", "reason"] + params,
+    }
+
+
+def test_the_scene_example_study_is_a_few_dozen_tasks():
+    study = load_study(str(ROOT / "config" / "study_scenes.yaml"))
+    assert 20 <= len(study.tasks) <= 60 and study.has_scenes
+    assert {t.scene.friction for t in study.tasks} == {0.0, 0.1, 0.3}

@@ -12,8 +12,7 @@ from typing import Dict, List, Optional
 from .core.errors import VibrissaError
 from .core.models import MODELS, make_model
 from .core.profiles import PROFILE_PARAMETERS, make_profile
-from .core.general import GeneralWhiskerModel, WhiskerShape
-from .core.profiles import Peg
+from .core.general import WhiskerShape
 from .core.scan import run_poses, run_scan, scan_grid, whisk_poses
 from .parameters import ParameterSpec
 from .scan_io import read_poses_csv, write_events_json, write_scan_csv
@@ -116,6 +115,11 @@ def build_parser() -> argparse.ArgumentParser:
         "--scene", metavar="SCENE.yaml",
         help="several obstacles (pegs, polygons, curves, profiles) and friction from a scene "
         "file, lengths in L (README: Scenes); instead of --profile/--param/--place",
+    )
+    scan.add_argument(
+        "--friction", type=_nonnegative, metavar="MU",
+        help="with --scene: the scene's global Coulomb coefficient instead of the file's "
+        "(obstacles with their own coefficient keep it)",
     )
     scan.add_argument(
         "--contacts", metavar="C.jsonl",
@@ -503,18 +507,11 @@ def _scan_path(args):
 
 def _elastica_model(args, profile):
     """The exact elastica or the general solver, by --solver, --taper and --curvature."""
+    from .scene_scan import elastica_model
+
     k0, k1 = args.curvature or (0.0, 0.0)
     shape = WhiskerShape(1.0 if args.taper is None else args.taper, k0, k1)
-    exact_ok = shape.is_paper and not isinstance(profile, Peg)
-    if args.solver == "exact" and not exact_ok:
-        why = "a peg" if isinstance(profile, Peg) else "a tapered or curved whisker"
-        raise VibrissaError(
-            f"--solver exact: the closed forms cover a uniform straight whisker (taper 1, curvature 0) "
-            f"against a convex profile, not {why}; use --solver numeric or auto"
-        )
-    if args.solver == "exact" or (args.solver == "auto" and exact_ok):
-        return make_model("elastica")
-    return GeneralWhiskerModel(shape)
+    return elastica_model(shape, args.solver, profile)
 
 
 def _cmd_scan(args) -> int:
@@ -525,6 +522,8 @@ def _cmd_scan(args) -> int:
             raise VibrissaError("give --profile (with --param) or --scene SCENE.yaml")
         if args.contacts is not None:
             raise VibrissaError("--contacts applies to --scene")
+        if args.friction is not None:
+            raise VibrissaError("--friction applies to --scene (a profile alone is frictionless)")
         from .study import place_obstacle
 
         profile = place_obstacle(make_profile(args.profile, _params(args.param)), *args.place)
@@ -606,8 +605,8 @@ def _cmd_scan(args) -> int:
 
 def _cmd_scan_scene(args) -> int:
     """``vibrissa scan --scene``: several obstacles, several contacts, friction."""
-    from .core.scan import run_scene
     from .scene_file import load_scene
+    from .scene_scan import plan_scene_scan
 
     try:
         if args.profile is not None or args.param or args.place != (0.0, 0.0, 0.0):
@@ -619,31 +618,15 @@ def _cmd_scan_scene(args) -> int:
         grid, poses = _scan_path(args)
         k0, k1 = args.curvature or (0.0, 0.0)
         shape = WhiskerShape(1.0 if args.taper is None else args.taper, k0, k1)
-        friction = [scene.mu_of(i) for i in range(len(scene))]
-        single = scene.single_profile() if not any(friction) else None
-        if single is not None:
-            # one convex profile or peg without friction: the single-contact problem itself,
-            # solved exactly as --profile would (identical numbers)
-            model = _elastica_model(args, single)
-        elif args.solver == "exact":
-            raise VibrissaError(
-                "--solver exact: the closed forms cover one convex profile without friction; this "
-                "scene needs --solver numeric or auto")
-        path = poses if poses is not None else [float(x) for x in grid]
-        scene.check_foot(*_first_foot(path))
+        plan = plan_scene_scan(scene, grid, poses, shape, args.solver, args.friction)
+        friction = plan.friction
     except VibrissaError as exc:
         print(f"vibrissa scan: error: {exc}", file=sys.stderr)
         return 2
     by_pose = poses is not None
     try:
-        if single is not None:
-            result = (run_scan(single, grid, model=model) if poses is None
-                      else run_poses(single, poses, model=model))
-            states = [_as_scene_state(s) for s in result.states]
-            events = [_as_scene_event(e) for e in result.events]
-        else:
-            result = run_scene(list(scene), path, shape=shape, friction=friction)
-            states, events = list(result.states), list(result.events)
+        result = plan.run()
+        states, events = list(result.states), list(result.events)
     except VibrissaError as exc:
         print(f"vibrissa scan: error: {exc}", file=sys.stderr)
         return 2 if isinstance(exc, ValueError) else 1
@@ -675,46 +658,6 @@ def _cmd_scan_scene(args) -> int:
                                      {p.x for p in poses}) == 1 else "x0")
         figure.save(args.plot, small=args.small_png)
     return 0
-
-
-def _first_foot(path):
-    first = path[0]
-    return (first.x, first.y) if hasattr(first, "x") else (float(first), 0.0)
-
-
-def _as_scene_state(state):
-    """A single-contact state as a scene state (its one contact, frictionless)."""
-    from .core.scene_tracker import SceneContact
-
-    contacts = ()
-    if int(state.phase) != 0:
-        kind = "tip" if int(state.phase) == 2 else "side"
-        contacts = (SceneContact(0, kind, float(state.s1), float(state.contact[0]),
-                                 float(state.contact[1]), float(state.fx), float(state.fy),
-                                 float(state.f), 0.0, "slip"),)
-    return _SingleSceneState(state, contacts)
-
-
-class _SingleSceneState:
-    """A single-contact WhiskerState seen through the scene contract (adds ``contacts``)."""
-
-    def __init__(self, state, contacts):
-        self._state = state
-        self.contacts = contacts
-
-    def __getattr__(self, name):
-        return getattr(self._state, name)
-
-
-def _as_scene_event(event):
-    from .core.scene_tracker import SceneEvent
-
-    kind = {"touch": "touch", "release": "release", "snap": "snap"}.get(event.kind, "phase")
-    if event.kind == "phase":
-        kind = "tip" if int(event.to_phase) == 2 else "tangential"
-    contact = "tip" if int(event.from_phase if event.kind != "touch" else event.to_phase) == 2 \
-        else "side"
-    return SceneEvent(kind, event.pose, 0, contact, None)
 
 
 def _cmd_sweep(args) -> int:

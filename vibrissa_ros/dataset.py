@@ -18,6 +18,18 @@ a slide's rows: x0, 0, pi/2), after ``step`` in poses and events, and the motion
 ``whisk_step_deg`` (null for a slide, as ``sweep_*`` are for a whisk) to the parameters.
     DIR/failures/task-*.parquet  one row per failed task: task, error (class), reason, parameters
 
+A study with scene files (``vibrissa scan --scene``) adds the parameters ``scene`` (the file as the
+study gives it) and ``friction`` (the scene's global Coulomb coefficient of the task; obstacles
+with their own coefficient keep theirs), both null for a profile task, whose ``profile`` is then
+the profile's name (a scene task's is ``scene``); the poses' ``contacts`` (how many contacts hold
+the whisker, after contact_y: the scan CSV's last column); and the events' ``obstacle`` (index in
+the scene file), ``contact`` (side, tip or corner) and ``s`` (the contact's arc length, null when
+not located), after to_phase. A scene task's events have the scene kinds (touch, release, tip,
+tangential, corner, edge, slip, stick, merge, snap; README "Scenes") and null from_phase and
+to_phase (several contacts have no one phase: the poses' ``phase`` is the contact nearest the
+foot's); a profile task's keep their kinds and phases. A study without scene files has none of
+these columns (its datasets are unchanged).
+
 A task is done when its ``poses`` (or ``failures``) file exists. Every file is written to a
 temporary name and renamed, events before poses, so a killed run leaves only whole files and a task
 is either done with all its rows or not done at all.
@@ -71,10 +83,16 @@ class Layout:
     param_names: Tuple[str, ...]
     noise: bool
     whisking: bool = False
+    scenes: bool = False
 
     @classmethod
     def of(cls, study: Study) -> "Layout":
-        return cls(tuple(study.param_names), bool(study.has_noise), bool(study.has_whisking))
+        return cls(
+            tuple(study.param_names),
+            bool(study.has_noise),
+            bool(study.has_whisking),
+            bool(study.has_scenes),
+        )
 
     @property
     def schemas(self) -> Dict[str, pa.Schema]:
@@ -95,6 +113,8 @@ def parameter_fields(layout: Layout) -> List[pa.Field]:
         pa.field("curvature_k1", pa.float64(), nullable=False),
         pa.field("profile", pa.string(), nullable=False),
     ]
+    if layout.scenes:
+        fields += [pa.field("scene", pa.string()), pa.field("friction", pa.float64())]
     fields += [pa.field(name, pa.float64()) for name in layout.param_names]
     fields += [pa.field(k, pa.float64(), nullable=False) for k in ("x", "y", "rotation_deg")]
     if layout.whisking:
@@ -133,6 +153,17 @@ def _schemas(layout: Layout) -> Dict[str, pa.Schema]:
     pose = (
         [pa.field(k, pa.float64(), nullable=False) for k in POSE_FIELDS] if layout.whisking else []
     )
+    if layout.scenes:
+        contract.append(pa.field("contacts", pa.int32(), nullable=False))
+    scene_events = (
+        [
+            pa.field("obstacle", pa.int32()),
+            pa.field("contact", pa.string()),
+            pa.field("s", pa.float64()),
+        ]
+        if layout.scenes
+        else []
+    )
     return {
         "tasks": pa.schema([task] + params + [pa.field("command", pa.string(), nullable=False)]),
         "poses": pa.schema([task, step] + pose + contract + noisy + params),
@@ -142,9 +173,10 @@ def _schemas(layout: Layout) -> Dict[str, pa.Schema]:
             + [
                 pa.field("x0", pa.float64(), nullable=False),
                 pa.field("kind", pa.string(), nullable=False),
-                pa.field("from_phase", pa.int8(), nullable=False),
-                pa.field("to_phase", pa.int8(), nullable=False),
+                pa.field("from_phase", pa.int8(), nullable=layout.scenes),
+                pa.field("to_phase", pa.int8(), nullable=layout.scenes),
             ]
+            + scene_events
         ),
         "failures": pa.schema(
             [
@@ -168,6 +200,10 @@ def task_parameters(task: Task, layout: Layout) -> Dict[str, object]:
         "curvature_k1": task.curvature_k1,
         "profile": task.profile,
     }
+    if layout.scenes:
+        scene = task.scene
+        row["scene"] = None if scene is None else scene.file
+        row["friction"] = None if scene is None else scene.friction
     row.update({name: params.get(name) for name in layout.param_names})
     row.update(x=task.x, y=task.y, rotation_deg=task.rotation_deg)
     if layout.whisking:
@@ -258,6 +294,8 @@ def result_tables(task: Task, result: ScanResult, layout: Layout) -> TaskTables:
         "contact_x": pa.array([s.contact[0] if s.contact else None for s in states], pa.float64()),
         "contact_y": pa.array([s.contact[1] if s.contact else None for s in states], pa.float64()),
     })
+    if layout.scenes:
+        cols["contacts"] = pa.array([_contacts(s) for s in states], pa.int32())
     if task.noise is not None:
         noise = SensorNoise(
             NoiseSpec(
@@ -281,16 +319,41 @@ def result_tables(task: Task, result: ScanResult, layout: Layout) -> TaskTables:
         }
         if layout.whisking:
             ev.update(_pose_columns([e.pose for e in result.events]))
+        scene = task.scene is not None
         ev.update(
             {
                 "x0": pa.array([float(e.x0) for e in result.events], pa.float64()),
                 "kind": pa.array([e.kind for e in result.events], pa.string()),
-                "from_phase": pa.array([int(e.from_phase) for e in result.events], pa.int8()),
-                "to_phase": pa.array([int(e.to_phase) for e in result.events], pa.int8()),
+                "from_phase": pa.array(
+                    [None if scene else int(e.from_phase) for e in result.events], pa.int8()
+                ),
+                "to_phase": pa.array(
+                    [None if scene else int(e.to_phase) for e in result.events], pa.int8()
+                ),
             }
         )
+        if layout.scenes:
+            ev.update(
+                {
+                    "obstacle": pa.array(
+                        [e.obstacle if scene else None for e in result.events], pa.int32()
+                    ),
+                    "contact": pa.array(
+                        [e.contact_kind if scene else None for e in result.events], pa.string()
+                    ),
+                    "s": pa.array([e.s if scene else None for e in result.events], pa.float64()),
+                }
+            )
         events = pa.Table.from_pydict(ev, schema=schema["events"])
     return TaskTables(task.index, poses, events, None)
+
+
+def _contacts(state) -> int:
+    """How many contacts hold the whisker (a single-contact state: one unless it is free)."""
+    contacts = getattr(state, "contacts", None)
+    if contacts is not None:
+        return len(contacts)
+    return 0 if int(state.phase) == 0 else 1
 
 
 def _pose_columns(poses) -> Dict[str, pa.Array]:
@@ -516,7 +579,7 @@ class StudyDataset:
         """Return the tables' schemas, built from the stored study."""
         from .study import parse_study
 
-        return schemas(parse_study(self.study_text))
+        return schemas(parse_study(self.study_text, read_scenes=False))
 
     def table(self, name: str, columns: Optional[Iterable[str]] = None) -> pa.Table:
         """One table as pyarrow, in task order (and step order within a task)."""

@@ -28,6 +28,20 @@ counter-clockwise from +x: 90 is the paper's set-up], and back with ``back`` (``
 centred at (x, y), r = 0 a point), is placed by its own parameters: a study with pegs has no
 placement (other than 0).
 
+A scene file (README "Scenes": several obstacles, friction) is an obstacle too::
+
+    obstacles:
+      - scene: scene_two_pegs.yaml    # or a list of files (a grid axis); relative to the study
+        friction: [0, 0.1, 0.3]       # optional: the scene's global Coulomb coefficient
+
+``friction`` overrides the scene's global coefficient (``vibrissa scan --friction``); an obstacle
+with its own coefficient in the file keeps it. A scene task runs what ``vibrissa scan --scene``
+runs (:mod:`vibrissa_ros.scene_scan`); the whisker block's taper and curvature apply. A scene
+places its own obstacles (no placement), and the rigid model (one contact) is refused with scenes.
+The scene files are read when the study is read: their text travels with the tasks, so workers
+need no shared file system, and it is part of the study's digest (a changed scene file is another
+study).
+
 Random draws are seeded: an obstacle's random parameters are drawn once per obstacle (so the same
 object is swept under every whisker, placement and motion), a placement's once per obstacle and
 placement sample. Each task's noise has its own seed, derived from the study's seed and the task's
@@ -40,10 +54,13 @@ left, an unreachable pose) are not study errors: they are recorded as that task'
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import itertools
 import math
-from dataclasses import dataclass
+import os
+import shlex
+from dataclasses import dataclass, field
 from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
@@ -65,6 +82,7 @@ PROFILE_PARAMETERS = dict(_ALL_PROFILE_PARAMETERS)
 TOP_KEYS = ("description", "seed", "whisker", "obstacles", "placement", "motion", "noise")
 WHISKER_KEYS = ("model", "spring_stiffness", "taper", "curvature_k0", "curvature_k1")
 OBSTACLE_KEYS = ("profile", "params", "samples")
+SCENE_KEYS = ("scene", "friction")
 PLACEMENT_KEYS = ("x", "y", "rotation_deg", "samples")
 MOTION_KEYS = ("from", "to", "step", "back", "whisk")
 WHISK_KEYS = ("x", "y", "from_deg", "to_deg", "step_deg", "back")
@@ -94,6 +112,38 @@ def param_column(profile: str, key: str) -> str:
     ``peg_r`` (the columns ``x``, ``y`` are the placement's).
     """
     return f"peg_{key}" if profile == "peg" else key
+
+
+@dataclass(frozen=True)
+class SceneRef:
+    """
+    A scene file of a study task: as given, where it was read, its text and the friction.
+
+    ``file`` is the path as the study gives it; ``path`` the file read (relative to the directory
+    ``vibrissa batch`` ran in, or absolute); ``friction`` the scene's global Coulomb coefficient
+    for this task (the study's override, else the file's).
+    """
+
+    file: str
+    path: str
+    text: str = field(repr=False)
+    friction: Optional[float] = None
+
+    def load(self):
+        """Return the :class:`~vibrissa_ros.core.scene.Scene` (parsed once per process)."""
+        return _scene_from_text(self.text, self.path)
+
+
+@functools.lru_cache(maxsize=32)
+def _scene_from_text(text: str, label: str):
+    import yaml
+
+    from .core.scene import Scene
+
+    try:
+        return Scene.from_dict(yaml.safe_load(text))
+    except ParameterError as exc:
+        raise ParameterError(f"{label}: {exc}") from None
 
 
 @dataclass(frozen=True)
@@ -162,6 +212,8 @@ class Task:
     curvature_k1: float = 0.0
     #: a whisking motion (None: the foot slides along x)
     whisk: Optional[Whisk] = None
+    #: a scene file (profile "scene", no params): ``vibrissa scan --scene``
+    scene: Optional[SceneRef] = None
 
     @property
     def motion(self) -> str:
@@ -197,6 +249,15 @@ class Task:
 
     def run(self) -> ScanResult:
         """Compute the task's scan with the functions ``vibrissa scan`` calls."""
+        if self.scene is not None:
+            from .scene_scan import plan_scene_scan
+
+            shape = WhiskerShape(self.taper, self.curvature_k0, self.curvature_k1)
+            whisk = self.whisk is not None
+            grid, poses = (None, self.foot_poses()) if whisk else (self.grid(), None)
+            return plan_scene_scan(
+                self.scene.load(), grid, poses, shape, "auto", self.scene.friction
+            ).run()
         if self.whisk is not None:
             return run_poses(self.obstacle(), self.foot_poses(), model=self.whisker_model())
         return run_scan(self.obstacle(), self.grid(), model=self.whisker_model())
@@ -223,7 +284,11 @@ class Task:
 
         The command computes them without noise.
         """
-        words = ["vibrissa", "scan", "--profile", self.profile]
+        if self.scene is not None:
+            words = ["vibrissa", "scan", "--scene", shlex.quote(self.scene.path)]
+            words += [f"--friction={self.scene.friction!r}"]
+        else:
+            words = ["vibrissa", "scan", "--profile", self.profile]
         for key, value in self.params:
             words += ["--param", f"{key}={value!r}"]
         words += ["--model", self.model]
@@ -289,6 +354,8 @@ class Study:
     has_noise: bool
     #: whether a task whisks (the dataset then has pose and whisking columns)
     has_whisking: bool = False
+    #: whether a task scans a scene file (the dataset then has scene, friction, contacts columns)
+    has_scenes: bool = False
 
     @property
     def poses(self) -> int:
@@ -300,7 +367,11 @@ class Study:
 
 
 def load_study(path: str) -> Study:
-    """Read and validate a study file; raise :class:`StudyError` (one line) if it is invalid."""
+    """
+    Read and validate a study file; raise :class:`StudyError` (one line) if it is invalid.
+
+    Scene files are found relative to the study file's directory.
+    """
     try:
         with open(path, encoding="utf-8") as stream:
             text = stream.read()
@@ -308,11 +379,17 @@ def load_study(path: str) -> Study:
         raise StudyError(f"{path}: no such file") from None
     except (OSError, UnicodeDecodeError) as exc:
         raise StudyError(f"{path}: cannot be read ({exc})") from None
-    return parse_study(text)
+    return parse_study(text, os.path.dirname(path))
 
 
-def parse_study(text: str) -> Study:
-    """Validate a study given as YAML text and expand it into its tasks."""
+def parse_study(text: str, base_dir: Optional[str] = None, read_scenes: bool = True) -> Study:
+    """
+    Validate a study given as YAML text and expand it into its tasks.
+
+    Scene files are found relative to ``base_dir`` (default: the working directory). With
+    ``read_scenes`` False they are not read (the tasks then carry no scene text): enough for the
+    dataset's columns, not to run the tasks.
+    """
     import yaml
 
     try:
@@ -329,7 +406,13 @@ def parse_study(text: str) -> Study:
     if "description" in doc and not isinstance(doc["description"], str):
         raise StudyError("description must be a string")
     whiskers = _whiskers(doc.get("whisker", {}))
-    obstacles = _obstacles(doc["obstacles"], seed)
+    obstacles = _obstacles(doc["obstacles"], seed, base_dir, read_scenes)
+    scene_at = next((i for i, ob in enumerate(obstacles) if ob[2] is not None), None)
+    if scene_at is not None and any(w[0] == "rigid" for w in whiskers):
+        raise StudyError(
+            "whisker.model 'rigid' cannot scan a scene file (obstacles with a 'scene' key): the "
+            "rigid model has one contact; scan scenes with the elastica"
+        )
     placement = _block("placement", doc.get("placement", {}), PLACEMENT_KEYS)
     motions = _motions(doc["motion"])
     noises = _noises(doc.get("noise"))
@@ -343,13 +426,19 @@ def parse_study(text: str) -> Study:
     if place_samples > 1 and not place_random:
         raise StudyError("placement.samples > 1 needs a random placement ({uniform: [lo, hi]})")
     placements = []  # per obstacle: [(x, y, rotation_deg)]
-    for ob_index, (name, params) in enumerate(obstacles):
+    for ob_index, (name, params, scene) in enumerate(obstacles):
         rows = []
         for combo_index, combo in enumerate(_grid("placement", place_axes)):
             for sample in range(place_samples):
                 rng = np.random.default_rng([seed, 2, ob_index, combo_index, sample])
                 rows.append(tuple(_draw(combo[k], rng) for k in ("x", "y", "rotation_deg")))
         placements.append(rows)
+        if scene is not None and any(row != (0.0, 0.0, 0.0) for row in rows):
+            raise StudyError(
+                "placement turns a convex profile about its apex and moves it; a scene file "
+                f"({scene.file}) places its own obstacles: scan scenes in a study without "
+                "placement (or with placement 0)"
+            )
         if name == "peg" and any(row != (0.0, 0.0, 0.0) for row in rows):
             raise StudyError(
                 f"placement turns a convex profile about its apex and moves it; obstacles"
@@ -362,7 +451,7 @@ def parse_study(text: str) -> Study:
             f"the study expands to {count:,} tasks; at most {MAX_TASKS:,} are allowed"
         )
     for model, stiffness, shape in whiskers:
-        for ob_index, (name, params) in enumerate(obstacles):
+        for ob_index, (name, params, scene) in enumerate(obstacles):
             for x, y, rot in placements[ob_index]:
                 for sweep_from, sweep_to, step, back, whisk in motions:
                     for noise in noises:
@@ -385,18 +474,33 @@ def parse_study(text: str) -> Study:
                                 None if noise is None else _noise_seed(seed, index),
                                 *shape,
                                 whisk,
+                                scene,
                             )
                         )
     if not tasks:
         raise StudyError("the study has no task")
     names: List[str] = []
     for profile in PROFILE_PARAMETERS:
-        if any(name == profile for name, _ in obstacles):
+        if any(ob[0] == profile for ob in obstacles):
             columns = [param_column(profile, k) for k in PROFILE_PARAMETERS[profile]]
             names += [c for c in columns if c not in names]
-    digest = hashlib.sha256(text.encode("utf-8")).hexdigest()
+    digest = hashlib.sha256(text.encode("utf-8"))
+    seen = set()
+    for _, _, scene in obstacles:  # a scene file's text is part of the study
+        if scene is not None and scene.path not in seen:
+            seen.add(scene.path)
+            digest.update(f"\0{scene.file}\0{scene.text}".encode("utf-8"))
     whisking = any(m[4] is not None for m in motions)
-    return Study(text, digest, seed, tuple(tasks), tuple(names), noises != [None], whisking)
+    return Study(
+        text,
+        digest.hexdigest(),
+        seed,
+        tuple(tasks),
+        tuple(names),
+        noises != [None],
+        whisking,
+        scene_at is not None,
+    )
 
 
 def _noise_seed(seed: int, index: int) -> int:
@@ -453,14 +557,24 @@ def _whiskers(block) -> List[Tuple[str, Optional[float], Tuple[float, float, flo
     return out
 
 
-def _obstacles(block, seed: int) -> List[Tuple[str, Tuple[Tuple[str, float], ...]]]:
+_Obstacle = Tuple[str, Tuple[Tuple[str, float], ...], Optional[SceneRef]]
+
+
+def _obstacles(block, seed: int, base_dir: Optional[str], read_scenes: bool) -> List[_Obstacle]:
+    """Return (profile, params, scene) of every obstacle: a profile, or ("scene", (), scene)."""
     if isinstance(block, dict):
         block = [block]
     if not isinstance(block, list) or not block:
-        raise StudyError("obstacles must be a non-empty list of {profile, params, samples} blocks")
-    out = []
+        raise StudyError(
+            "obstacles must be a non-empty list of {profile, params, samples} or "
+            "{scene, friction} blocks"
+        )
+    out: List[_Obstacle] = []
     for i, entry in enumerate(block):
         where = f"obstacles[{i}]"
+        if isinstance(entry, dict) and "scene" in entry:
+            out += _scenes(where, entry, base_dir, read_scenes)
+            continue
         entry = _block(where, entry, OBSTACLE_KEYS, required=("profile",))
         name = entry["profile"]
         if name not in PROFILE_PARAMETERS:
@@ -502,7 +616,48 @@ def _obstacles(block, seed: int) -> List[Tuple[str, Tuple[Tuple[str, float], ...
                 except VibrissaError as exc:
                     what = f"sample {sample}" if random else "values"
                     raise StudyError(f"{where} {what} {values}: {exc}") from None
-                out.append((name, tuple(profile.params.items())))
+                out.append((name, tuple(profile.params.items()), None))
+    return out
+
+
+def _scenes(where: str, entry: Mapping, base_dir: Optional[str], read: bool) -> List[_Obstacle]:
+    """Return the obstacles of a ``{scene: FILE or [FILES], friction: MU or [MUS]}`` entry."""
+    entry = _block(where, entry, SCENE_KEYS, required=("scene",))
+    files = entry["scene"] if isinstance(entry["scene"], list) else [entry["scene"]]
+    if not files:
+        raise StudyError(f"{where}.scene is an empty list; give at least one scene file")
+    for name in files:
+        if not isinstance(name, str) or not name.strip():
+            raise StudyError(f"{where}.scene = {_show(name)} must be a scene file's path")
+    if len(set(files)) != len(files):
+        raise StudyError(f"{where}.scene lists a file twice")
+    frictions: List[Optional[float]] = [None]
+    if "friction" in entry:
+        frictions = _values(f"{where}.friction", entry["friction"], nonnegative=True)
+    out: List[_Obstacle] = []
+    for name in files:
+        path = os.path.normpath(os.path.join(base_dir or "", os.path.expanduser(name)))
+        text, scene_friction = "", None
+        if read:
+            from .scene_file import load_scene
+
+            try:
+                with open(path, encoding="utf-8") as stream:
+                    text = stream.read()
+            except OSError as exc:
+                raise StudyError(
+                    f"{where}.scene = {name!r}: {path} cannot be read ({exc.strerror or exc})"
+                ) from None
+            except UnicodeDecodeError as exc:
+                raise StudyError(f"{where}.scene = {name!r}: {path} is not text ({exc})") from None
+            try:
+                scene_friction = load_scene(path).friction
+                _scene_from_text(text, path)
+            except VibrissaError as exc:
+                raise StudyError(f"{where}.scene = {name!r}: {exc}") from None
+        for mu in frictions:
+            ref = SceneRef(name, path, text, scene_friction if mu is None else mu)
+            out.append(("scene", (), ref))
     return out
 
 
