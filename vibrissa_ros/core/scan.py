@@ -73,18 +73,23 @@ def whisk_poses(
     return tuple(FootPose(x, y, math.radians(float(h))) for h in headings)
 
 
-def run_scan(profile: ConvexProfile, grid, model="elastica") -> ScanResult:
-    """Place the whisker at the first grid point (straight, free) and step through the grid."""
-    grid = np.asarray(grid, dtype=float)
-    tracker = QuasistaticTracker(profile, float(grid[0]), model=model)
+def _follow(tracker, targets) -> ScanResult:
+    """Step ``tracker`` through ``targets`` in order; its state at the start is the first row."""
     states = [tracker.state]
     events, steps = [], []
-    for x0 in grid[1:]:
-        result = tracker.step(float(x0))
+    for target in targets:
+        result = tracker.step(target)
         states.append(result.state)
         events.extend(result.events)
         steps.extend([len(states) - 1] * len(result.events))
     return ScanResult(tuple(states), tuple(events), tuple(steps))
+
+
+def run_scan(profile: ConvexProfile, grid, model="elastica") -> ScanResult:
+    """Place the whisker at the first grid point (straight, free) and step through the grid."""
+    grid = np.asarray(grid, dtype=float)
+    tracker = QuasistaticTracker(profile, float(grid[0]), model=model)
+    return _follow(tracker, (float(x0) for x0 in grid[1:]))
 
 
 def run_poses(profile: ConvexProfile, poses, model="elastica") -> ScanResult:
@@ -96,38 +101,21 @@ def run_poses(profile: ConvexProfile, poses, model="elastica") -> ScanResult:
     poses = list(poses)
     if not poses:
         raise ParameterError("no foot poses")
-    tracker = QuasistaticTracker(profile, poses[0], model=model)
-    states = [tracker.state]
-    events, steps = [], []
-    for pose in poses[1:]:
-        result = tracker.step(pose)
-        states.append(result.state)
-        events.extend(result.events)
-        steps.extend([len(states) - 1] * len(result.events))
-    return ScanResult(tuple(states), tuple(events), tuple(steps))
+    return _follow(QuasistaticTracker(profile, poses[0], model=model), poses[1:])
 
 
-def run_scene(obstacles, poses, shape=None, friction=None, model=None) -> ScanResult:
+def run_scene(obstacles, poses, shape=None, friction=None) -> ScanResult:
     """
-    Scan a scene: place the whisker at the first pose (unloaded) and step through the rest.
+    Scan a scene with the multi-contact tracker: the whisker placed at the first pose (unloaded).
 
-    ``obstacles``: scene obstacles (``core/scene.py``), ``friction`` their Coulomb coefficients;
-    ``poses``: foot poses or the paper's x0 values. A scene of one convex profile or peg without
-    friction is the single-contact problem: ``model`` (a single-contact model, e.g. the exact
-    elastica) then runs the single-contact tracker, whose numbers the scene tracker reproduces to
-    ~1e-12; otherwise the multi-contact :class:`~.scene_tracker.SceneTracker` runs.
+    ``obstacles``: scene obstacles (``core/scene.py``), ``friction`` their Coulomb coefficients,
+    ``shape`` the whisker; ``poses``: foot poses or the paper's x0 values. (A scene of one convex
+    profile or peg without friction is the single-contact problem: ``scene_scan.py`` hands that to
+    :func:`run_scan`, whose numbers the scene tracker reproduces to ~1e-10.)
     """
     from .scene_tracker import SceneTracker
 
     poses = [p if isinstance(p, FootPose) else FootPose(float(p)) for p in poses]
     if not poses:
         raise ParameterError("no foot poses")
-    tracker = SceneTracker(obstacles, poses[0], shape=shape, friction=friction)
-    states = [tracker.state]
-    events, steps = [], []
-    for pose in poses[1:]:
-        result = tracker.step(pose)
-        states.append(result.state)
-        events.extend(result.events)
-        steps.extend([len(states) - 1] * len(result.events))
-    return ScanResult(tuple(states), tuple(events), tuple(steps))
+    return _follow(SceneTracker(obstacles, poses[0], shape=shape, friction=friction), poses[1:])
