@@ -148,17 +148,6 @@ class ContactSolution:
     def kind(self) -> str:
         return self.mode.kind
 
-    @property
-    def slip_coordinate(self) -> float:
-        m = self.mode
-        if m.kind == "side":
-            return m.feature.sigma_between(m.anchor[0], self.u) - m.e * (self.s - m.anchor[1])
-        if m.kind == "corner":
-            return -(self.s - m.anchor[1])
-        if m.kind == "tip":
-            return m.feature.sigma_between(m.anchor[0], self.u)
-        return 0.0
-
 
 class _Segment:
     """Collocation operators on one segment [a, b] of the whisker (internal)."""
@@ -717,21 +706,17 @@ def _node_variable(shape: WhiskerShape, s, a: float, b: float):
 
 
 def _unloaded_offset(shape: WhiskerShape, s_a: float, theta_a: float, s_b: float = 1.0):
-    """Displacement along the unloaded part from s_a (slope theta_a) to s_b (Gauss-Legendre)."""
-    if s_b <= s_a:
-        return 0.0, 0.0
-    if shape.k0 == 0.0 and shape.k1 == 0.0:
-        d = s_b - s_a
-        return d * math.cos(theta_a), d * math.sin(theta_a)
-    x, w = np.polynomial.legendre.leggauss(48)
-    u = s_a + 0.5 * (s_b - s_a) * (x + 1.0)
-    th = theta_a + shape.k0 * (u - s_a) + 0.5 * shape.k1 * (u * u - s_a * s_a)
-    half = 0.5 * (s_b - s_a)
-    return float(half * (w @ np.cos(th))), float(half * (w @ np.sin(th)))
+    """Return the displacement along the unloaded part from s_a (slope theta_a) to s_b."""
+    ox, oy = _unloaded_offsets(shape, s_a, theta_a, np.array([s_b]))
+    return float(ox[0]), float(oy[0])
 
 
 def _unloaded_offsets(shape: WhiskerShape, s_a: float, theta_a: float, s_b: np.ndarray):
-    """Vectorized :func:`_unloaded_offset` for arc lengths s_b >= s_a."""
+    """
+    Return the displacements along the unloaded part from s_a (slope theta_a) to arc lengths s_b.
+
+    Gauss-Legendre (48 points) on the intrinsic slope; exact for a straight whisker.
+    """
     d = np.maximum(np.asarray(s_b, dtype=float) - s_a, 0.0)
     if shape.k0 == 0.0 and shape.k1 == 0.0:
         return d * math.cos(theta_a), d * math.sin(theta_a)
