@@ -59,6 +59,15 @@ MAX_POSE_MAGNITUDE = 1e6
 _MAX_EVENTS = 64
 #: continuation steps one branch segment may take
 _MAX_CONTINUATION_STEPS = 20000
+#: half the largest spacing of the 41 Chebyshev samples of the free whisker (a bound on how far
+#: the smallest distance may lie below the sampled one: the distance is 1-Lipschitz in s)
+_NODE_SLACK = 0.02
+#: sampled local minima of the distance refined at most (a curved whisker near a peg)
+_MAX_BASINS = 4
+#: distance below which the peg's touch search predicts the touch and brackets it
+_PEG_NEAR = 0.05
+#: steps of the peg's touch search (each one a certified advance or a bracketed touch)
+_MAX_TOUCH_STEPS = 20000
 #: numerical exceptions that become ConvergenceError at the step boundary
 _NUMERICAL_ERRORS = (ArithmeticError, ValueError, np.linalg.LinAlgError)
 
@@ -144,7 +153,6 @@ class QuasistaticTracker:
         self._shape_mode = (hasattr(profile, "signed_distance")
                             or not getattr(self.model, "is_straight", True))
         self._free_nodes = None
-        self._peg_side_ref = None
         pose = _as_pose(pose)
         self._work = 0
         self._budget = self.options.max_evaluations
@@ -320,12 +328,27 @@ class QuasistaticTracker:
         return self._gap(*self._tip(path.pose(t)))
 
     def _distance(self, x: float, y: float) -> float:
-        """Euclidean distance from a point outside the obstacle to the profile curve."""
+        """
+        Return a lower bound on the distance from a point outside the obstacle to the obstacle.
+
+        The obstacle is convex, so every one of its supporting lines bounds the distance from
+        below: the gap (p - q(a)) . n(a) of the point p beyond the tangent at the profile point
+        q(a) of slope a (n(a) = (sin a, -cos a) the outward normal); the largest of them is the
+        distance (the walls of a closed shape's strip are the lines at the ends of the slope
+        interval). The gap is largest where (p - q(a)) . t(a) = 0, and its superlevel sets above
+        zero are intervals of a, so a local maximum with a positive gap is the largest: it is
+        found by safeguarded Newton from the last one; failing that, brentq on a sign change
+        found on a grid, the ends and the grid itself give the bound.
+        """
         prof = self.profile
 
         def g(a):
             px, py = prof.point(a)
             return (x - px) * math.cos(a) + (y - py) * math.sin(a)
+
+        def support_gap(a):
+            px, py = prof.point(a)
+            return (x - px) * math.sin(a) - (y - py) * math.cos(a)
 
         lo, hi = prof.alpha_min + 1e-12, prof.alpha_max - 1e-12
         a = min(max(self._alpha_hint, lo), hi)
@@ -343,18 +366,22 @@ class QuasistaticTracker:
                 break
             a = a_new
             if abs(step) < 1e-13:
-                self._alpha_hint = a
-                px, py = prof.point(a)
-                return math.hypot(x - px, y - py)
-        glo, ghi = g(lo), g(hi)
-        if glo > 0.0 > ghi:
-            a = brentq(g, lo, hi, xtol=1e-14)
-            self._alpha_hint = a
-            px, py = prof.point(a)
-            return math.hypot(x - px, y - py)
-        # the nearest point is an end of the curve (finite ends only)
-        ends = [prof.point(lo), prof.point(hi)]
-        return min(math.hypot(x - px, y - py) for px, py in ends)
+                value = support_gap(a)
+                if value > 0.0:
+                    self._alpha_hint = a
+                    return value
+                break
+        grid = [lo + (hi - lo) * k / 16.0 for k in range(17)]
+        best = max(support_gap(a) for a in grid)
+        values = [g(a) for a in grid]
+        for k in range(16):
+            if values[k] > 0.0 > values[k + 1]:
+                a = brentq(g, grid[k], grid[k + 1], xtol=1e-14)
+                value = support_gap(a)
+                if value > best:
+                    best = value
+                    self._alpha_hint = a
+        return max(best, 0.0)
 
     def _rod_clearance(self, pose: FootPose) -> float:
         """Smallest gap along the straight whisker (convex in s: bounded scalar minimization)."""
@@ -553,7 +580,9 @@ class QuasistaticTracker:
 
         For a peg the gap is the Euclidean distance to the peg; for a curved whisker against a
         convex profile the vertical gap. ``coarse`` (pegs): far from the peg, a lower bound from
-        the samples is enough.
+        the samples is enough. The samples bound the gap from below to within half their
+        spacing (it is 1-Lipschitz in s), so every sampled local minimum that could hide the
+        smallest gap is refined, not only the lowest one.
         """
         s, pts = self._free_sample()
         beta = pose.heading - HALF_PI
@@ -562,6 +591,7 @@ class QuasistaticTracker:
         wy = pose.y + sn * pts[:, 0] + c * pts[:, 1]
         signed_distance = getattr(self.profile, "signed_distance", None)
         if signed_distance is not None:
+            self._spend()
             d = signed_distance(wx, wy)
         else:
             d = np.array([self._gap(x, y) for x, y in zip(wx, wy)])
@@ -569,24 +599,28 @@ class QuasistaticTracker:
         best, s_best = float(d[i]), float(s[i])
         if coarse and signed_distance is not None:
             # the distance is 1-Lipschitz in s: nodes 0.04 apart bound it from below to within 0.02
-            bound = best - 0.02
+            bound = best - _NODE_SLACK
             if bound > 1e-3:
                 return bound, s_best
-        lo, hi = s[max(i - 1, 0)], s[min(i + 1, len(s) - 1)]
         fun = lambda u: self._world_gap(pose, *self._free_point(u))  # noqa: E731
-        refined = self._peg_nearest(pose, s_best, lo, hi) if signed_distance is not None else None
-        if refined is None:
-            res = minimize_scalar(fun, bounds=(lo, hi), method="bounded", options={"xatol": 1e-12})
-            refined = float(res.x)
-        value = fun(refined)
-        if value < best:
-            best, s_best = value, refined
-        if signed_distance is not None and self._peg_side_ref is not None:
-            # a point (or a peg's centre) crossing the whisker: the side it lies on decides the
-            # sign
-            side = self._peg_side(pose, s_best)
-            if side != 0 and side != self._peg_side_ref:
-                best = -best - 2.0 * self.profile.r
+        last = len(s) - 1
+        # the sampled local minima within the samples' slack of the lowest one, lowest first
+        candidates = [j for j in np.argsort(d)
+                      if d[j] <= best + 2.0 * _NODE_SLACK
+                      and (j == 0 or d[j] <= d[j - 1]) and (j == last or d[j] <= d[j + 1])]
+        if signed_distance is None or getattr(self.model, "is_straight", True):
+            candidates = candidates[:1]  # one basin: the gap is convex along a straight whisker
+        for j in candidates[:_MAX_BASINS]:
+            lo, hi = s[max(j - 1, 0)], s[min(j + 1, last)]
+            refined = (self._peg_nearest(pose, float(s[j]), lo, hi)
+                       if signed_distance is not None else None)
+            if refined is None:
+                res = minimize_scalar(fun, bounds=(lo, hi), method="bounded",
+                                      options={"xatol": 1e-12})
+                refined = float(res.x)
+            value = fun(refined)
+            if value < best:
+                best, s_best = value, refined
         return best, s_best
 
     def _peg_nearest(self, pose: FootPose, s: float, lo: float, hi: float) -> Optional[float]:
@@ -643,31 +677,14 @@ class QuasistaticTracker:
         """
         First t in [t, 1] where the unloaded whisker meets the obstacle anywhere along it.
 
-        Against a peg the clearance is a distance and every whisker point moves at most
-        ``path.length`` per unit t: conservative advancement, then brentq. Against a convex profile
-        (curved whisker) the clearance is sampled every 1e-3 L of motion and the sign change
-        refined.
+        Against a peg: :meth:`_find_touch_peg`. Against a convex profile (curved whisker) the
+        clearance is sampled every 1e-3 L of motion and the sign change refined; farther from
+        the obstacle than that the search advances by the certified lower bound on the distance
+        (:meth:`_profile_clearance_bound`), so a long step costs what its approach needs.
         """
-        self._peg_side_ref = None
         if hasattr(self.profile, "signed_distance"):
-            pose0 = path.pose(t)
-            clear, s_near = self._free_clearance(pose0)
-            if clear <= 1e-12 and t < 1.0:
-                # the peg lies on the whisker where the search starts. After a release there
-                # (e.g. of a point peg) its side is the one the motion leaves it on; otherwise
-                # the one the whisker comes from (the path continued backwards)
-                u = t + (1e-7 if exiting else -1e-7) / path.length
-                pose0 = FootPose(path.x0 + u * path.dx, path.y0 + u * path.dy,
-                                 path.h0 + u * path.dh)
-                s_near = self._free_clearance(pose0)[1]
-            self._peg_side_ref = self._peg_side(pose0, s_near) or None
-        try:
-            return self._find_touch_shape_signed(path, t)
-        finally:
-            self._peg_side_ref = None
-
-    def _find_touch_shape_signed(self, path: _Path, t: float) -> Optional[float]:
-        clearance = lambda u: self._free_clearance(path.pose(u), coarse=True)[0]  # noqa: E731
+            return self._find_touch_peg(path, t, exiting)
+        clearance = lambda u: self._free_clearance(path.pose(u))[0]  # noqa: E731
         speed = path.length
         c0 = clearance(t)
         if c0 <= 0.0:  # touching (e.g. just released): a touch only if the whisker moves in
@@ -676,14 +693,11 @@ class QuasistaticTracker:
             if c_b <= 0.0 or t_b >= 1.0:
                 return t if c_b <= 0.0 else None
             t, c0 = t_b, c_b
-        peg = hasattr(self.profile, "signed_distance")
-        eps = 1e-10
         for _ in range(100000):
-            if peg:
-                t_next = t + (max(c0, 0.5 * eps) / speed)
-            else:
-                t_next = t + 1e-3 / speed
-            t_next = min(t_next, 1.0)
+            ahead = max(1e-3, self._profile_clearance_bound(path.pose(t)))
+            if ahead > (1.0 - t) * speed:
+                return None  # certified: the obstacle is farther than the whisker moves
+            t_next = min(t + ahead / speed, 1.0)
             c1 = clearance(t_next)
             if c1 <= 0.0:
                 if c1 == 0.0:
@@ -691,16 +705,158 @@ class QuasistaticTracker:
                 return brentq(clearance, t, t_next, xtol=1e-16, rtol=1e-15)
             if t_next >= 1.0:
                 return None
-            if peg and c1 <= eps:
-                t_b = min(1.0, t_next + 8.0 * eps / speed)
-                cb = clearance(t_b)
-                if cb < 0.0:
-                    return brentq(clearance, t_next, t_b, xtol=1e-16, rtol=1e-15)
-                t_next, c1 = t_b, cb
-                if t_b >= 1.0:
-                    return None
             t, c0 = t_next, c1
         raise ConvergenceError("touch search did not terminate")
+
+    def _profile_clearance_bound(self, pose: FootPose) -> float:
+        """
+        Return a lower bound on the distance of the unloaded whisker from a convex profile.
+
+        The smallest of the samples' distance bounds (:meth:`_distance`) less half their
+        spacing (the distance is 1-Lipschitz in s); 0 if a sample is not outside.
+        """
+        s, pts = self._free_sample()
+        beta = pose.heading - HALF_PI
+        c, sn = math.cos(beta), math.sin(beta)
+        best = math.inf
+        for fx, fy in pts:
+            x, y = pose.x + c * fx - sn * fy, pose.y + sn * fx + c * fy
+            if not self._gap(x, y) > 0.0:
+                return 0.0
+            best = min(best, self._distance(x, y))
+        return max(best - _NODE_SLACK, 0.0)
+
+    def _peg_relative(self, pose: FootPose, coarse: bool = False, reach: float = math.inf):
+        """
+        Return (gap, s, side) of the peg against the unloaded whisker at ``pose``.
+
+        gap: the distance of the peg's boundary from the whisker (negative where they overlap;
+        with ``coarse``, a lower bound if that is farther than ``reach`` or than the near zone,
+        and then side is None); s: the arc length of the whisker point nearest to
+        the peg's centre; side: the signed distance of the centre from the whisker's tangent line
+        at s, positive on its left. Along the whisker (0 < s < 1) |side| is the centre's distance;
+        beyond an end it is the distance from the tangent line there, so side is continuous as
+        the centre moves round an end and changes sign only where the centre crosses the whisker
+        or the straight continuation of one of its ends.
+        """
+        gap, s = self._free_clearance(pose, coarse)
+        if coarse and gap > 1e-3 and (gap > reach or gap + _NODE_SLACK >= _PEG_NEAR):
+            return gap, s, None
+        if coarse:
+            gap, s = self._free_clearance(pose)
+        wx, wy, tx, ty = self._free_point_world(pose, s)
+        side = tx * (self.profile.y - wy) - ty * (self.profile.x - wx)
+        return gap, s, side
+
+    def _free_point_world(self, pose: FootPose, s: float):
+        """Return the unloaded whisker's point and unit tangent at arc length s, world frame."""
+        fx, fy = self._free_point(s)
+        slope = (0.0 if getattr(self.model, "is_straight", True)
+                 else float(self.model.shape.intrinsic_slope(s)))
+        beta = pose.heading - HALF_PI
+        cb, sb = math.cos(beta), math.sin(beta)
+        th = pose.heading + slope
+        return (pose.x + cb * fx - sb * fy, pose.y + sb * fx + cb * fy, math.cos(th),
+                math.sin(th))
+
+    def _peg_rates(self, path: _Path, pose: FootPose, s: float) -> Tuple[float, float]:
+        """
+        Rates along the path of the peg's gap and side at the whisker point s (rigid motion).
+
+        The nearest point's own motion along the whisker is left out (exact for the gap, first
+        order for the side): they only predict where to bracket the touch.
+        """
+        wx, wy, tx, ty = self._free_point_world(pose, s)
+        vx = path.dx - path.dh * (wy - pose.y)
+        vy = path.dy + path.dh * (wx - pose.x)
+        rx, ry = self.profile.x - wx, self.profile.y - wy
+        norm = math.hypot(rx, ry)
+        gap_rate = -(rx * vx + ry * vy) / norm if norm > 0.0 else -math.hypot(vx, vy)
+        side_rate = path.dh * (tx * rx + ty * ry) - (tx * vy - ty * vx)
+        return gap_rate, side_rate
+
+    def _find_touch_peg(self, path: _Path, t: float, exiting: bool) -> Optional[float]:
+        """
+        First t in [t, 1] where the unloaded whisker meets the peg (r >= 0), exactly.
+
+        Every whisker point moves at most ``path.length`` per unit t, so the peg cannot be
+        reached before t + gap / length: conservative advancement, which never steps over a
+        touch. Near the peg the touch is predicted from the rates of the gap and of the centre's
+        side (:meth:`_peg_relative`) and bracketed there: the gap turning negative (r > 0), or
+        the side changing sign where the centre lies on the whisker (a point crossing it: its gap
+        never turns negative), located by brentq; a prediction that brackets nothing falls back
+        to the conservative advance. So a touch is found wherever along the step it lies, and
+        the whisker passing a point without touching it (round its tip) is no touch.
+        """
+        speed = path.length
+        gap_of = lambda u: self._peg_relative(path.pose(u))[0]  # noqa: E731
+        side_of = lambda u: self._peg_relative(path.pose(u))[2]  # noqa: E731
+        gap, s, side = self._peg_relative(path.pose(t), True, (1.0 - t) * speed)
+        if gap <= 1e-12:
+            # touching where the search starts (just released, or a graze): a touch only if the
+            # whisker moves in; a point only if it crosses the whisker here
+            t_b = min(1.0, t + 1e-9 / speed)
+            gap_b, s_b, side_b = self._peg_relative(path.pose(t_b))
+            if gap_b < 0.0:
+                return t
+            if not exiting and self.profile.r == 0.0 and gap_b <= 1e-9:
+                t_a = max(0.0, t - 1e-9 / speed)
+                side_a = self._peg_relative(path.pose(t_a))[2]
+                if side_a * side_b < 0.0:
+                    return t
+            if t_b >= 1.0:
+                return None
+            t, gap, s, side = t_b, gap_b, s_b, side_b
+        for _ in range(_MAX_TOUCH_STEPS):
+            if t >= 1.0 or gap > (1.0 - t) * speed:
+                return None  # certified: the peg is farther than the whisker moves
+            if side is not None:
+                found = self._bracket_peg_touch(path, t, gap, s, side, gap_of, side_of)
+                if found is not None:
+                    return found
+            # certified: no touch before t + gap / speed (a graze closer than 1e-12 is no touch)
+            t_next = min(1.0, t + max(gap, 4e-12) / speed)
+            gap_n, s_n, side_n = self._peg_relative(path.pose(t_next), True,
+                                                    (1.0 - t_next) * speed)
+            if gap_n == 0.0:
+                return t_next
+            if gap_n < 0.0:
+                return brentq(gap_of, t, t_next, xtol=1e-16, rtol=1e-15)
+            if side is not None and side_n is not None and side * side_n < 0.0:
+                # the centre crossed the whisker's line: on the whisker (a point) or beyond an end
+                t_c = brentq(side_of, t, t_next, xtol=1e-16, rtol=1e-15)
+                if gap_of(t_c) <= 1e-12:
+                    return t_c
+            t, gap, s, side = t_next, gap_n, s_n, side_n
+        raise ConvergenceError("the touch search for the peg did not terminate")
+
+    def _bracket_peg_touch(self, path, t, gap, s, side, gap_of, side_of) -> Optional[float]:
+        """Return the touch predicted beyond t if a probe there brackets it, else None."""
+        speed = path.length
+        pose = path.pose(t)
+        gap_rate, side_rate = self._peg_rates(path, pose, s)
+        guesses = []
+        if gap_rate < 0.0:
+            guesses.append(-gap / gap_rate)
+        if side * side_rate < 0.0:
+            guesses.append(-side / side_rate)
+        if not guesses:
+            return None
+        h = 1.5 * min(guesses) + 1e-12
+        if h <= gap / speed:
+            return None  # the conservative advance goes as far
+        t_p = min(1.0, t + h)
+        gap_p, _, side_p = self._peg_relative(path.pose(t_p))
+        if gap_p < 0.0:
+            return brentq(gap_of, t, t_p, xtol=1e-16, rtol=1e-15)
+        if side * side_p < 0.0:
+            t_c = brentq(side_of, t, t_p, xtol=1e-16, rtol=1e-15)
+            gap_c = gap_of(t_c)
+            if gap_c < 0.0:  # the centre crossed the whisker: the peg's edge reached it before
+                return brentq(gap_of, t, t_c, xtol=1e-16, rtol=1e-15)
+            if gap_c <= 1e-12:  # a point crossing the whisker
+                return t_c
+        return None
 
     def _start_contact_shape(self, path: _Path,
                              t_touch: float) -> Optional[Tuple[_Contact, Event]]:
