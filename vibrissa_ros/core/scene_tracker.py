@@ -67,6 +67,8 @@ _CUT = -1e-10
 _SAMPLES = np.linspace(0.0, 1.0, 81)
 _SPACING = 1.0 / 80.0
 _NUMERICAL_ERRORS = (ArithmeticError, ValueError, np.linalg.LinAlgError)
+#: the clearance an obstacle out of the whisker's reach is counted with (its box is > 1.1 away)
+_FAR = 0.1
 #: geometric switches of one contact; two at one pose mean neither configuration goes on
 _SWITCHES = ("tip", "tangential", "end_min", "end_max", "edge_in", "edge_out")
 
@@ -241,7 +243,13 @@ class SceneTracker:
         self._start = 0
         self._lu_cache = None
         self._values_cache = None
+        #: motion [L] a sub-step may always make near an obstacle: half the thinnest peg's radius,
+        #: at most 1e-3 (what can pass between two sub-steps without cutting at either)
+        radii = [ob.r for ob in self.obstacles if getattr(ob, "r", 0.0) > 0.0]
+        self._floor = min([1e-3] + [0.5 * r for r in radii])
+        self._clearance = 0.0
         cut = self._penetration(self._modes, self._vec, pose)
+        self._clear_end = self._clearance
         if cut is not None:
             raise InvalidPoseError(
                 f"the initial pose {pose} puts the unloaded whisker inside obstacle {cut[0]} "
@@ -306,14 +314,28 @@ class SceneTracker:
                 events.append(ev)
         substeps = 0
         last_switch = None
+        # a lower bound on the whisker's distance from the obstacles (away from its contacts) at
+        # t: no sub-step moves a whisker point farther than that (or than the floor), so no
+        # obstacle is passed between two sub-steps, however long the step
+        clear = self._clear_end if events == [] else 0.0
         while t < 1.0:
             substeps += 1
             if substeps > _MAX_SUBSTEPS or len(events) > _MAX_EVENTS:
                 raise ConvergenceError(f"the step to {target} did not progress along its path")
             self._check_budget()
+            allowed = max(clear, self._floor)
             t_new = min(1.0, t + h)
+            if not modes and (t_new - t) * path.length > allowed:
+                t_new = t + allowed / path.length  # the unloaded whisker moves rigidly
             try:
                 new_vec, iters = self._advance(modes, vec, path, t, t_new, dpose)
+                if modes and h > 16.0 * _H_MIN and (
+                        (t_new - t) * path.length + self._slope_change(modes, new_vec - vec)
+                        > allowed):
+                    # a loaded whisker's point moves at most the foot's path plus the change of
+                    # slope: too far to be sure that no obstacle is passed
+                    h = max(0.5 * h, _H_MIN * 16.0)
+                    continue
             except ConvergenceError:
                 if h > _H_MIN:
                     h *= 0.25
@@ -323,6 +345,7 @@ class SceneTracker:
                 events.append(ev)
                 values = self._event_values(modes, vec, path.pose(t), dpose)
                 h = _H_MIN * 16
+                clear = 0.0
                 continue
             pose_new = path.pose(t_new)
             # the slip rates' signs from the corrector's Jacobian (a crossing is then located
@@ -337,6 +360,7 @@ class SceneTracker:
                 if found is None:  # nothing crossed after all: take the sub-step
                     t, vec = t_new, new_vec
                     values = self._event_values(modes, vec, pose_new, dpose)
+                    clear = self._clearance if cut is None else 0.0
                     continue
                 t_star, what = found
                 vec_star = self._solve_at(modes, vec, path, t, t_star, dpose)
@@ -359,13 +383,16 @@ class SceneTracker:
                     modes, vec, t = self._first_friction(modes, vec, path, t, t_new, dpose)
                 values = self._event_values(modes, vec, path.pose(t), dpose)
                 h = max(h * 0.25, 1e-6)
+                clear = 0.0
                 continue
             t, vec, values = t_new, new_vec, new_values
+            clear = self._clearance
             if iters <= 4 + len(modes):
                 h = min(1.0, h * 2.0, _MAX_MOVE / path.length)
         self._h = max(h, 1e-3)
         state = self._make_state(path.p1, modes, vec)
         self._modes, self._vec, self._pose, self._state = modes, vec, path.p1, state
+        self._clear_end = clear
         return SceneStepResult(state, tuple(events), substeps, self._spent())
 
     def _advance(self, modes, vec, path, t, t_new, dpose):
@@ -394,6 +421,11 @@ class SceneTracker:
         if self._change(modes, new - vec) > 2.0 * _MAX_CHANGE:
             raise ConvergenceError("sub-step jumped")
         return new, self.solver.evaluations - before
+
+    def _slope_change(self, modes, dv) -> float:
+        """Largest change of the whisker's slope at the collocation nodes."""
+        K = self.solver.layout(modes)[0]
+        return float(np.max(np.abs(dv[:K]))) if K else 0.0
 
     def _change(self, modes, dv) -> float:
         """Largest change of the slopes and geometric contact unknowns (forces excluded)."""
@@ -571,9 +603,14 @@ class SceneTracker:
         fast as the arc length) it is resampled densely (33 points), so that a shallow cut of a
         small obstacle is not missed. The neighbourhood of a contact (2/80 L) is left to that
         contact's own events.
+
+        Also records in ``self._clearance`` a lower bound on the distance of the whisker (away
+        from its contacts) from every obstacle: the sampled distances less half the local
+        spacing (the distance is 1-Lipschitz in s); an obstacle out of reach counts 0.1.
         """
         s_all = pts = None
         first = None
+        clearance = _FAR
         held = [(m.obstacle, sc) for m, sc in zip(modes, self._contact_s(modes, vec))]
         for i, ob in enumerate(self.obstacles):
             box = self._boxes[i]
@@ -581,7 +618,7 @@ class SceneTracker:
                 dx = max(box[0] - pose.x, 0.0, pose.x - box[2])
                 dy = max(box[1] - pose.y, 0.0, pose.y - box[3])
                 if dx * dx + dy * dy > 1.21:
-                    continue  # out of reach of a whisker of length 1
+                    continue  # out of reach of a whisker of length 1 (by 0.1 at least)
             elif float(ob.signed_distance(np.array([[pose.x, pose.y]]))[0]) > 1.1:
                 continue
             if pts is None:
@@ -594,6 +631,7 @@ class SceneTracker:
             for oi, sc in held:
                 if oi == i:
                     d[np.abs(s_all - sc) <= 2.0 * _SPACING] = np.inf
+            clearance = min(clearance, float(np.min(d - 0.5 * local)))
             cut = None
             bad = np.nonzero(d < _CUT)[0]
             if bad.size:
@@ -618,6 +656,7 @@ class SceneTracker:
                         break
             if cut is not None and (first is None or cut < first[1]):
                 first = (i, cut)
+        self._clearance = clearance
         return first
 
     def _contact_s(self, modes, vec):
