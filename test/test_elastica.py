@@ -6,7 +6,7 @@ import pytest
 from scipy.special import ellipkinc
 
 from vibrissa_ros.core import tip_loaded_elastica
-from vibrissa_ros.core.elastica import amplitude, family, family_centerline
+from vibrissa_ros.core.exact.elastica import amplitude, family, family_centerline
 from vibrissa_ros.core.shooting import integrate
 
 HALF_PI = math.pi / 2

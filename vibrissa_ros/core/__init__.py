@@ -4,7 +4,7 @@ The mechanics core of vibrissa_ros: no ROS import anywhere below this package.
 Dimensionless units of the paper: length L (whisker length), force EI/L^2, moment EI/L.
 """
 
-from .elastica import TipLoadedElastica, tip_loaded_elastica
+from .exact.elastica import TipLoadedElastica, tip_loaded_elastica
 from .errors import (
     ConvergenceError,
     InvalidPoseError,

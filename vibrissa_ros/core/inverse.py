@@ -25,7 +25,7 @@ import math
 from dataclasses import dataclass
 from typing import Iterable, List, Optional, Sequence, Tuple
 
-from .elastica import family, family_centerline, family_domain_ok
+from .exact.elastica import family, family_centerline, family_domain_ok
 from .state import FootPose, Phase
 
 HALF_PI = 0.5 * math.pi

@@ -20,7 +20,7 @@ from typing import Dict, Tuple
 
 import numpy as np
 
-from .elastica import family, family_centerline, family_domain_ok
+from .exact.elastica import family, family_centerline, family_domain_ok
 from .errors import ModelAssumptionError
 from .state import Phase
 

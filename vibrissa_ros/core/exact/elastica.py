@@ -39,7 +39,7 @@ import numpy as np
 from scipy.optimize import brentq
 from scipy.special import ellipeinc, ellipj, ellipkinc
 
-from .errors import ParameterError
+from ..errors import ParameterError
 
 HALF_PI = 0.5 * math.pi
 
