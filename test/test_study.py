@@ -160,7 +160,7 @@ def test_out_must_be_a_new_or_a_study_directory(tmp_path, capsys):
 
 def test_whisker_geometry_axes_pick_the_general_solver_and_are_refused_for_the_rigid_model():
     from vibrissa_ros.core.general import GeneralWhiskerModel
-    from vibrissa_ros.core.models import ElasticaModel
+    from vibrissa_ros.core.exact.models import ElasticaModel
 
     study = parse_study(
         "whisker: {taper: [1, 0.0667], curvature_k0: 0.5, curvature_k1: -0.2}\n"
@@ -219,7 +219,7 @@ def test_whisking_motions_keep_the_foot_and_sweep_the_heading():
 
 def test_pegs_are_study_obstacles_solved_by_the_general_model():
     from vibrissa_ros.core.general import GeneralWhiskerModel
-    from vibrissa_ros.core.models import RigidModel
+    from vibrissa_ros.core.exact.models import RigidModel
 
     study = parse_study(WHISK_AND_PEG)
     assert study.param_names == ("p0", "k", "peg_x", "peg_y", "peg_r")

@@ -10,7 +10,7 @@ import sys
 from typing import Dict, List, Optional
 
 from .core.errors import VibrissaError
-from .core.models import MODELS, make_model
+from .core.exact.models import MODELS, make_model
 from .core.profiles import PROFILE_PARAMETERS, make_profile
 from .core.general import WhiskerShape
 from .core.scan import run_poses, run_scan, scan_grid, whisk_poses

@@ -14,7 +14,7 @@ from typing import Any, Dict, Mapping, Optional, Tuple
 
 from .core.errors import ParameterError
 from .core.general import GeneralWhiskerModel, WhiskerShape
-from .core.models import make_model
+from .core.exact.models import make_model
 from .core.profiles import ConvexProfile, Peg, make_profile
 from .core.scene import Scene
 from .edge import NS_PER_S, Units

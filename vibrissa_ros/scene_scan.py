@@ -16,7 +16,7 @@ from typing import List, Optional, Sequence
 
 from .core.errors import VibrissaError
 from .core.general import GeneralWhiskerModel, WhiskerShape
-from .core.models import make_model
+from .core.exact.models import make_model
 from .core.profiles import Peg
 from .core.scan import ScanResult, run_poses, run_scan, run_scene
 from .core.scene import Scene

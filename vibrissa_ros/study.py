@@ -67,7 +67,7 @@ import numpy as np
 
 from .core.errors import ParameterError, VibrissaError
 from .core.general import GeneralWhiskerModel, WhiskerShape
-from .core.models import MODELS, make_model
+from .core.exact.models import MODELS, make_model
 from .core.profiles import PROFILE_PARAMETERS as _ALL_PROFILE_PARAMETERS
 from .core.profiles import ConvexProfile, make_profile
 from .core.scan import ScanResult, run_poses, run_scan, scan_grid, whisk_poses

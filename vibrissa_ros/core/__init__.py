@@ -13,7 +13,7 @@ from .errors import (
     VibrissaError,
 )
 from .general import GeneralWhiskerModel, WhiskerShape
-from .models import ElasticaModel, make_model
+from .exact.models import ElasticaModel, make_model
 from .profiles import (
     PROFILE_PARAMETERS,
     PROFILES,

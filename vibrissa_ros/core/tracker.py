@@ -38,7 +38,7 @@ from .errors import (
     ParameterError,
     VibrissaError,
 )
-from .models import make_model
+from .exact.models import make_model
 from .profiles import ConvexProfile, PlacedProfile
 from .state import Event, FootPose, Phase, StepResult, WhiskerState
 

@@ -20,9 +20,9 @@ from typing import Dict, Tuple
 
 import numpy as np
 
-from .exact.elastica import family, family_centerline, family_domain_ok
-from .errors import ModelAssumptionError
-from .state import Phase
+from .elastica import family, family_centerline, family_domain_ok
+from ..errors import ModelAssumptionError
+from ..state import Phase
 
 HALF_PI = 0.5 * math.pi
 
@@ -227,7 +227,7 @@ class RigidModel:
     def __init__(self, stiffness: float = 1.0):
         stiffness = float(stiffness)
         if not (math.isfinite(stiffness) and stiffness > 0.0):
-            from .errors import ParameterError
+            from ..errors import ParameterError
 
             raise ParameterError(f"rigid spring stiffness = {stiffness!r} must be finite and > 0")
         self.stiffness = stiffness
@@ -311,7 +311,7 @@ MODELS = {"elastica": ElasticaModel, "rigid": RigidModel}
 
 def make_model(name: str, **options):
     """Make a model by name: ``elastica`` or ``rigid`` (option ``stiffness``)."""
-    from .errors import ParameterError
+    from ..errors import ParameterError
 
     if name not in MODELS:
         raise ParameterError(f"unknown model {name!r}; allowed: {', '.join(MODELS)}")
