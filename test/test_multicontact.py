@@ -15,7 +15,7 @@ from vibrissa_ros.core.boundary import CircleArc
 from vibrissa_ros.core.general import GeneralWhiskerModel, WhiskerShape
 from vibrissa_ros.core.profiles import Peg
 from vibrissa_ros.core.scene_tracker import SceneTracker
-from vibrissa_ros.core.tracker import QuasistaticTracker
+from vibrissa_ros.core.exact.tracker import QuasistaticTracker
 
 
 class _Disk:

@@ -30,7 +30,7 @@ from vibrissa_ros.core import (
     VibrissaError,
 )
 from vibrissa_ros.core.profiles import PlacedProfile
-from vibrissa_ros.core.tracker import MAX_POSE_MAGNITUDE
+from vibrissa_ros.core.exact.tracker import MAX_POSE_MAGNITUDE
 
 HALF_PI = 0.5 * math.pi
 BUDGET = TrackerOptions().max_evaluations

@@ -16,7 +16,7 @@ import numpy as np
 from .core.errors import ConvergenceError, InvalidPoseError, VibrissaError
 from .core.scene_tracker import SceneTracker
 from .core.state import Event, WhiskerState
-from .core.tracker import MAX_POSE_MAGNITUDE, QuasistaticTracker
+from .core.exact.tracker import MAX_POSE_MAGNITUDE, QuasistaticTracker
 from .edge import BadInput, SensorReading, planar_pose, sensor_reading
 from .node_config import WhiskerConfig
 from .noise import NoiseSpec, SensorNoise

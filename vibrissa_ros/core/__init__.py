@@ -29,7 +29,7 @@ from .profiles import (
 )
 from .scan import ScanResult, run_poses, run_scan, scan_grid, whisk_poses
 from .state import Event, FootPose, Phase, StepResult, WhiskerState
-from .tracker import QuasistaticTracker, TrackerOptions
+from .exact.tracker import QuasistaticTracker, TrackerOptions
 
 __all__ = [
     "Catenary",

@@ -11,7 +11,7 @@ import numpy as np
 from .errors import ParameterError
 from .profiles import ConvexProfile
 from .state import Event, FootPose, WhiskerState
-from .tracker import QuasistaticTracker
+from .exact.tracker import QuasistaticTracker
 
 
 @dataclass(frozen=True)

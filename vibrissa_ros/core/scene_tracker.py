@@ -51,7 +51,7 @@ from .errors import (
 from .general import WhiskerShape
 from .multicontact import ContactMode, MultiContactSolver
 from .state import FootPose, Phase
-from .tracker import _Path, _as_pose
+from .exact.tracker import _Path, _as_pose
 
 #: largest change of the slopes and contact parameters in one sub-step
 _MAX_CHANGE = 0.05

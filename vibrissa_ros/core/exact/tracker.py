@@ -31,16 +31,16 @@ from typing import List, Optional, Tuple
 import numpy as np
 from scipy.optimize import brentq, minimize_scalar
 
-from .errors import (
+from ..errors import (
     ConvergenceError,
     InvalidPoseError,
     ModelAssumptionError,
     ParameterError,
     VibrissaError,
 )
-from .exact.models import make_model
-from .profiles import ConvexProfile, PlacedProfile
-from .state import Event, FootPose, Phase, StepResult, WhiskerState
+from .models import make_model
+from ..profiles import ConvexProfile, PlacedProfile
+from ..state import Event, FootPose, Phase, StepResult, WhiskerState
 
 HALF_PI = 0.5 * math.pi
 _TWO_PI = 2.0 * math.pi
@@ -536,7 +536,7 @@ class QuasistaticTracker:
             if getattr(self.model, "is_straight", True):
                 pts = np.column_stack((np.zeros_like(s), s))
             else:
-                from .general import free_centerline
+                from ..general import free_centerline
 
                 pts = free_centerline(self.model.shape, s)
             self._free_nodes = (s, pts)
