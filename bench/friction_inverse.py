@@ -23,7 +23,7 @@ import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
 
-from vibrissa_ros.core.inverse import estimate_contact  # noqa: E402
+from vibrissa_ros.core.exact.inverse import estimate_contact  # noqa: E402
 from vibrissa_ros.core.scan import run_scene  # noqa: E402
 from vibrissa_ros.scene_file import load_scene  # noqa: E402
 

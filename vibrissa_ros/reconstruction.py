@@ -15,7 +15,7 @@ from typing import IO, List, Optional, Sequence, Tuple
 
 from .core.errors import VibrissaError
 from .core.general import WhiskerShape
-from .core.inverse import ContactEstimate, estimate_contact
+from .core.exact.inverse import ContactEstimate, estimate_contact
 from .core.inverse_general import estimate_contact_general
 from .core.state import FootPose
 from .edge import Units, header_ns, pose_of, wrench_to_core

@@ -25,7 +25,7 @@ from scipy.integrate import solve_ivp
 
 from .general import WhiskerShape
 from .general_shooting import loaded_whisker_rhs
-from .inverse import TIP_TOLERANCE, ContactEstimate
+from .exact.inverse import TIP_TOLERANCE, ContactEstimate
 from .state import FootPose, Phase
 
 HALF_PI = 0.5 * math.pi

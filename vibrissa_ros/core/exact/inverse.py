@@ -25,8 +25,8 @@ import math
 from dataclasses import dataclass
 from typing import Iterable, List, Optional, Sequence, Tuple
 
-from .exact.elastica import family, family_centerline, family_domain_ok
-from .state import FootPose, Phase
+from .elastica import family, family_centerline, family_domain_ok
+from ..state import FootPose, Phase
 
 HALF_PI = 0.5 * math.pi
 #: s* within this of 1 is the tip (phase 2)
