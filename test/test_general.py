@@ -18,7 +18,7 @@ from vibrissa_ros.core import (
     scan_grid,
 )
 from vibrissa_ros.core.errors import ParameterError
-from vibrissa_ros.core.general import GeneralWhiskerModel, WhiskerShape
+from vibrissa_ros.core.general.model import GeneralWhiskerModel, WhiskerShape
 from vibrissa_ros.core.exact.models import ElasticaModel
 
 FIELDS = ("alpha", "s1", "tip_slope", "f", "fx", "fy", "m0")

@@ -159,7 +159,7 @@ def test_out_must_be_a_new_or_a_study_directory(tmp_path, capsys):
 
 
 def test_whisker_geometry_axes_pick_the_general_solver_and_are_refused_for_the_rigid_model():
-    from vibrissa_ros.core.general import GeneralWhiskerModel
+    from vibrissa_ros.core.general.model import GeneralWhiskerModel
     from vibrissa_ros.core.exact.models import ElasticaModel
 
     study = parse_study(
@@ -218,7 +218,7 @@ def test_whisking_motions_keep_the_foot_and_sweep_the_heading():
 
 
 def test_pegs_are_study_obstacles_solved_by_the_general_model():
-    from vibrissa_ros.core.general import GeneralWhiskerModel
+    from vibrissa_ros.core.general.model import GeneralWhiskerModel
     from vibrissa_ros.core.exact.models import RigidModel
 
     study = parse_study(WHISK_AND_PEG)

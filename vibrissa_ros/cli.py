@@ -12,7 +12,7 @@ from typing import Dict, List, Optional
 from .core.errors import VibrissaError
 from .core.exact.models import MODELS, make_model
 from .core.profiles import PROFILE_PARAMETERS, make_profile
-from .core.general import WhiskerShape
+from .core.general.model import WhiskerShape
 from .core.scan import run_poses, run_scan, scan_grid, whisk_poses
 from .parameters import ParameterSpec
 from .scan_io import read_poses_csv, write_events_json, write_scan_csv

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 from typing import Any, Dict, Mapping, Optional, Tuple
 
 from .core.errors import ParameterError
-from .core.general import GeneralWhiskerModel, WhiskerShape
+from .core.general.model import GeneralWhiskerModel, WhiskerShape
 from .core.exact.models import make_model
 from .core.profiles import ConvexProfile, Peg, make_profile
 from .core.scene import Scene

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from typing import IO, List, Optional, Sequence, Tuple
 
 from .core.errors import VibrissaError
-from .core.general import WhiskerShape
+from .core.general.model import WhiskerShape
 from .core.exact.inverse import ContactEstimate, estimate_contact
 from .core.inverse_general import estimate_contact_general
 from .core.state import FootPose

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 from typing import List, Optional, Sequence
 
 from .core.errors import VibrissaError
-from .core.general import GeneralWhiskerModel, WhiskerShape
+from .core.general.model import GeneralWhiskerModel, WhiskerShape
 from .core.exact.models import make_model
 from .core.profiles import Peg
 from .core.scan import ScanResult, run_poses, run_scan, run_scene

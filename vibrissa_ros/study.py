@@ -66,7 +66,7 @@ from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple
 import numpy as np
 
 from .core.errors import ParameterError, VibrissaError
-from .core.general import GeneralWhiskerModel, WhiskerShape
+from .core.general.model import GeneralWhiskerModel, WhiskerShape
 from .core.exact.models import MODELS, make_model
 from .core.profiles import PROFILE_PARAMETERS as _ALL_PROFILE_PARAMETERS
 from .core.profiles import ConvexProfile, make_profile

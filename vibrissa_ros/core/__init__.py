@@ -12,7 +12,7 @@ from .errors import (
     ParameterError,
     VibrissaError,
 )
-from .general import GeneralWhiskerModel, WhiskerShape
+from .general.model import GeneralWhiskerModel, WhiskerShape
 from .exact.models import ElasticaModel, make_model
 from .profiles import (
     PROFILE_PARAMETERS,

@@ -28,7 +28,7 @@ from scipy.integrate import solve_ivp
 from scipy.optimize import root
 
 from .errors import ConvergenceError
-from .general import WhiskerShape
+from .general.model import WhiskerShape
 from .profiles import ConvexProfile
 from .state import FootPose, Phase
 

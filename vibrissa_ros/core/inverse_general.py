@@ -23,7 +23,7 @@ from typing import Optional
 
 from scipy.integrate import solve_ivp
 
-from .general import WhiskerShape
+from .general.model import WhiskerShape
 from .general_shooting import loaded_whisker_rhs
 from .exact.inverse import TIP_TOLERANCE, ContactEstimate
 from .state import FootPose, Phase

@@ -51,7 +51,7 @@ import scipy.linalg as sla
 
 from .boundary import Arc, Vertex
 from .errors import ConvergenceError
-from .general import WhiskerShape, chebyshev_operators
+from .general.model import WhiskerShape, chebyshev_operators
 
 #: Chebyshev points per segment (the convergence study of the README: ~1e-14 at 24)
 DEFAULT_SEGMENT_POINTS = 24

@@ -48,7 +48,7 @@ from scipy.optimize import brentq, minimize_scalar
 
 from .boundary import Arc, CircleArc, GraphArc, SegmentArc, Vertex
 from .errors import ConvergenceError, ParameterError
-from .general import WhiskerShape
+from .general.model import WhiskerShape
 from .state import FootPose
 
 KINDS = ("side", "corner", "tip", "tip_corner")

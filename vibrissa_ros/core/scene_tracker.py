@@ -48,7 +48,7 @@ from .errors import (
     ParameterError,
     VibrissaError,
 )
-from .general import WhiskerShape
+from .general.model import WhiskerShape
 from .multicontact import ContactMode, MultiContactSolver
 from .state import FootPose, Phase
 from .exact.tracker import _Path, _as_pose

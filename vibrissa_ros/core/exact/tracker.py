@@ -536,7 +536,7 @@ class QuasistaticTracker:
             if getattr(self.model, "is_straight", True):
                 pts = np.column_stack((np.zeros_like(s), s))
             else:
-                from ..general import free_centerline
+                from ..general.model import free_centerline
 
                 pts = free_centerline(self.model.shape, s)
             self._free_nodes = (s, pts)

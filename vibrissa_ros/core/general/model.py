@@ -42,8 +42,8 @@ from typing import Dict, Optional, Tuple
 import numpy as np
 from numpy.polynomial import chebyshev as C
 
-from .errors import ConvergenceError, ParameterError
-from .state import Phase
+from ..errors import ConvergenceError, ParameterError
+from ..state import Phase
 
 HALF_PI = 0.5 * math.pi
 
