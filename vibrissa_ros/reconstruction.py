@@ -16,7 +16,7 @@ from typing import IO, List, Optional, Sequence, Tuple
 from .core.errors import VibrissaError
 from .core.general.model import WhiskerShape
 from .core.exact.inverse import ContactEstimate, estimate_contact
-from .core.inverse_general import estimate_contact_general
+from .core.general.inverse import estimate_contact_general
 from .core.state import FootPose
 from .edge import Units, header_ns, pose_of, wrench_to_core
 
@@ -131,7 +131,7 @@ def estimate_from_wrench(x: float, y: float, yaw: float, force_x: float, force_y
     One SI reading (base pose in the world, base-frame wrench) -> a dimensionless estimate.
 
     ``shape``: the whisker's taper and curvature in whisker lengths; anything but the paper's
-    whisker uses :func:`~vibrissa_ros.core.inverse_general.estimate_contact_general`.
+    whisker uses :func:`~vibrissa_ros.core.general.inverse.estimate_contact_general`.
     """
     fx, fy, m0 = wrench_to_core(yaw, force_x, force_y, torque_z, units)
     return _estimate(units.foot_pose(x, y, yaw), fx, fy, m0, min_force / units.force, shape)

@@ -23,10 +23,10 @@ from typing import Optional
 
 from scipy.integrate import solve_ivp
 
-from .general.model import WhiskerShape
-from .general_shooting import loaded_whisker_rhs
-from .exact.inverse import TIP_TOLERANCE, ContactEstimate
-from .state import FootPose, Phase
+from .model import WhiskerShape
+from ..general_shooting import loaded_whisker_rhs
+from ..exact.inverse import TIP_TOLERANCE, ContactEstimate
+from ..state import FootPose, Phase
 
 HALF_PI = 0.5 * math.pi
 
