@@ -28,6 +28,7 @@ from scipy.integrate import solve_ivp
 from scipy.optimize import root
 
 from .errors import ConvergenceError
+from .general.inverse import loaded_whisker_rhs
 from .general.model import WhiskerShape
 from .profiles import ConvexProfile
 from .state import FootPose, Phase
@@ -45,25 +46,6 @@ class ShotState:
     f: float
     alpha: float
     s1: float
-
-
-def loaded_whisker_rhs(shape: WhiskerShape, f: float, alpha: float):
-    """
-    Return the right-hand side of the loaded whisker's 4th-order system in the world frame.
-
-    u = (x, y, theta, M): x' = cos theta, y' = sin theta, theta' = kappa0(s) + M / B(s) and
-    M' = f cos(theta - alpha), under the contact force f (sin alpha, -cos alpha) beyond s.
-    """
-    ca, sa = math.cos(alpha), math.sin(alpha)
-    k0, k1, c = shape.k0, shape.k1, 1.0 - shape.taper
-
-    def rhs(s, u):
-        _, _, th, m = u
-        b = (1.0 - c * s) ** 4
-        return [math.cos(th), math.sin(th), k0 + k1 * s + m / b,
-                f * (math.cos(th) * ca + math.sin(th) * sa)]
-
-    return rhs
 
 
 def _integrate(shape: WhiskerShape, pose: FootPose, m0: float, f: float, alpha: float, s1: float):

@@ -24,11 +24,29 @@ from typing import Optional
 from scipy.integrate import solve_ivp
 
 from .model import WhiskerShape
-from ..general_shooting import loaded_whisker_rhs
 from ..exact.inverse import TIP_TOLERANCE, ContactEstimate
 from ..state import FootPose, Phase
 
 HALF_PI = 0.5 * math.pi
+
+
+def loaded_whisker_rhs(shape: WhiskerShape, f: float, alpha: float):
+    """
+    Return the right-hand side of the loaded whisker's 4th-order system in the world frame.
+
+    u = (x, y, theta, M): x' = cos theta, y' = sin theta, theta' = kappa0(s) + M / B(s) and
+    M' = f cos(theta - alpha), under the contact force f (sin alpha, -cos alpha) beyond s.
+    """
+    ca, sa = math.cos(alpha), math.sin(alpha)
+    k0, k1, c = shape.k0, shape.k1, 1.0 - shape.taper
+
+    def rhs(s, u):
+        _, _, th, m = u
+        b = (1.0 - c * s) ** 4
+        return [math.cos(th), math.sin(th), k0 + k1 * s + m / b,
+                f * (math.cos(th) * ca + math.sin(th) * sa)]
+
+    return rhs
 
 
 def estimate_contact_general(pose: FootPose, fx: float, fy: float, m0: float, shape: WhiskerShape,
@@ -67,4 +85,4 @@ def estimate_contact_general(pose: FootPose, fx: float, fy: float, m0: float, sh
     return ContactEstimate(pose, phase, (float(x), float(y)), alpha, s1, side, float(delta))
 
 
-__all__ = ["estimate_contact_general"]
+__all__ = ["estimate_contact_general", "loaded_whisker_rhs"]
