@@ -11,7 +11,7 @@ import math
 import numpy as np
 import pytest
 
-from vibrissa_ros.core.boundary import CircleArc
+from vibrissa_ros.core.scenes.boundary import CircleArc
 from vibrissa_ros.core.general.model import GeneralWhiskerModel, WhiskerShape
 from vibrissa_ros.core.profiles import Peg
 from vibrissa_ros.core.scene_tracker import SceneTracker

@@ -9,7 +9,7 @@ from scipy.integrate import quad
 from scipy.interpolate import CubicSpline
 from scipy.optimize import minimize_scalar
 
-from vibrissa_ros.core.boundary import CircleArc, GraphArc, ProfileArc, RayArc, SegmentArc
+from vibrissa_ros.core.scenes.boundary import CircleArc, GraphArc, ProfileArc, RayArc, SegmentArc
 from vibrissa_ros.core.errors import InvalidPoseError, ParameterError
 from vibrissa_ros.core.profiles import Peg, TwoCircles, make_profile
 from vibrissa_ros.core.scene import (

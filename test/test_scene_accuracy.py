@@ -14,7 +14,7 @@ import os
 import numpy as np
 import pytest
 
-from vibrissa_ros.core.boundary import CircleArc, GraphArc
+from vibrissa_ros.core.scenes.boundary import CircleArc, GraphArc
 from vibrissa_ros.core.general.model import WhiskerShape
 from vibrissa_ros.core.multicontact import ContactMode, MultiContactSolver
 from vibrissa_ros.core.scene_shooting import (

@@ -23,7 +23,7 @@ from vibrissa_ros.core import (
     QuasistaticTracker,
     WhiskerShape,
 )
-from vibrissa_ros.core.boundary import CircleArc, GraphArc, ProfileArc, SegmentArc, Vertex
+from vibrissa_ros.core.scenes.boundary import CircleArc, GraphArc, ProfileArc, SegmentArc, Vertex
 from vibrissa_ros.core.scene_shooting import (
     arc_end_margin,
     ContactSpec,

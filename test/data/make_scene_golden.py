@@ -21,7 +21,7 @@ sys.path.insert(0, str(HERE.parent))
 import test_scene_shooting as scenes  # noqa: E402
 
 from vibrissa_ros.core import FootPose  # noqa: E402
-from vibrissa_ros.core.boundary import CircleArc  # noqa: E402
+from vibrissa_ros.core.scenes.boundary import CircleArc  # noqa: E402
 from vibrissa_ros.core.scene_shooting import (  # noqa: E402
     PosePath,
     follow_path,

@@ -49,7 +49,7 @@ from typing import List, Optional, Sequence, Tuple
 import numpy as np
 import scipy.linalg as sla
 
-from .boundary import Arc, Vertex
+from .scenes.boundary import Arc, Vertex
 from .errors import ConvergenceError
 from .general.model import WhiskerShape, chebyshev_operators
 

@@ -39,7 +39,7 @@ from typing import Any, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple
 import numpy as np
 from scipy.optimize import brentq, minimize_scalar
 
-from .boundary import (
+from .scenes.boundary import (
     Arc, CircleArc, GraphArc, ProfileArc, RayArc, SegmentArc, TWO_PI, Vertex,
 )
 from .errors import InvalidPoseError, ParameterError

@@ -46,7 +46,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq, minimize_scalar
 
-from .boundary import Arc, CircleArc, GraphArc, SegmentArc, Vertex
+from .scenes.boundary import Arc, CircleArc, GraphArc, SegmentArc, Vertex
 from .errors import ConvergenceError, ParameterError
 from .general.model import WhiskerShape
 from .state import FootPose

@@ -40,7 +40,7 @@ import numpy as np
 import scipy.linalg as sla
 from scipy.optimize import brentq, minimize_scalar
 
-from .boundary import TWO_PI, Vertex
+from .scenes.boundary import TWO_PI, Vertex
 from .errors import (
     ConvergenceError,
     InvalidPoseError,

@@ -31,8 +31,8 @@ from typing import Optional, Tuple
 import numpy as np
 from scipy.interpolate import CubicSpline
 
-from .errors import ParameterError
-from .profiles import ConvexProfile, PlacedProfile, TwoCircles
+from ..errors import ParameterError
+from ..profiles import ConvexProfile, PlacedProfile, TwoCircles
 
 TWO_PI = 2.0 * math.pi
 
