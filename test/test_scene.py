@@ -12,7 +12,7 @@ from scipy.optimize import minimize_scalar
 from vibrissa_ros.core.scenes.boundary import CircleArc, GraphArc, ProfileArc, RayArc, SegmentArc
 from vibrissa_ros.core.errors import InvalidPoseError, ParameterError
 from vibrissa_ros.core.profiles import Peg, TwoCircles, make_profile
-from vibrissa_ros.core.scene import (
+from vibrissa_ros.core.scenes.scene import (
     CurveObstacle, PegObstacle, PolygonObstacle, ProfileObstacle, Scene, clip_polygon,
     clip_polyline,
 )

@@ -16,7 +16,7 @@ from .core.errors import ParameterError
 from .core.general.model import GeneralWhiskerModel, WhiskerShape
 from .core.exact.models import make_model
 from .core.profiles import ConvexProfile, Peg, make_profile
-from .core.scene import Scene
+from .core.scenes.scene import Scene
 from .edge import NS_PER_S, Units
 from .parameters import ParameterSpec, nonnegative, positive, validate
 

@@ -1,5 +1,5 @@
 """
-Scene files (YAML): read and write the obstacles of :class:`~vibrissa_ros.core.scene.Scene`.
+Scene files (YAML): read and write the obstacles of :class:`~vibrissa_ros.core.scenes.scene.Scene`.
 
 The format (README, "Scenes")::
 
@@ -27,7 +27,7 @@ import yaml
 
 from .core.errors import ParameterError
 from .core.profiles import PROFILE_PARAMETERS
-from .core.scene import Scene
+from .core.scenes.scene import Scene
 
 #: shape keys measured in 1/length (all other shape keys are lengths)
 INVERSE_LENGTH_KEYS = ("k",)

@@ -19,7 +19,7 @@ from .core.general.model import GeneralWhiskerModel, WhiskerShape
 from .core.exact.models import make_model
 from .core.profiles import Peg
 from .core.scan import ScanResult, run_poses, run_scan, run_scene
-from .core.scene import Scene
+from .core.scenes.scene import Scene
 
 SOLVERS = ("auto", "exact", "numeric")
 

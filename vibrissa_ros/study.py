@@ -130,7 +130,7 @@ class SceneRef:
     friction: Optional[float] = None
 
     def load(self):
-        """Return the :class:`~vibrissa_ros.core.scene.Scene` (parsed once per process)."""
+        """Return the :class:`~vibrissa_ros.core.scenes.scene.Scene` (parsed once per process)."""
         return _scene_from_text(self.text, self.path)
 
 
@@ -138,7 +138,7 @@ class SceneRef:
 def _scene_from_text(text: str, label: str):
     import yaml
 
-    from .core.scene import Scene
+    from .core.scenes.scene import Scene
 
     try:
         return Scene.from_dict(yaml.safe_load(text))

@@ -39,11 +39,11 @@ from typing import Any, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple
 import numpy as np
 from scipy.optimize import brentq, minimize_scalar
 
-from .scenes.boundary import (
+from .boundary import (
     Arc, CircleArc, GraphArc, ProfileArc, RayArc, SegmentArc, TWO_PI, Vertex,
 )
-from .errors import InvalidPoseError, ParameterError
-from .profiles import PROFILE_PARAMETERS, SIZE_RANGE, ConvexProfile, Peg, make_profile
+from ..errors import InvalidPoseError, ParameterError
+from ..profiles import PROFILE_PARAMETERS, SIZE_RANGE, ConvexProfile, Peg, make_profile
 
 #: profile families an obstacle may be (the peg is its own obstacle type)
 FAMILIES = tuple(name for name in PROFILE_PARAMETERS if name != "peg")
