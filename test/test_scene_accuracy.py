@@ -16,7 +16,7 @@ import pytest
 
 from vibrissa_ros.core.scenes.boundary import CircleArc, GraphArc
 from vibrissa_ros.core.general.model import WhiskerShape
-from vibrissa_ros.core.multicontact import ContactMode, MultiContactSolver
+from vibrissa_ros.core.scenes.multicontact import ContactMode, MultiContactSolver
 from vibrissa_ros.core.scene_shooting import (
     ContactSpec,
     PosePath,
@@ -64,7 +64,7 @@ def test_collocation_reproduces_the_shooting_golden_values(case):
             params.append([c["u"] + 1e-3, c["N"] * (1 - 1e-3)])
     # slopes: the unloaded whisker as a rough start
     breaks, guess = [], []
-    from vibrissa_ros.core.multicontact import _Segment
+    from vibrissa_ros.core.scenes.multicontact import _Segment
 
     a = 0.0
     for m, p in zip(modes, params):

@@ -49,9 +49,9 @@ from typing import List, Optional, Sequence, Tuple
 import numpy as np
 import scipy.linalg as sla
 
-from .scenes.boundary import Arc, Vertex
-from .errors import ConvergenceError
-from .general.model import WhiskerShape, chebyshev_operators
+from .boundary import Arc, Vertex
+from ..errors import ConvergenceError
+from ..general.model import WhiskerShape, chebyshev_operators
 
 #: Chebyshev points per segment (the convergence study of the README: ~1e-14 at 24)
 DEFAULT_SEGMENT_POINTS = 24
