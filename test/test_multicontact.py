@@ -14,7 +14,7 @@ import pytest
 from vibrissa_ros.core.scenes.boundary import CircleArc
 from vibrissa_ros.core.general.model import GeneralWhiskerModel, WhiskerShape
 from vibrissa_ros.core.profiles import Peg
-from vibrissa_ros.core.scene_tracker import SceneTracker
+from vibrissa_ros.core.scenes.tracker import SceneTracker
 from vibrissa_ros.core.exact.tracker import QuasistaticTracker
 
 

@@ -26,7 +26,7 @@ from vibrissa_ros.core.scene_shooting import (
     solve_scene_equilibrium,
     touch_gap,
 )
-from vibrissa_ros.core.scene_tracker import SceneTracker
+from vibrissa_ros.core.scenes.tracker import SceneTracker
 from vibrissa_ros.core.state import FootPose
 from vibrissa_ros.scene_file import load_scene
 

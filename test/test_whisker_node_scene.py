@@ -15,7 +15,7 @@ from rcl_interfaces.srv import SetParameters
 from ros_harness import ROOT, Probe, pose_msg, stamp_of, start_installed_node, stop, write_params
 from visualization_msgs.msg import Marker
 
-from vibrissa_ros.core.scene_tracker import SceneTracker
+from vibrissa_ros.core.scenes.tracker import SceneTracker
 from vibrissa_ros.edge import contact_records, planar_pose, sensor_reading
 from vibrissa_ros.log_tools import log_info, resimulate
 from vibrissa_ros.node_config import build_config

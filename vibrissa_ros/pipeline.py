@@ -14,7 +14,7 @@ from typing import List, Optional, Sequence, Tuple
 import numpy as np
 
 from .core.errors import ConvergenceError, InvalidPoseError, VibrissaError
-from .core.scene_tracker import SceneTracker
+from .core.scenes.tracker import SceneTracker
 from .core.state import Event, WhiskerState
 from .core.exact.tracker import MAX_POSE_MAGNITUDE, QuasistaticTracker
 from .edge import BadInput, SensorReading, planar_pose, sensor_reading
@@ -100,7 +100,7 @@ class PosePipeline:
         Check a pose and take the quasistatic step to it.
 
         A scene with several obstacles or friction steps the
-        :class:`~vibrissa_ros.core.scene_tracker.SceneTracker` (its states and events instead).
+        :class:`~vibrissa_ros.core.scenes.tracker.SceneTracker` (its states and events instead).
 
         Raises :class:`BadInput` (with a ``reason``) or another :class:`VibrissaError`; the
         pipeline then keeps its state.

@@ -40,18 +40,18 @@ import numpy as np
 import scipy.linalg as sla
 from scipy.optimize import brentq, minimize_scalar
 
-from .scenes.boundary import TWO_PI, Vertex
-from .errors import (
+from .boundary import TWO_PI, Vertex
+from ..errors import (
     ConvergenceError,
     InvalidPoseError,
     ModelAssumptionError,
     ParameterError,
     VibrissaError,
 )
-from .general.model import WhiskerShape
-from .scenes.multicontact import ContactMode, MultiContactSolver
-from .state import FootPose, Phase
-from .exact.tracker import _Path, _as_pose
+from ..general.model import WhiskerShape
+from .multicontact import ContactMode, MultiContactSolver
+from ..state import FootPose, Phase
+from ..exact.tracker import _Path, _as_pose
 
 #: largest change of the slopes and contact parameters in one sub-step
 _MAX_CHANGE = 0.05
@@ -701,7 +701,7 @@ class SceneTracker:
         breaks = self.solver.breaks_of(modes, vec) if modes else []
         a, th_end = 0.0, pose.heading
         done = np.zeros(s.size, dtype=bool)
-        from .scenes.multicontact import _node_variable
+        from .multicontact import _node_variable
         for j, b in enumerate(breaks):
             th = vec[j * n:(j + 1) * n]
             inside = (~done) & (s <= b)
@@ -721,7 +721,7 @@ class SceneTracker:
         for m, p in zip(new_modes, new_params):
             breaks.append(float(p[0]) if m.on_side else 1.0)
         thetas, a = [], 0.0
-        from .scenes.multicontact import _Segment
+        from .multicontact import _Segment
         for b in breaks:
             seg = _Segment(self.shape, self.solver._t, self.solver._S, a, b)
             thetas.append(self._theta_at(old_modes, old_vec, pose, seg.s))
