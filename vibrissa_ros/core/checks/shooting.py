@@ -30,8 +30,8 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq, root
 
-from .errors import ConvergenceError
-from .profiles import ConvexProfile
+from ..errors import ConvergenceError
+from ..profiles import ConvexProfile
 
 HALF_PI = 0.5 * math.pi
 _RTOL = 1e-13
