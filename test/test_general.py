@@ -222,7 +222,7 @@ def test_peg_parameters():
 
 
 # -- second, independent method: shooting (DOP853) on the 4th-order system --------------------
-from vibrissa_ros.core.general_shooting import shoot_state  # noqa: E402
+from vibrissa_ros.core.checks.general_shooting import shoot_state  # noqa: E402
 from vibrissa_ros.core.scan import run_poses  # noqa: E402
 
 

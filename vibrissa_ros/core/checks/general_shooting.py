@@ -27,11 +27,11 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.optimize import root
 
-from .errors import ConvergenceError
-from .general.inverse import loaded_whisker_rhs
-from .general.model import WhiskerShape
-from .profiles import ConvexProfile
-from .state import FootPose, Phase
+from ..errors import ConvergenceError
+from ..general.inverse import loaded_whisker_rhs
+from ..general.model import WhiskerShape
+from ..profiles import ConvexProfile
+from ..state import FootPose, Phase
 
 _RTOL = 1e-13
 _ATOL = 1e-14
