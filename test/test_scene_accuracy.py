@@ -17,7 +17,7 @@ import pytest
 from vibrissa_ros.core.scenes.boundary import CircleArc, GraphArc
 from vibrissa_ros.core.general.model import WhiskerShape
 from vibrissa_ros.core.scenes.multicontact import ContactMode, MultiContactSolver
-from vibrissa_ros.core.scene_shooting import (
+from vibrissa_ros.core.checks.scene_shooting import (
     ContactSpec,
     PosePath,
     arc_length_coordinate,

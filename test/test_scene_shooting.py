@@ -24,7 +24,7 @@ from vibrissa_ros.core import (
     WhiskerShape,
 )
 from vibrissa_ros.core.scenes.boundary import CircleArc, GraphArc, ProfileArc, SegmentArc, Vertex
-from vibrissa_ros.core.scene_shooting import (
+from vibrissa_ros.core.checks.scene_shooting import (
     arc_end_margin,
     ContactSpec,
     PosePath,

@@ -46,10 +46,10 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq, minimize_scalar
 
-from .scenes.boundary import Arc, CircleArc, GraphArc, SegmentArc, Vertex
-from .errors import ConvergenceError, ParameterError
-from .general.model import WhiskerShape
-from .state import FootPose
+from ..scenes.boundary import Arc, CircleArc, GraphArc, SegmentArc, Vertex
+from ..errors import ConvergenceError, ParameterError
+from ..general.model import WhiskerShape
+from ..state import FootPose
 
 KINDS = ("side", "corner", "tip", "tip_corner")
 FRICTION_STATES = ("stick", "slip")
