@@ -14,7 +14,7 @@ from .core.exact.models import MODELS, make_model
 from .core.profiles import PROFILE_PARAMETERS, make_profile
 from .core.general.model import WhiskerShape
 from .core.scan import run_poses, run_scan, scan_grid, whisk_poses
-from .parameters import ParameterSpec
+from .node.parameters import ParameterSpec
 from .scan_io import read_poses_csv, write_events_json, write_scan_csv
 
 

@@ -2,7 +2,7 @@
 The two nodes' parameters: names, SI units, defaults, ranges, and the configurations they build.
 
 No rclpy here. The names are a contract (tests, parameter files and users rely on them); the
-machinery (types, ranges, reasons) is :mod:`vibrissa_ros.parameters`, shared by both nodes.
+machinery (types, ranges, reasons) is :mod:`vibrissa_ros.node.parameters`, shared by both nodes.
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ from .core.exact.models import make_model
 from .core.profiles import ConvexProfile, Peg, make_profile
 from .core.scenes.scene import Scene
 from .edge import NS_PER_S, Units
-from .parameters import ParameterSpec, nonnegative, positive, validate
+from .node.parameters import ParameterSpec, nonnegative, positive, validate
 
 MODELS = ("elastica", "rigid")
 #: obstacle type -> (core parameter name, node parameter name) of its shape parameters

@@ -13,7 +13,7 @@ import math
 from dataclasses import dataclass
 from typing import Any, Dict, Iterable, Mapping, Optional, Tuple
 
-from .core.errors import ParameterError
+from ..core.errors import ParameterError
 
 
 @dataclass(frozen=True)
