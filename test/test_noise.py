@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from vibrissa_ros.node_config import build_config
+from vibrissa_ros.node.config import build_config
 from vibrissa_ros.noise import NoiseSpec, SensorNoise
 
 

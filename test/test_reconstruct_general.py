@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from vibrissa_ros.cli import main
-from vibrissa_ros.node_config import build_config, build_contour_config
+from vibrissa_ros.node.config import build_config, build_contour_config
 from vibrissa_ros.pipeline import PosePipeline
 from vibrissa_ros.reconstruction import estimate_from_wrench
 

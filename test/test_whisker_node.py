@@ -12,7 +12,7 @@ from ros_harness import ROOT, Probe, pose_msg, stamp_of, start_installed_node, s
 
 from vibrissa_ros.core import QuasistaticTracker
 from vibrissa_ros.edge import planar_pose, sensor_reading
-from vibrissa_ros.node_config import build_config
+from vibrissa_ros.node.config import build_config
 
 HALF_PI = math.pi / 2
 CATENARY = {

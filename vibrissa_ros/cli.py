@@ -862,7 +862,7 @@ def _cmd_plot(args) -> int:
         def run():
             from .log_tools import configurations, export_rows
             from .mcap_log import read_log
-            from .node_config import build_config
+            from .node.config import build_config
 
             rows, sim = export_rows(args.input)
             values = configurations(read_log(args.input)[2])[0][1]

@@ -19,7 +19,7 @@ from .core.errors import VibrissaError
 from .core.state import WhiskerState
 from .edge import contact_records, decode_event, encode_event, event_record, header_ns
 from .mcap_log import CONFIGURATION_METADATA, LogError, LogMessage, read_log
-from .node_config import build_config
+from .node.config import build_config
 from .pipeline import PosePipeline, drop_reason
 
 

@@ -85,7 +85,7 @@ def from_log(path: str, min_force: float = 0.0) -> Reconstruction:
     """Pair every recorded foot pose with the wrench of its stamp (as whisker_node stamps it)."""
     from .log_tools import configurations
     from .mcap_log import read_log
-    from .node_config import build_config
+    from .node.config import build_config
     from .ros.serialization import decode
 
     _, _, metadata, messages = read_log(path)

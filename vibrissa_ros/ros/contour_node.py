@@ -25,7 +25,7 @@ from visualization_msgs.msg import Marker
 
 from ..core.errors import VibrissaError
 from ..edge import BadInput, header_ns, pose_of
-from ..node_config import CONTOUR_PARAMETERS, ContourConfig, build_contour_config
+from ..node.config import CONTOUR_PARAMETERS, ContourConfig, build_contour_config
 from ..reconstruction import estimate_from_wrench
 from . import messages as m
 from .params import NodeParameters

@@ -24,7 +24,7 @@ from rclpy.node import Node
 
 from ..edge import contact_records, event_record, header_ns
 from ..mcap_log import LogError
-from ..node_config import PARAMETERS, WhiskerConfig, build_config
+from ..node.config import PARAMETERS, WhiskerConfig, build_config
 from ..pipeline import PosePipeline, PoseStats, drop_reason
 from . import messages as m
 from .backlog import PoseBacklog

@@ -12,13 +12,13 @@ import os
 from dataclasses import dataclass
 from typing import Any, Dict, Mapping, Optional, Tuple
 
-from .core.errors import ParameterError
-from .core.general.model import GeneralWhiskerModel, WhiskerShape
-from .core.exact.models import make_model
-from .core.profiles import ConvexProfile, Peg, make_profile
-from .core.scenes.scene import Scene
-from .edge import NS_PER_S, Units
-from .node.parameters import ParameterSpec, nonnegative, positive, validate
+from ..core.errors import ParameterError
+from ..core.general.model import GeneralWhiskerModel, WhiskerShape
+from ..core.exact.models import make_model
+from ..core.profiles import ConvexProfile, Peg, make_profile
+from ..core.scenes.scene import Scene
+from ..edge import NS_PER_S, Units
+from .parameters import ParameterSpec, nonnegative, positive, validate
 
 MODELS = ("elastica", "rigid")
 #: obstacle type -> (core parameter name, node parameter name) of its shape parameters
@@ -405,7 +405,7 @@ def _own_share(package: str) -> Optional[str]:
 
 def _scene_config(values: Dict[str, Any], recorded: Optional[str]) -> WhiskerConfig:
     """Build the configuration of obstacle.type = scene (``recorded``: a log's scene text)."""
-    from .scene_file import load_scene
+    from ..scene_file import load_scene
 
     name = values["obstacle.scene_file"]
     if values["model"] != "elastica":
