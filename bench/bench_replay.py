@@ -33,7 +33,7 @@ from vibrissa_ros.edge import event_record, header_ns
 from vibrissa_ros.log_tools import decode
 from vibrissa_ros.mcap_log import CONFIGURATION_METADATA, LogWriter, TopicSpec, read_log
 from vibrissa_ros.node.config import build_config
-from vibrissa_ros.pipeline import PosePipeline
+from vibrissa_ros.node.pipeline import PosePipeline
 from vibrissa_ros.ros import messages as m
 from vibrissa_ros.ros.recorder import configuration_record
 

@@ -21,7 +21,7 @@ from vibrissa_ros.edge import (  # noqa: E402
     sensor_reading,
 )
 from vibrissa_ros.node.config import SCENE_TEXT, build_config  # noqa: E402
-from vibrissa_ros.pipeline import PosePipeline  # noqa: E402
+from vibrissa_ros.node.pipeline import PosePipeline  # noqa: E402
 from vibrissa_ros.ros import messages as m  # noqa: E402
 from vibrissa_ros.scene_file import load_scene  # noqa: E402
 

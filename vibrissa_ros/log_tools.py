@@ -20,7 +20,7 @@ from .core.state import WhiskerState
 from .edge import contact_records, decode_event, encode_event, event_record, header_ns
 from .mcap_log import CONFIGURATION_METADATA, LogError, LogMessage, read_log
 from .node.config import build_config
-from .pipeline import PosePipeline, drop_reason
+from .node.pipeline import PosePipeline, drop_reason
 
 
 def decode(message: LogMessage):
