@@ -29,7 +29,7 @@ from geometry_msgs.msg import WrenchStamped
 from domain_coordinator import domain_id
 from rclpy.serialization import serialize_message
 
-from vibrissa_ros.edge import event_record, header_ns
+from vibrissa_ros.node.edge import event_record, header_ns
 from vibrissa_ros.log_tools import decode
 from vibrissa_ros.mcap_log import CONFIGURATION_METADATA, LogWriter, TopicSpec, read_log
 from vibrissa_ros.node.config import build_config

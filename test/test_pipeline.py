@@ -5,7 +5,7 @@ import math
 import pytest
 
 from vibrissa_ros.core import ConvergenceError, InvalidPoseError, ModelAssumptionError, run_scan
-from vibrissa_ros.edge import BadInput, sensor_reading, yaw_quaternion
+from vibrissa_ros.node.edge import BadInput, sensor_reading, yaw_quaternion
 from vibrissa_ros.node.config import build_config
 from vibrissa_ros.node.pipeline import DROP_REASONS, PosePipeline, PoseStats, drop_reason
 

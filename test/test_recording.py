@@ -310,7 +310,7 @@ def test_sensor_noise_is_seeded_recorded_and_resimulated(installed, ros_env, rcl
     for log, got in zip(logs, (first, second)):
         sim = resimulate(str(log))
         assert not sim.mismatches and sim.worst() <= 1e-12  # resim reproduces the noise bit for bit
-        from vibrissa_ros.edge import sensor_reading
+        from vibrissa_ros.node.edge import sensor_reading
 
         cfg = build_config(noisy)
         exact = np.array([(r.force_base[0], r.force_base[1], r.torque_z)

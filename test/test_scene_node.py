@@ -16,7 +16,7 @@ from visualization_msgs.msg import Marker  # noqa: E402
 
 from vibrissa_ros.core import FootPose, ParameterError, QuasistaticTracker  # noqa: E402
 from vibrissa_ros.core.scenes.tracker import SceneTracker  # noqa: E402
-from vibrissa_ros.edge import (  # noqa: E402
+from vibrissa_ros.node.edge import (  # noqa: E402
     ContactRecord, contact_records, decode_event, encode_event, event_record, planar_pose,
     sensor_reading,
 )

@@ -16,7 +16,7 @@ from ros_harness import ROOT, Probe, pose_msg, stamp_of, start_installed_node, s
 from visualization_msgs.msg import Marker
 
 from vibrissa_ros.core.scenes.tracker import SceneTracker
-from vibrissa_ros.edge import contact_records, planar_pose, sensor_reading
+from vibrissa_ros.node.edge import contact_records, planar_pose, sensor_reading
 from vibrissa_ros.log_tools import log_info, resimulate
 from vibrissa_ros.node.config import build_config
 from vibrissa_ros.ros.messages import decode_contacts

@@ -18,7 +18,7 @@ from .core.general.model import WhiskerShape
 from .core.exact.inverse import ContactEstimate, estimate_contact
 from .core.general.inverse import estimate_contact_general
 from .core.state import FootPose
-from .edge import Units, header_ns, pose_of, wrench_to_core
+from .node.edge import Units, header_ns, pose_of, wrench_to_core
 
 RECONSTRUCTION_COLUMNS = ("x0", "phase", "contact_x", "contact_y", "alpha")
 

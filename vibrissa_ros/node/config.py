@@ -17,7 +17,7 @@ from ..core.general.model import GeneralWhiskerModel, WhiskerShape
 from ..core.exact.models import make_model
 from ..core.profiles import ConvexProfile, Peg, make_profile
 from ..core.scenes.scene import Scene
-from ..edge import NS_PER_S, Units
+from .edge import NS_PER_S, Units
 from .parameters import ParameterSpec, nonnegative, positive, validate
 
 MODELS = ("elastica", "rigid")

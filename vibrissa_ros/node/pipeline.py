@@ -17,7 +17,7 @@ from ..core.errors import ConvergenceError, InvalidPoseError, VibrissaError
 from ..core.scenes.tracker import SceneTracker
 from ..core.state import Event, WhiskerState
 from ..core.exact.tracker import MAX_POSE_MAGNITUDE, QuasistaticTracker
-from ..edge import BadInput, SensorReading, planar_pose, sensor_reading
+from .edge import BadInput, SensorReading, planar_pose, sensor_reading
 from .config import WhiskerConfig
 from ..noise import NoiseSpec, SensorNoise
 

@@ -24,7 +24,7 @@ from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from visualization_msgs.msg import Marker
 
 from ..core.errors import VibrissaError
-from ..edge import BadInput, header_ns, pose_of
+from ..node.edge import BadInput, header_ns, pose_of
 from ..node.config import CONTOUR_PARAMETERS, ContourConfig, build_contour_config
 from ..reconstruction import estimate_from_wrench
 from . import messages as m

@@ -23,8 +23,8 @@ import math
 from dataclasses import dataclass
 from typing import Optional, Sequence, Tuple
 
-from .core.errors import VibrissaError
-from .core.state import FootPose, WhiskerState
+from ..core.errors import VibrissaError
+from ..core.state import FootPose, WhiskerState
 
 NS_PER_S = 1_000_000_000
 #: how far a quaternion's norm may be from 1
