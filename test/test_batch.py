@@ -24,7 +24,7 @@ import pyarrow.parquet as pq
 from vibrissa_ros import dataset
 from vibrissa_ros.batch import run_study
 from vibrissa_ros.cli import main
-from vibrissa_ros.noise import NoiseSpec, SensorNoise
+from vibrissa_ros.node.noise import NoiseSpec, SensorNoise
 from vibrissa_ros.scan_io import CSV_COLUMNS, POSE_CSV_COLUMNS
 from vibrissa_ros.study import parse_study
 

@@ -50,7 +50,7 @@ import pyarrow.parquet as pq
 from . import __version__
 from .core.errors import VibrissaError
 from .core.scan import ScanResult
-from .noise import NoiseSpec, SensorNoise
+from .node.noise import NoiseSpec, SensorNoise
 from .scan_io import CSV_COLUMNS
 from .study import NOISE_KEYS as _NOISE_FIELDS
 from .study import Study, Task

@@ -19,7 +19,7 @@ from ..core.state import Event, WhiskerState
 from ..core.exact.tracker import MAX_POSE_MAGNITUDE, QuasistaticTracker
 from .edge import BadInput, SensorReading, planar_pose, sensor_reading
 from .config import WhiskerConfig
-from ..noise import NoiseSpec, SensorNoise
+from .noise import NoiseSpec, SensorNoise
 
 #: every reason a foot pose can be dropped for, as counted on /diagnostics (``dropped_<reason>``)
 DROP_REASONS = (
