@@ -259,7 +259,7 @@ def test_contour_node_reconstructs_a_replayed_log(installed, ros_env, rcl_contex
     from geometry_msgs.msg import PointStamped
     from ros_harness import RELIABLE
 
-    from vibrissa_ros.reconstruction import from_log
+    from vibrissa_ros.node.reconstruction import from_log
 
     proc = start_installed_node(installed, None, ros_env, executable="contour_node",
                                 extra="-r '~/foot_pose:=/whisker_node/foot_pose' -r '~/wrench:=/whisker_node/wrench'")

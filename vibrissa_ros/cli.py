@@ -921,7 +921,7 @@ def _cmd_plot(args) -> int:
 
 def _cmd_reconstruct(args) -> int:
     def run():
-        from .reconstruction import plot, reconstruct_input, write_csv
+        from .node.reconstruction import plot, reconstruct_input, write_csv
 
         if not os.path.isfile(args.input):
             raise FileNotFoundError(2, "no such file", args.input)

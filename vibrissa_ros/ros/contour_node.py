@@ -26,7 +26,7 @@ from visualization_msgs.msg import Marker
 from ..core.errors import VibrissaError
 from ..node.edge import BadInput, header_ns, pose_of
 from ..node.config import CONTOUR_PARAMETERS, ContourConfig, build_contour_config
-from ..reconstruction import estimate_from_wrench
+from ..node.reconstruction import estimate_from_wrench
 from . import messages as m
 from .params import NodeParameters
 from .run import run_node

@@ -13,12 +13,12 @@ import math
 from dataclasses import dataclass
 from typing import IO, List, Optional, Sequence, Tuple
 
-from .core.errors import VibrissaError
-from .core.general.model import WhiskerShape
-from .core.exact.inverse import ContactEstimate, estimate_contact
-from .core.general.inverse import estimate_contact_general
-from .core.state import FootPose
-from .node.edge import Units, header_ns, pose_of, wrench_to_core
+from ..core.errors import VibrissaError
+from ..core.general.model import WhiskerShape
+from ..core.exact.inverse import ContactEstimate, estimate_contact
+from ..core.general.inverse import estimate_contact_general
+from ..core.state import FootPose
+from .edge import Units, header_ns, pose_of, wrench_to_core
 
 RECONSTRUCTION_COLUMNS = ("x0", "phase", "contact_x", "contact_y", "alpha")
 
@@ -83,10 +83,10 @@ def from_scan_csv(path: str, min_force: float = 0.0,
 
 def from_log(path: str, min_force: float = 0.0) -> Reconstruction:
     """Pair every recorded foot pose with the wrench of its stamp (as whisker_node stamps it)."""
-    from .log_tools import configurations
-    from .mcap_log import read_log
-    from .node.config import build_config
-    from .ros.serialization import decode
+    from ..log_tools import configurations
+    from ..mcap_log import read_log
+    from .config import build_config
+    from ..ros.serialization import decode
 
     _, _, metadata, messages = read_log(path)
     values = configurations(metadata)[0][1]
@@ -157,7 +157,7 @@ def plot(rec: Reconstruction, path: str, title: str = "") -> None:
     """Draw the reconstructed contact points (by phase) over the true profile / contact points."""
     import numpy as np
 
-    from .plots import PHASE_COLORS, PHASE_NAMES, plt
+    from ..plots import PHASE_COLORS, PHASE_NAMES, plt
 
     L = rec.length
     fig, (ax, ax_err) = plt.subplots(
