@@ -838,7 +838,7 @@ def _cmd_export(args) -> int:
 
 def _cmd_repair(args) -> int:
     def run():
-        from .mcap_log import repair
+        from .logs.mcap_log import repair
 
         kept = repair(args.log, args.output)
         print(f"vibrissa repair: {kept} messages kept -> {args.output}", file=sys.stderr)
@@ -861,7 +861,7 @@ def _cmd_plot(args) -> int:
 
         def run():
             from .log_tools import configurations, export_rows
-            from .mcap_log import read_log
+            from .logs.mcap_log import read_log
             from .node.config import build_config
 
             rows, sim = export_rows(args.input)

@@ -18,7 +18,7 @@ from typing import Dict, List, Tuple
 from .core.errors import VibrissaError
 from .core.state import WhiskerState
 from .node.edge import contact_records, decode_event, encode_event, event_record, header_ns
-from .mcap_log import CONFIGURATION_METADATA, LogError, LogMessage, read_log
+from .logs.mcap_log import CONFIGURATION_METADATA, LogError, LogMessage, read_log
 from .node.config import build_config
 from .node.pipeline import PosePipeline, drop_reason
 

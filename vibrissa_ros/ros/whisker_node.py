@@ -23,7 +23,7 @@ from geometry_msgs.msg import PoseStamped, WrenchStamped
 from rclpy.node import Node
 
 from ..node.edge import contact_records, event_record, header_ns
-from ..mcap_log import LogError
+from ..logs.mcap_log import LogError
 from ..node.config import PARAMETERS, WhiskerConfig, build_config
 from ..node.pipeline import PosePipeline, PoseStats, drop_reason
 from . import messages as m

@@ -30,8 +30,8 @@ from mcap.records import Channel, ChunkIndex, Footer, Message, Metadata, Schema
 from mcap.stream_reader import StreamReader
 from mcap.writer import CompressionType, Writer
 
-from . import __version__
-from .core.errors import VibrissaError
+from .. import __version__
+from ..core.errors import VibrissaError
 
 PROFILE = "ros2"
 SCHEMA_ENCODING = "ros2msg"
