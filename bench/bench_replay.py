@@ -30,7 +30,7 @@ from domain_coordinator import domain_id
 from rclpy.serialization import serialize_message
 
 from vibrissa_ros.node.edge import event_record, header_ns
-from vibrissa_ros.log_tools import decode
+from vibrissa_ros.logs.tools import decode
 from vibrissa_ros.logs.mcap_log import CONFIGURATION_METADATA, LogWriter, TopicSpec, read_log
 from vibrissa_ros.node.config import build_config
 from vibrissa_ros.node.pipeline import PosePipeline

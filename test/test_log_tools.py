@@ -10,7 +10,7 @@ import pytest
 from vibrissa_ros.cli import main
 from vibrissa_ros.core import run_scan
 from vibrissa_ros.node.edge import header_ns
-from vibrissa_ros.log_tools import configurations, decode, export_rows, log_info, resimulate
+from vibrissa_ros.logs.tools import configurations, decode, export_rows, log_info, resimulate
 from vibrissa_ros.logs.mcap_log import LogError, read_log, repair
 from vibrissa_ros.node.config import build_config
 

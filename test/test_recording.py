@@ -20,7 +20,7 @@ from rosbags.rosbag2 import Reader as RosbagsReader
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
 from vibrissa_ros.core import run_scan
-from vibrissa_ros.log_tools import log_info, resimulate
+from vibrissa_ros.logs.tools import log_info, resimulate
 from vibrissa_ros.logs.mcap_log import LogError, read_log
 from vibrissa_ros.node.config import build_config
 

@@ -17,7 +17,7 @@ from visualization_msgs.msg import Marker
 
 from vibrissa_ros.core.scenes.tracker import SceneTracker
 from vibrissa_ros.node.edge import contact_records, planar_pose, sensor_reading
-from vibrissa_ros.log_tools import log_info, resimulate
+from vibrissa_ros.logs.tools import log_info, resimulate
 from vibrissa_ros.node.config import build_config
 from vibrissa_ros.ros.messages import decode_contacts
 

@@ -737,7 +737,7 @@ def _log_tool(verb: str, action) -> int:
 
 def _cmd_info(args) -> int:
     def run():
-        from .log_tools import log_info
+        from .logs.tools import log_info
 
         info = log_info(args.log)
         print(f"log:       {args.log}")
@@ -784,7 +784,7 @@ def _cmd_replay(args) -> int:
 
 def _cmd_resim(args) -> int:
     def run():
-        from .log_tools import resimulate
+        from .logs.tools import resimulate
 
         sim = resimulate(args.log)
         print(
@@ -808,7 +808,7 @@ def _cmd_resim(args) -> int:
 
 def _cmd_export(args) -> int:
     def run():
-        from .log_tools import export_rows
+        from .logs.tools import export_rows
         from .scan_io import CONTACTS_COLUMN, CSV_COLUMNS, state_row
 
         rows, sim = export_rows(args.log)
@@ -860,7 +860,7 @@ def _cmd_plot(args) -> int:
     if args.input.endswith(".mcap"):
 
         def run():
-            from .log_tools import configurations, export_rows
+            from .logs.tools import configurations, export_rows
             from .logs.mcap_log import read_log
             from .node.config import build_config
 

@@ -83,7 +83,7 @@ def from_scan_csv(path: str, min_force: float = 0.0,
 
 def from_log(path: str, min_force: float = 0.0) -> Reconstruction:
     """Pair every recorded foot pose with the wrench of its stamp (as whisker_node stamps it)."""
-    from ..log_tools import configurations
+    from ..logs.tools import configurations
     from ..logs.mcap_log import read_log
     from .config import build_config
     from ..ros.serialization import decode

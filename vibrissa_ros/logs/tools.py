@@ -15,17 +15,17 @@ from collections import Counter, defaultdict
 from dataclasses import dataclass, field
 from typing import Dict, List, Tuple
 
-from .core.errors import VibrissaError
-from .core.state import WhiskerState
-from .node.edge import contact_records, decode_event, encode_event, event_record, header_ns
-from .logs.mcap_log import CONFIGURATION_METADATA, LogError, LogMessage, read_log
-from .node.config import build_config
-from .node.pipeline import PosePipeline, drop_reason
+from ..core.errors import VibrissaError
+from ..core.state import WhiskerState
+from ..node.edge import contact_records, decode_event, encode_event, event_record, header_ns
+from .mcap_log import CONFIGURATION_METADATA, LogError, LogMessage, read_log
+from ..node.config import build_config
+from ..node.pipeline import PosePipeline, drop_reason
 
 
 def decode(message: LogMessage):
     """Return the message object of a logged message (needs ROS 2's message packages)."""
-    from .ros.serialization import decode as decode_cdr
+    from ..ros.serialization import decode as decode_cdr
 
     return decode_cdr(message)
 
@@ -134,7 +134,7 @@ def _event_values(record) -> tuple:
 
 def decode_contacts(cloud):
     """Return the contacts of a logged ``~/contacts`` cloud (needs ROS 2's message packages)."""
-    from .ros.messages import decode_contacts as decode_cloud
+    from ..ros.messages import decode_contacts as decode_cloud
 
     return decode_cloud(cloud)
 
