@@ -9,7 +9,7 @@ import pytest
 pytest.importorskip("yaml")
 
 from vibrissa_ros.cli import main
-from vibrissa_ros.study import StudyError, load_study, parse_study, place_obstacle
+from vibrissa_ros.studies.study import StudyError, load_study, parse_study, place_obstacle
 from vibrissa_ros.core import make_profile
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -196,7 +196,7 @@ motion:
 
 
 def test_whisking_motions_keep_the_foot_and_sweep_the_heading():
-    from vibrissa_ros.study import Whisk
+    from vibrissa_ros.studies.study import Whisk
 
     study = parse_study(WHISK_AND_PEG)
     assert study.has_whisking and len(study.tasks) == 2 * 3 * 3

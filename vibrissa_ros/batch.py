@@ -27,7 +27,7 @@ from typing import IO, List, Optional, Tuple
 
 from .core.errors import VibrissaError
 from .dataset import Layout, StudyWriter, TaskFiles, encode, failure_tables, result_tables
-from .study import Study, Task
+from .studies.study import Study, Task
 
 #: how often Dask re-runs a task that raised an unexpected exception (not a VibrissaError)
 RETRIES = 2
@@ -109,7 +109,7 @@ def run_study(
     Parameters
     ----------
     study : Study
-        A validated study (:func:`vibrissa_ros.study.load_study`).
+        A validated study (:func:`vibrissa_ros.studies.study.load_study`).
     out : str
         The dataset directory: created, or resumed when it holds this very study.
     workers : int, optional

@@ -403,7 +403,7 @@ def _cmd_batch(args) -> int:
     try:
         from .batch import run_study
         from .dataset import DatasetError
-        from .study import load_study
+        from .studies.study import load_study
     except ImportError as exc:
         print(
             f"vibrissa batch: error: needs Dask, pyarrow, tqdm and PyYAML ({exc}); pip install "
@@ -524,7 +524,7 @@ def _cmd_scan(args) -> int:
             raise VibrissaError("--contacts applies to --scene")
         if args.friction is not None:
             raise VibrissaError("--friction applies to --scene (a profile alone is frictionless)")
-        from .study import place_obstacle
+        from .studies.study import place_obstacle
 
         profile = place_obstacle(make_profile(args.profile, _params(args.param)), *args.place)
         grid, poses = _scan_path(args)

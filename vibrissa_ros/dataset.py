@@ -52,8 +52,8 @@ from .core.errors import VibrissaError
 from .core.scan import ScanResult
 from .node.noise import NoiseSpec, SensorNoise
 from .scan_io import CSV_COLUMNS
-from .study import NOISE_KEYS as _NOISE_FIELDS
-from .study import Study, Task
+from .studies.study import NOISE_KEYS as _NOISE_FIELDS
+from .studies.study import Study, Task
 
 FORMAT = "vibrissa-batch/1"
 TABLES = ("poses", "events", "failures")
@@ -577,7 +577,7 @@ class StudyDataset:
 
     def schemas(self) -> Dict[str, pa.Schema]:
         """Return the tables' schemas, built from the stored study."""
-        from .study import parse_study
+        from .studies.study import parse_study
 
         return schemas(parse_study(self.study_text, read_scenes=False))
 

@@ -65,13 +65,13 @@ from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
-from .core.errors import ParameterError, VibrissaError
-from .core.general.model import GeneralWhiskerModel, WhiskerShape
-from .core.exact.models import MODELS, make_model
-from .core.profiles import PROFILE_PARAMETERS as _ALL_PROFILE_PARAMETERS
-from .core.profiles import ConvexProfile, make_profile
-from .core.scan import ScanResult, run_poses, run_scan, scan_grid, whisk_poses
-from .core.state import FootPose
+from ..core.errors import ParameterError, VibrissaError
+from ..core.general.model import GeneralWhiskerModel, WhiskerShape
+from ..core.exact.models import MODELS, make_model
+from ..core.profiles import PROFILE_PARAMETERS as _ALL_PROFILE_PARAMETERS
+from ..core.profiles import ConvexProfile, make_profile
+from ..core.scan import ScanResult, run_poses, run_scan, scan_grid, whisk_poses
+from ..core.state import FootPose
 
 #: obstacles a study can scan: every profile of ``vibrissa scan`` (a peg is computed by the general
 #: whisker model, as ``vibrissa scan --solver auto`` picks it)
@@ -138,7 +138,7 @@ class SceneRef:
 def _scene_from_text(text: str, label: str):
     import yaml
 
-    from .core.scenes.scene import Scene
+    from ..core.scenes.scene import Scene
 
     try:
         return Scene.from_dict(yaml.safe_load(text))
@@ -250,7 +250,7 @@ class Task:
     def run(self) -> ScanResult:
         """Compute the task's scan with the functions ``vibrissa scan`` calls."""
         if self.scene is not None:
-            from .scene_scan import plan_scene_scan
+            from ..scene_scan import plan_scene_scan
 
             shape = WhiskerShape(self.taper, self.curvature_k0, self.curvature_k1)
             whisk = self.whisk is not None
@@ -639,7 +639,7 @@ def _scenes(where: str, entry: Mapping, base_dir: Optional[str], read: bool) -> 
         path = os.path.normpath(os.path.join(base_dir or "", os.path.expanduser(name)))
         text, scene_friction = "", None
         if read:
-            from .scene_file import load_scene
+            from ..scene_file import load_scene
 
             try:
                 with open(path, encoding="utf-8") as stream:
