@@ -29,7 +29,7 @@ import statistics
 import tempfile
 import time
 
-from vibrissa_ros.batch import run_study
+from vibrissa_ros.studies.batch import run_study
 from vibrissa_ros.studies.study import parse_study
 
 RANDOM_PROFILES = """

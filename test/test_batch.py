@@ -22,7 +22,7 @@ pytest.importorskip("pyarrow")
 import pyarrow.parquet as pq
 
 from vibrissa_ros import dataset
-from vibrissa_ros.batch import run_study
+from vibrissa_ros.studies.batch import run_study
 from vibrissa_ros.cli import main
 from vibrissa_ros.node.noise import NoiseSpec, SensorNoise
 from vibrissa_ros.scan_io import CSV_COLUMNS, POSE_CSV_COLUMNS
@@ -298,7 +298,7 @@ def test_a_killed_driver_resumed_computes_only_the_missing_tasks(client, study, 
 
 
 def test_a_cluster_worker_needs_no_ros():
-    code = ("import sys, vibrissa_ros.batch, vibrissa_ros.dataset, vibrissa_ros.studies.study, vibrissa_ros.cli; "
+    code = ("import sys, vibrissa_ros.studies.batch, vibrissa_ros.dataset, vibrissa_ros.studies.study, vibrissa_ros.cli; "
             "print(sorted(m for m in sys.modules if m.split('.')[0] in ('rclpy', 'rosidl_runtime_py', 'mcap')))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
                          env=dict(os.environ, PYTHONPATH=str(ROOT))).stdout

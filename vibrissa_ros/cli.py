@@ -401,7 +401,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _cmd_batch(args) -> int:
     try:
-        from .batch import run_study
+        from .studies.batch import run_study
         from .dataset import DatasetError
         from .studies.study import load_study
     except ImportError as exc:

@@ -25,9 +25,9 @@ import warnings
 from dataclasses import dataclass
 from typing import IO, List, Optional, Tuple
 
-from .core.errors import VibrissaError
-from .dataset import Layout, StudyWriter, TaskFiles, encode, failure_tables, result_tables
-from .studies.study import Study, Task
+from ..core.errors import VibrissaError
+from ..dataset import Layout, StudyWriter, TaskFiles, encode, failure_tables, result_tables
+from .study import Study, Task
 
 #: how often Dask re-runs a task that raised an unexpected exception (not a VibrissaError)
 RETRIES = 2
