@@ -298,7 +298,7 @@ def test_a_killed_driver_resumed_computes_only_the_missing_tasks(client, study, 
 
 
 def test_a_cluster_worker_needs_no_ros():
-    code = ("import sys, vibrissa_ros.studies.batch, vibrissa_ros.dataset, vibrissa_ros.studies.study, vibrissa_ros.cli; "
+    code = ("import sys, vibrissa_ros.studies.batch, vibrissa_ros.studies.dataset, vibrissa_ros.studies.study, vibrissa_ros.cli; "
             "print(sorted(m for m in sys.modules if m.split('.')[0] in ('rclpy', 'rosidl_runtime_py', 'mcap')))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
                          env=dict(os.environ, PYTHONPATH=str(ROOT))).stdout

@@ -407,7 +407,7 @@ def test_scene_files_are_a_grid_axis_with_friction_found_beside_the_study(tmp_pa
 
 def test_a_study_without_scenes_keeps_its_columns_and_digest():
     """Datasets written before scenes were study obstacles still resume: same digest, same columns."""
-    from vibrissa_ros.dataset import manifest
+    from vibrissa_ros.studies.dataset import manifest
 
     found = manifest(parse_study(_PARABOLA + "motion: {from: 1, to: -1, step: 0.1}\n"))
     assert found["study_sha256"] == "0d38f7089440e00fa4f1173b5e8b7489a2ad1cd12132f748ed9af516c33765d5"

@@ -402,7 +402,7 @@ def build_parser() -> argparse.ArgumentParser:
 def _cmd_batch(args) -> int:
     try:
         from .studies.batch import run_study
-        from .dataset import DatasetError
+        from .studies.dataset import DatasetError
         from .studies.study import load_study
     except ImportError as exc:
         print(

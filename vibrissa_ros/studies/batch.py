@@ -10,7 +10,7 @@ raised something unexpected and re-runs the tasks of a lost worker; nothing here
 on its own.
 
 The workers compute and return each task's tables; the driver writes them, task by task, atomically
-(:class:`vibrissa_ros.dataset.StudyWriter`), so workers need no shared file system and a killed run
+(:class:`vibrissa_ros.studies.dataset.StudyWriter`), so workers need no shared file system and a killed run
 loses only the tasks in flight. Running the same study into the same directory again computes only
 the tasks that are missing.
 """
@@ -26,7 +26,7 @@ from dataclasses import dataclass
 from typing import IO, List, Optional, Tuple
 
 from ..core.errors import VibrissaError
-from ..dataset import Layout, StudyWriter, TaskFiles, encode, failure_tables, result_tables
+from .dataset import Layout, StudyWriter, TaskFiles, encode, failure_tables, result_tables
 from .study import Study, Task
 
 #: how often Dask re-runs a task that raised an unexpected exception (not a VibrissaError)

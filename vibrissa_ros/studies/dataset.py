@@ -47,13 +47,13 @@ from typing import Dict, Iterable, List, Optional, Set, Tuple
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from . import __version__
-from .core.errors import VibrissaError
-from .core.scan import ScanResult
-from .node.noise import NoiseSpec, SensorNoise
-from .scan_io import CSV_COLUMNS
-from .studies.study import NOISE_KEYS as _NOISE_FIELDS
-from .studies.study import Study, Task
+from .. import __version__
+from ..core.errors import VibrissaError
+from ..core.scan import ScanResult
+from ..node.noise import NoiseSpec, SensorNoise
+from ..scan_io import CSV_COLUMNS
+from .study import NOISE_KEYS as _NOISE_FIELDS
+from .study import Study, Task
 
 FORMAT = "vibrissa-batch/1"
 TABLES = ("poses", "events", "failures")
@@ -577,7 +577,7 @@ class StudyDataset:
 
     def schemas(self) -> Dict[str, pa.Schema]:
         """Return the tables' schemas, built from the stored study."""
-        from .studies.study import parse_study
+        from .study import parse_study
 
         return schemas(parse_study(self.study_text, read_scenes=False))
 
@@ -636,7 +636,7 @@ class StudyDataset:
 
 def open(
     path: str,
-) -> StudyDataset:  # noqa: A001 - the module's entry point, ``vibrissa_ros.dataset.open``
+) -> StudyDataset:  # noqa: A001 - the module's entry point, ``vibrissa_ros.studies.dataset.open``
     """Open a study directory written by ``vibrissa batch`` for reading."""
     if not os.path.isdir(path):
         raise DatasetError(f"{path}: no such study directory")
