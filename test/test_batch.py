@@ -25,7 +25,7 @@ from vibrissa_ros import dataset
 from vibrissa_ros.studies.batch import run_study
 from vibrissa_ros.cli import main
 from vibrissa_ros.node.noise import NoiseSpec, SensorNoise
-from vibrissa_ros.scan_io import CSV_COLUMNS, POSE_CSV_COLUMNS
+from vibrissa_ros.scan.scan_io import CSV_COLUMNS, POSE_CSV_COLUMNS
 from vibrissa_ros.studies.study import parse_study
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -15,7 +15,7 @@ from .core.profiles import PROFILE_PARAMETERS, make_profile
 from .core.general.model import WhiskerShape
 from .core.scan import run_poses, run_scan, scan_grid, whisk_poses
 from .node.parameters import ParameterSpec
-from .scan_io import read_poses_csv, write_events_json, write_scan_csv
+from .scan.scan_io import read_poses_csv, write_events_json, write_scan_csv
 
 
 class _Parser(argparse.ArgumentParser):
@@ -630,7 +630,7 @@ def _cmd_scan_scene(args) -> int:
     except VibrissaError as exc:
         print(f"vibrissa scan: error: {exc}", file=sys.stderr)
         return 2 if isinstance(exc, ValueError) else 1
-    from .scan_io import write_contacts_jsonl, write_scene_events_json
+    from .scan.scan_io import write_contacts_jsonl, write_scene_events_json
 
     if args.csv == "-":
         write_scan_csv(states, sys.stdout, by_pose, contacts=True)
@@ -809,7 +809,7 @@ def _cmd_resim(args) -> int:
 def _cmd_export(args) -> int:
     def run():
         from .logs.tools import export_rows
-        from .scan_io import CONTACTS_COLUMN, CSV_COLUMNS, state_row
+        from .scan.scan_io import CONTACTS_COLUMN, CSV_COLUMNS, state_row
 
         rows, sim = export_rows(args.log)
         # a run of the scene tracker: its number of contacts too, as `vibrissa scan --scene`

@@ -51,7 +51,7 @@ from .. import __version__
 from ..core.errors import VibrissaError
 from ..core.scan import ScanResult
 from ..node.noise import NoiseSpec, SensorNoise
-from ..scan_io import CSV_COLUMNS
+from ..scan.scan_io import CSV_COLUMNS
 from .study import NOISE_KEYS as _NOISE_FIELDS
 from .study import Study, Task
 

@@ -13,8 +13,8 @@ import csv
 import json
 from typing import IO, Iterable, List
 
-from .core.errors import ParameterError
-from .core.state import Event, FootPose, WhiskerState
+from ..core.errors import ParameterError
+from ..core.state import Event, FootPose, WhiskerState
 
 CSV_COLUMNS = (
     "x0",
