@@ -16,7 +16,7 @@ from vibrissa_ros.core.scenes.scene import (
     CurveObstacle, PegObstacle, PolygonObstacle, ProfileObstacle, Scene, clip_polygon,
     clip_polyline,
 )
-from vibrissa_ros.scene_file import dump_scene, load_scene
+from vibrissa_ros.scan.scene_file import dump_scene, load_scene
 
 L_SHAPE = [[0.0, 0.0], [1.0, 0.0], [1.0, 0.4], [0.4, 0.4], [0.4, 1.0], [0.0, 1.0]]
 OBSTACLES = {

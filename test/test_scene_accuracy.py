@@ -28,7 +28,7 @@ from vibrissa_ros.core.checks.scene_shooting import (
 )
 from vibrissa_ros.core.scenes.tracker import SceneTracker
 from vibrissa_ros.core.state import FootPose
-from vibrissa_ros.scene_file import load_scene
+from vibrissa_ros.scan.scene_file import load_scene
 
 HERE = os.path.dirname(__file__)
 GOLDEN = os.path.join(HERE, "data", "scene_golden.json")

@@ -23,7 +23,7 @@ from vibrissa_ros.node.edge import (  # noqa: E402
 from vibrissa_ros.node.config import SCENE_TEXT, build_config  # noqa: E402
 from vibrissa_ros.node.pipeline import PosePipeline  # noqa: E402
 from vibrissa_ros.ros import messages as m  # noqa: E402
-from vibrissa_ros.scene_file import load_scene  # noqa: E402
+from vibrissa_ros.scan.scene_file import load_scene  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENE_M = ROOT / "config" / "scene_two_pegs_m.yaml"

@@ -605,7 +605,7 @@ def _cmd_scan(args) -> int:
 
 def _cmd_scan_scene(args) -> int:
     """``vibrissa scan --scene``: several obstacles, several contacts, friction."""
-    from .scene_file import load_scene
+    from .scan.scene_file import load_scene
     from .scene_scan import plan_scene_scan
 
     try:

@@ -405,7 +405,7 @@ def _own_share(package: str) -> Optional[str]:
 
 def _scene_config(values: Dict[str, Any], recorded: Optional[str]) -> WhiskerConfig:
     """Build the configuration of obstacle.type = scene (``recorded``: a log's scene text)."""
-    from ..scene_file import load_scene
+    from ..scan.scene_file import load_scene
 
     name = values["obstacle.scene_file"]
     if values["model"] != "elastica":

@@ -639,7 +639,7 @@ def _scenes(where: str, entry: Mapping, base_dir: Optional[str], read: bool) -> 
         path = os.path.normpath(os.path.join(base_dir or "", os.path.expanduser(name)))
         text, scene_friction = "", None
         if read:
-            from ..scene_file import load_scene
+            from ..scan.scene_file import load_scene
 
             try:
                 with open(path, encoding="utf-8") as stream:

@@ -26,7 +26,7 @@ Geometric queries (all exact to rounding; the solvers locate touches by root fin
 ``outline(n, window)`` (closed polygons for drawing; an infinite obstacle is cut at the window).
 
 :class:`Scene` holds the obstacles and the global friction, validates them together (no overlaps)
-and converts to and from plain dictionaries (the YAML format, :mod:`vibrissa_ros.scene_file`).
+and converts to and from plain dictionaries (the YAML format, :mod:`vibrissa_ros.scan.scene_file`).
 Lengths are in whisker lengths L (dimensionless), like the rest of the core.
 """
 

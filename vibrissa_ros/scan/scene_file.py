@@ -25,9 +25,9 @@ from typing import Any, Dict, Optional, Union
 
 import yaml
 
-from .core.errors import ParameterError
-from .core.profiles import PROFILE_PARAMETERS
-from .core.scenes.scene import Scene
+from ..core.errors import ParameterError
+from ..core.profiles import PROFILE_PARAMETERS
+from ..core.scenes.scene import Scene
 
 #: shape keys measured in 1/length (all other shape keys are lengths)
 INVERSE_LENGTH_KEYS = ("k",)
