@@ -507,7 +507,7 @@ def _scan_path(args):
 
 def _elastica_model(args, profile):
     """The exact elastica or the general solver, by --solver, --taper and --curvature."""
-    from .scene_scan import elastica_model
+    from .scan.scene_scan import elastica_model
 
     k0, k1 = args.curvature or (0.0, 0.0)
     shape = WhiskerShape(1.0 if args.taper is None else args.taper, k0, k1)
@@ -606,7 +606,7 @@ def _cmd_scan(args) -> int:
 def _cmd_scan_scene(args) -> int:
     """``vibrissa scan --scene``: several obstacles, several contacts, friction."""
     from .scan.scene_file import load_scene
-    from .scene_scan import plan_scene_scan
+    from .scan.scene_scan import plan_scene_scan
 
     try:
         if args.profile is not None or args.param or args.place != (0.0, 0.0, 0.0):

@@ -36,7 +36,7 @@ A scene file (README "Scenes": several obstacles, friction) is an obstacle too::
 
 ``friction`` overrides the scene's global coefficient (``vibrissa scan --friction``); an obstacle
 with its own coefficient in the file keeps it. A scene task runs what ``vibrissa scan --scene``
-runs (:mod:`vibrissa_ros.scene_scan`); the whisker block's taper and curvature apply. A scene
+runs (:mod:`vibrissa_ros.scan.scene_scan`); the whisker block's taper and curvature apply. A scene
 places its own obstacles (no placement), and the rigid model (one contact) is refused with scenes.
 The scene files are read when the study is read: their text travels with the tasks, so workers
 need no shared file system, and it is part of the study's digest (a changed scene file is another
@@ -250,7 +250,7 @@ class Task:
     def run(self) -> ScanResult:
         """Compute the task's scan with the functions ``vibrissa scan`` calls."""
         if self.scene is not None:
-            from ..scene_scan import plan_scene_scan
+            from ..scan.scene_scan import plan_scene_scan
 
             shape = WhiskerShape(self.taper, self.curvature_k0, self.curvature_k1)
             whisk = self.whisk is not None

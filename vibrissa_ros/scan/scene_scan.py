@@ -14,12 +14,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import List, Optional, Sequence
 
-from .core.errors import VibrissaError
-from .core.general.model import GeneralWhiskerModel, WhiskerShape
-from .core.exact.models import make_model
-from .core.profiles import Peg
-from .core.scan import ScanResult, run_poses, run_scan, run_scene
-from .core.scenes.scene import Scene
+from ..core.errors import VibrissaError
+from ..core.general.model import GeneralWhiskerModel, WhiskerShape
+from ..core.exact.models import make_model
+from ..core.profiles import Peg
+from ..core.scan import ScanResult, run_poses, run_scan, run_scene
+from ..core.scenes.scene import Scene
 
 SOLVERS = ("auto", "exact", "numeric")
 
@@ -115,7 +115,7 @@ def plan_scene_scan(scene: Scene, grid=None, poses: Optional[Sequence] = None,
 
 def as_scene_state(state):
     """Return a single-contact state as a scene state (its one contact, frictionless)."""
-    from .core.scenes.tracker import SceneContact
+    from ..core.scenes.tracker import SceneContact
 
     contacts = ()
     if int(state.phase) != 0:
@@ -145,7 +145,7 @@ class _SingleSceneState:
 
 def as_scene_event(event):
     """Return a single-contact event as a scene event (touch, tip, tangential, release, snap)."""
-    from .core.scenes.tracker import SceneEvent
+    from ..core.scenes.tracker import SceneEvent
 
     kind = {"touch": "touch", "release": "release", "snap": "snap"}.get(event.kind, "phase")
     if event.kind == "phase":
