@@ -26,7 +26,7 @@ from test_inverse import random_profiles  # noqa: E402  (the same generator the 
 
 from vibrissa_ros.core import Catenary, Parabola, TwoCircles, run_scan, scan_grid  # noqa: E402
 from vibrissa_ros.core.exact.inverse import covered_intervals, estimate_contact  # noqa: E402
-from vibrissa_ros.plots import direction_segments  # noqa: E402
+from vibrissa_ros.scan.plots import direction_segments  # noqa: E402
 
 
 def distance_to_profile(profile, x, y):

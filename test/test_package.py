@@ -80,7 +80,7 @@ def test_the_ros_free_adapters_import_without_ros():
     import sys
 
     code = ("import sys; sys.modules['rclpy'] = None\n"
-            "import vibrissa_ros.cli, vibrissa_ros.scan.scan_io, vibrissa_ros.logs.mcap_log, vibrissa_ros.plots,"
+            "import vibrissa_ros.cli, vibrissa_ros.scan.scan_io, vibrissa_ros.logs.mcap_log, vibrissa_ros.scan.plots,"
             " vibrissa_ros.node.reconstruction, vibrissa_ros.logs.tools, vibrissa_ros.node.edge,"
             " vibrissa_ros.node.pipeline, vibrissa_ros.node.config\n"
             "assert vibrissa_ros.cli.main(['scan', '--profile', 'parabola', '--param', 'p0=0.3',"

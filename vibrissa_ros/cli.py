@@ -582,7 +582,7 @@ def _cmd_scan(args) -> int:
                 write_events_json(result.events, stream, by_pose)
     if args.plot:
         try:
-            from .plots import PlotRun, plot_runs
+            from .scan.plots import PlotRun, plot_runs
         except ImportError as exc:
             print(
                 f"vibrissa scan: error: --plot needs matplotlib ({exc}); pip install '.[plots]'",
@@ -645,7 +645,7 @@ def _cmd_scan_scene(args) -> int:
             write_contacts_jsonl(states, stream, by_pose)
     if args.plot:
         try:
-            from .plots import plot_scene_scan
+            from .scan.plots import plot_scene_scan
         except ImportError as exc:
             print(f"vibrissa scan: error: --plot needs matplotlib ({exc}); pip install '.[plots]'",
                   file=sys.stderr)
@@ -849,7 +849,7 @@ def _cmd_repair(args) -> int:
 
 def _cmd_plot(args) -> int:
     try:
-        from .plots import PlotRun, plot_runs, si_units
+        from .scan.plots import PlotRun, plot_runs, si_units
     except ImportError as exc:
         print(
             f"vibrissa plot: error: needs matplotlib ({exc}); pip install '.[plots]'",

@@ -157,7 +157,7 @@ def plot(rec: Reconstruction, path: str, title: str = "") -> None:
     """Draw the reconstructed contact points (by phase) over the true profile / contact points."""
     import numpy as np
 
-    from ..plots import PHASE_COLORS, PHASE_NAMES, plt
+    from ..scan.plots import PHASE_COLORS, PHASE_NAMES, plt
 
     L = rec.length
     fig, (ax, ax_err) = plt.subplots(

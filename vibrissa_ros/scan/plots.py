@@ -22,8 +22,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from .core.profiles import ConvexProfile, Peg  # noqa: E402
-from .core.state import Event, WhiskerState  # noqa: E402
+from ..core.profiles import ConvexProfile, Peg  # noqa: E402
+from ..core.state import Event, WhiskerState  # noqa: E402
 
 PHASE_COLORS = {0: "#7f7f7f", 1: "#1f77b4", 2: "#d62728"}
 PHASE_NAMES = {0: "free", 1: "tangential (phase 1)", 2: "tip (phase 2)"}
