@@ -16,7 +16,7 @@ import pytest
 
 from vibrissa_ros.core import FootPose, Parabola, Peg, Phase, QuasistaticTracker
 from vibrissa_ros.core.general import GeneralWhiskerModel, WhiskerShape
-from vibrissa_ros.core.general_shooting import ShotState, _integrate, shoot
+from vibrissa_ros.core.checks.general_shooting import ShotState, _integrate, shoot
 
 
 def _peg_scene(seed, shift=0.0, radius_scale=1.0):
