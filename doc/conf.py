@@ -40,10 +40,10 @@ rosdoc2_settings = {"allow_other_extensions": True}
 
 source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
 root_doc = master_doc = "index"
-# rosdoc2 adds its own files beside ours (sphinx-apidoc pages, a copy of this folder under
-# user_docs, its output folder): they are not part of this site
-exclude_patterns = ["_build", "user_docs", "sphinx_output", "modules.rst", "vibrissa_ros*.rst",
-                    "interfaces", "__*"]
+# rosdoc2 adds its own files beside ours (sphinx-apidoc pages, copies of this folder and of the
+# README, its output folder): they are not part of this site
+exclude_patterns = ["_build", "sphinx_output", "modules.rst", "vibrissa_ros*.rst", "interfaces",
+                    "user_docs", "user_docs*.rst", "standard_docs", "standards.rst", "__*"]
 nitpicky = False
 
 myst_enable_extensions = ["dollarmath", "deflist", "colon_fence"]
