@@ -80,9 +80,9 @@ def test_the_ros_free_adapters_import_without_ros():
     import sys
 
     code = ("import sys; sys.modules['rclpy'] = None\n"
-            "import vibrissa_ros.cli, vibrissa_ros.scan_io, vibrissa_ros.mcap_log, vibrissa_ros.plots,"
-            " vibrissa_ros.reconstruction, vibrissa_ros.log_tools, vibrissa_ros.edge,"
-            " vibrissa_ros.pipeline, vibrissa_ros.node_config\n"
+            "import vibrissa_ros.cli, vibrissa_ros.scan.scan_io, vibrissa_ros.logs.mcap_log, vibrissa_ros.scan.plots,"
+            " vibrissa_ros.node.reconstruction, vibrissa_ros.logs.tools, vibrissa_ros.node.edge,"
+            " vibrissa_ros.node.pipeline, vibrissa_ros.node.config\n"
             "assert vibrissa_ros.cli.main(['scan', '--profile', 'parabola', '--param', 'p0=0.3',"
             " '--from', '2', '--to', '1.9', '--step', '0.1', '--csv', '-']) == 0\n")
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
@@ -123,7 +123,7 @@ def test_launch_files_name_only_what_exists(path):
 
     import yaml
 
-    from vibrissa_ros.node_config import CONTOUR_SPECS, SPECS
+    from vibrissa_ros.node.config import CONTOUR_SPECS, SPECS
 
     specs = {"whisker_node": SPECS, "contour_node": CONTOUR_SPECS}
     root = ET.parse(path).getroot()

@@ -11,7 +11,7 @@ import numpy as np
 from .errors import ParameterError
 from .profiles import ConvexProfile
 from .state import Event, FootPose, WhiskerState
-from .tracker import QuasistaticTracker
+from .exact.tracker import QuasistaticTracker
 
 
 @dataclass(frozen=True)
@@ -113,7 +113,7 @@ def run_scene(obstacles, poses, shape=None, friction=None) -> ScanResult:
     profile or peg without friction is the single-contact problem: ``scene_scan.py`` hands that to
     :func:`run_scan`, whose numbers the scene tracker reproduces to ~1e-10.)
     """
-    from .scene_tracker import SceneTracker
+    from .scenes.tracker import SceneTracker
 
     poses = [p if isinstance(p, FootPose) else FootPose(float(p)) for p in poses]
     if not poses:
