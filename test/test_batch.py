@@ -21,7 +21,7 @@ pytest.importorskip("pyarrow")
 
 import pyarrow.parquet as pq
 
-from vibrissa_ros import dataset
+from vibrissa_ros.studies import dataset
 from vibrissa_ros.studies.batch import run_study
 from vibrissa_ros.cli import main
 from vibrissa_ros.node.noise import NoiseSpec, SensorNoise

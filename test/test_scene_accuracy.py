@@ -2,7 +2,7 @@
 The collocation solver and scene tracker against the independent shooting method (issue 13).
 
 Required: for two pegs and for a non-convex curve, the two methods agree to <= 1e-9, and events
-to <= 1e-9 in the pose parameter. The shooting method (``core/scene_shooting.py``) shares nothing
+to <= 1e-9 in the pose parameter. The shooting method (``core/checks/scene_shooting.py``) shares nothing
 with the collocation but the geometry of ``boundary.py``; its golden values are in
 ``test/data/scene_golden.json``.
 """

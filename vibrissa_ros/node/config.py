@@ -396,7 +396,8 @@ def _own_share(package: str) -> Optional[str]:
         return None
     import sys
 
-    checkout = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    # this file is <checkout>/vibrissa_ros/node/config.py
+    checkout = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
     for folder in (os.path.join(sys.prefix, "share", package), checkout):
         if os.path.isfile(os.path.join(folder, "package.xml")):
             return folder

@@ -8,8 +8,8 @@ In: ``~/foot_pose`` (geometry_msgs/PoseStamped in ``world_frame``). Out: ``~/wre
 the README's topic table says what each carries. Every message with a header carries the stamp
 of the pose that produced it; the wrench and events are always published, the other per-pose
 topics only while somebody subscribes (or the node records). This module only wires: checks and
-steps are :mod:`vibrissa_ros.node.pipeline`'s, conversions :mod:`vibrissa_ros.node.edge`'s, messages
-:mod:`.messages`', recording :mod:`.recorder`'s and queueing :mod:`.backlog`'s.
+steps are :mod:`vibrissa_ros.node.pipeline`'s, conversions :mod:`vibrissa_ros.node.edge`'s,
+messages :mod:`.messages`', recording :mod:`.recorder`'s and queueing :mod:`.backlog`'s.
 """
 
 from __future__ import annotations

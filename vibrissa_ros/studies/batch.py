@@ -10,9 +10,9 @@ raised something unexpected and re-runs the tasks of a lost worker; nothing here
 on its own.
 
 The workers compute and return each task's tables; the driver writes them, task by task, atomically
-(:class:`vibrissa_ros.studies.dataset.StudyWriter`), so workers need no shared file system and a killed run
-loses only the tasks in flight. Running the same study into the same directory again computes only
-the tasks that are missing.
+(:class:`vibrissa_ros.studies.dataset.StudyWriter`), so workers need no shared file system and a
+killed run loses only the tasks in flight. Running the same study into the same directory again
+computes only the tasks that are missing.
 """
 
 from __future__ import annotations

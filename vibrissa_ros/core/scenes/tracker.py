@@ -199,7 +199,7 @@ class SceneTracker:
     ----------
     obstacles : sequence
         Obstacles with ``arcs``, ``vertices`` (boundary features) and ``signed_distance(points)``
-        (core/scene.py).
+        (core/scenes/scene.py).
     pose : FootPose or float
         Start pose: the whisker is placed there unloaded; it must not cut an obstacle.
     shape : WhiskerShape
