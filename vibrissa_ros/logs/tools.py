@@ -62,6 +62,20 @@ class LogInfo:
 
 
 def log_info(path: str) -> LogInfo:
+    """
+    Summarize a recorded log: what ``vibrissa info`` prints.
+
+    Parameters
+    ----------
+    path : str
+        The MCAP file.
+
+    Returns
+    -------
+    LogInfo
+        Topics, types, counts, duration, the recorded configurations, phases and events.
+
+    """
     _, channels, metadata, messages = read_log(path)
     counts = Counter(m.topic for m in messages)
     types = {

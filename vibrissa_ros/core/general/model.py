@@ -274,14 +274,15 @@ class GeneralWhiskerModel:
     """
     The tapered, intrinsically curved elastica behind the tracker's model interface.
 
-    Parameters
-    ----------
-    shape : WhiskerShape
-    n : int
-        Chebyshev points on the loaded part [0, s1].
-
     Unknowns (contact frame): phase 1 (tangential, theta(s1) = alpha, s1 < 1) ``z = (alpha, s1)``;
     phase 2 (tip, s1 = 1, theta(1) >= alpha) ``z = (alpha, gamma)``, gamma = theta0(1) - theta(1).
+
+    Parameters
+    ----------
+    shape : WhiskerShape, optional
+        Taper and intrinsic curvature (default: the paper's uniform, straight whisker).
+    n : int, optional
+        Chebyshev points on the loaded part [0, s1].
 
     """
 

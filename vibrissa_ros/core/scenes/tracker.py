@@ -19,7 +19,7 @@ event                  change of the configuration
 ``corner``             a contact slides to the end of an edge: side -> corner, tip -> tip_corner
 ``edge``               a corner's force leaves the corner's normal cone: corner -> side,
                        tip_corner -> tip on the adjacent edge
-``slip``               a sticking contact reaches |T| = mu N: stick -> slip
+``slip``               a sticking contact reaches ``|T| = mu N``: stick -> slip
 ``stick``              a slipping contact's slip rate returns to zero: slip -> stick
 ``merge``              two contacts on one arc meet: they become one
 ``snap``               the equilibrium folds (Newton finds no solution beyond t): the
