@@ -62,9 +62,34 @@ def shoot(shape: WhiskerShape, profile: ConvexProfile, pose: FootPose, phase: Ph
     """
     Solve the equilibrium of ``phase`` at ``pose`` by shooting from ``guess``.
 
-    ``right``: the obstacle lies on the whisker's right at a tangential contact
-    (theta = alpha + pi).
-    Raises :class:`ConvergenceError` when the root finder does not converge.
+    Parameters
+    ----------
+    shape : WhiskerShape
+        The whisker's taper and intrinsic curvature.
+    profile : ConvexProfile
+        The obstacle; Q(alpha) is its point of slope alpha.
+    pose : FootPose
+        The foot's position and heading (world frame).
+    phase : Phase
+        The contact to solve for: tangential (unknowns m0, f, alpha, s1) or at the tip (unknowns
+        m0, f, alpha; s1 = 1).
+    guess : ShotState
+        The root finder's starting point.
+    right : bool, optional
+        The obstacle lies on the whisker's right at a tangential contact (theta = alpha + pi).
+    tol : float, optional
+        The root finder's ``xtol``.
+
+    Returns
+    -------
+    ShotState
+        The equilibrium found (world frame, units EI_b).
+
+    Raises
+    ------
+    ConvergenceError
+        When the root finder does not converge.
+
     """
     turn = math.pi if right else 0.0
 

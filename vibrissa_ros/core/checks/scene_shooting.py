@@ -79,28 +79,36 @@ class ContactSpec:
     """
     One contact: what touches what, its friction state and initial guesses.
 
-    Attributes
+    The parameters are the dataclass's fields, kept as attributes of the same names.
+
+    Parameters
     ----------
-    kind : str
+    kind : {'side', 'corner', 'tip', 'tip_corner'}
         ``side`` (the whisker's side on a smooth arc), ``corner`` (its side on a vertex),
         ``tip`` (the tip on an arc) or ``tip_corner`` (the tip on a vertex).
     feature : Arc or Vertex
         An arc for side and tip, a vertex for corner and tip_corner.
-    friction : str
+    friction : {'slip', 'stick'}, optional
         ``stick`` (T unknown, q held at ``anchor``) or ``slip`` (T = -slip_sign mu N). With
         mu = 0 a contact always slips with T = 0.
-    mu : float
+    mu : float, optional
         Coulomb coefficient >= 0.
-    anchor : float
+    anchor : float, optional
         Stick: the slip coordinate q that is held [L].
-    slip_sign : int
+    slip_sign : {0, -1, 1}, optional
         Slip: -1, 0 or +1, the sign of dq/dt along the motion.
-    side : int
+    side : {1, -1}, optional
         Corner: e = +-1, the side of the whisker's normal the force pushes to.
-    s, u, N, T : float
+    s, u, N, T : float, optional
         Initial guesses: arc length, arc parameter, normal and tangential force [EI_b / L^2].
         For tip_corner, N and T are the force's components along the bisector of the vertex's
         normal cone and its tangent (cos, sin of the bisector's tangent angle).
+
+    Raises
+    ------
+    ParameterError
+        When a field is out of its range: an unknown kind or friction state, a feature of the
+        wrong type for the kind, a non-finite number, mu < 0, slip_sign or side out of range.
 
     """
 
@@ -176,9 +184,40 @@ class SceneEquilibrium:
     """
     An equilibrium of the whisker under several contacts, found by shooting.
 
-    ``fx, fy`` the total force of the obstacles on the whisker and ``m0`` = M(0) the base moment
-    (counter-clockwise positive): what the follicle's sensor measures. ``residual`` is the max
-    norm of the solved equations, ``evaluations`` the number of ODE integrations it took.
+    Returned by :func:`solve_scene_equilibrium`; the parameters are the dataclass's fields, kept
+    as attributes of the same names (world frame, units L, EI_b / L^2 and EI_b / L).
+
+    Parameters
+    ----------
+    shape : WhiskerShape
+        The whisker's taper and intrinsic curvature.
+    pose : FootPose
+        Where the foot is clamped.
+    contacts : tuple of ContactSolution
+        The contacts solved, in the order of ``specs``.
+    specs : tuple of ContactSpec
+        The contacts as specified (their guesses are those the solve started from).
+    fx, fy : float
+        The total force of the obstacles on the whisker.
+    m0 : float
+        M(0), the base moment (counter-clockwise positive): with ``fx, fy``, what the
+        follicle's sensor measures.
+    tip : tuple of float
+        The tip's position (x, y).
+    tip_slope : float
+        The whisker's slope at the tip.
+    residual : float
+        The max norm of the solved equations.
+    evaluations : int
+        The number of ODE integrations it took.
+    rtol : float
+        The relative tolerance of the integration.
+
+    Other Parameters
+    ----------------
+    _pieces : tuple
+        The integrated pieces :meth:`state` evaluates (internal).
+
     """
 
     shape: WhiskerShape
@@ -513,6 +552,11 @@ def solve_scene_equilibrium(shape: WhiskerShape, pose: FootPose,
     tol : float
         Max-norm residual at which Newton stops.
 
+    Returns
+    -------
+    SceneEquilibrium
+        The equilibrium, its contacts in the order of ``contacts``.
+
     Raises
     ------
     ConvergenceError
@@ -664,8 +708,39 @@ def locate_event(shape: WhiskerShape, path: PosePath, contacts: Sequence[Contact
 
     The path is sampled at ``steps`` + 1 equally spaced parameters (solves warm-started along
     it); the first sign change is refined by Brent's method to ``xtol`` in t, every solve
-    warm-started from the nearest equilibrium already found. Returns None when the event does
-    not change sign on the sampled path. Raises ConvergenceError when a solve fails.
+    warm-started from the nearest equilibrium already found.
+
+    Parameters
+    ----------
+    shape : WhiskerShape
+        Taper and intrinsic curvature of the whisker.
+    path : PosePath
+        The foot's straight path, parametrized by t.
+    contacts : sequence of ContactSpec
+        The contacts and their friction states, with the initial guesses of the first solve.
+    event : callable
+        ``event(equilibrium) -> float``: the function of a :class:`SceneEquilibrium` whose sign
+        change is the event (:func:`release`, :func:`slip_onset`, ...).
+    t_from, t_to : float, optional
+        The interval of the path parameter searched.
+    steps : int, optional
+        The number of sampling intervals.
+    xtol : float, optional
+        The tolerance in t of Brent's method.
+    rtol : float, optional
+        Relative tolerance of the DOP853 integration.
+
+    Returns
+    -------
+    LocatedEvent or None
+        The event's parameter t, pose, equilibrium and event value; None when the event does
+        not change sign on the sampled path.
+
+    Raises
+    ------
+    ConvergenceError
+        When a solve fails.
+
     """
     ts = np.linspace(t_from, t_to, int(steps) + 1)
     known: Dict[float, SceneEquilibrium] = {}

@@ -82,7 +82,15 @@ def integrate(x0: float, kappa0: float, f: float, alpha: float, s_end: float) ->
 
 
 class ShootingSolver:
-    """Solve the boundary value problem at one foot position, from a seed."""
+    """
+    Solve the boundary value problem at one foot position, from a seed.
+
+    Parameters
+    ----------
+    profile : ConvexProfile
+        The obstacle whose point of slope alpha, (xi(alpha), eta(alpha)), the whisker touches.
+
+    """
 
     def __init__(self, profile: ConvexProfile):
         self.profile = profile
