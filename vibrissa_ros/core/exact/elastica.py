@@ -156,7 +156,10 @@ class TipLoadedElastica:
     """
     The elastica clamped at the origin along +y with a force at its tip (no tip moment).
 
-    Attributes
+    Returned by :func:`tip_loaded_elastica`; the parameters are the dataclass's fields, kept as
+    attributes of the same names.
+
+    Parameters
     ----------
     f : float
         Force magnitude [EI/L^2].
@@ -196,6 +199,25 @@ def tip_loaded_elastica(f: float, alpha: float = HALF_PI) -> TipLoadedElastica:
     The rod bends clockwise; ``alpha`` in (0, pi) covers every force direction with a component
     along +x. Solved exactly: the tip rotation gamma is the root of S(alpha, gamma) = sqrt(f)
     (eq. 21), then the tip position follows in closed form.
+
+    Parameters
+    ----------
+    f : float
+        The force magnitude [EI/L^2], finite and > 0.
+    alpha : float, optional
+        The force's direction [rad], in (0, pi): it acts along (sin alpha, -cos alpha); the
+        default pi/2 pushes along +x.
+
+    Returns
+    -------
+    TipLoadedElastica
+        The force, the tip's position and slope and the clamp's moment.
+
+    Raises
+    ------
+    ParameterError
+        When f is not finite and > 0, or alpha is not in (0, pi).
+
     """
     f = float(f)
     alpha = float(alpha)

@@ -38,17 +38,21 @@ class ContactEstimate:
     """
     A contact point estimated from one sensor reading (dimensionless, world frame).
 
-    Attributes
+    Returned by :func:`estimate_contact`; the parameters are the dataclass's fields, kept as
+    attributes of the same names.
+
+    Parameters
     ----------
     pose : FootPose
+        The foot pose of the reading.
     phase : Phase
         TANGENTIAL when the zero-moment point lies inside the whisker (s1 < 1), TIP otherwise.
-    contact : (float, float)
-        The estimated contact point.
+    contact : tuple of float
+        The estimated contact point (x, y) [L].
     alpha : float
         The profile's slope there [rad], from the force direction.
     s1 : float
-        Arc length of the contact on the whisker.
+        Arc length of the contact on the whisker [L].
     side : int
         +1 bent clockwise, -1 counter-clockwise (from the sign of m0).
     delta : float
@@ -72,9 +76,25 @@ def estimate_contact(pose: FootPose, fx: float, fy: float, m0: float,
     Estimate the contact point from one reading.
 
     The reading is the force (fx, fy) of the obstacle on the whisker (world frame) and the base
-    moment m0 (ccw positive), in the paper's units. None when there is no usable contact:
-    f <= ``min_force``, m0 = 0 (a force through the foot), or a reading no single frictionless
-    contact can produce.
+    moment m0 (ccw positive), in the paper's units.
+
+    Parameters
+    ----------
+    pose : FootPose
+        The foot pose of the reading.
+    fx, fy : float
+        The force of the obstacle on the whisker, world frame [EI/L^2].
+    m0 : float
+        The base moment [EI/L], counter-clockwise positive.
+    min_force : float, optional
+        A reading with f = |(fx, fy)| <= ``min_force`` has no usable contact.
+
+    Returns
+    -------
+    ContactEstimate or None
+        The estimate; None when there is no usable contact: f <= ``min_force``, m0 = 0 (a force
+        through the foot), or a reading no single frictionless contact can produce.
+
     """
     f = math.hypot(fx, fy)
     if not (math.isfinite(f) and math.isfinite(m0)) or f <= min_force or f == 0.0 or m0 == 0.0:
@@ -105,7 +125,22 @@ def estimate_contact(pose: FootPose, fx: float, fy: float, m0: float,
 
 def reconstruct(readings: Iterable[Tuple[FootPose, float, float, float]],
                 min_force: float = 0.0) -> List[ContactEstimate]:
-    """Estimate the contacts along a sweep: one per reading with a usable contact."""
+    """
+    Estimate the contacts along a sweep: one per reading with a usable contact.
+
+    Parameters
+    ----------
+    readings : iterable of tuple
+        The readings (pose, fx, fy, m0), as taken by :func:`estimate_contact`.
+    min_force : float, optional
+        Readings with a force magnitude <= ``min_force`` are left out.
+
+    Returns
+    -------
+    list of ContactEstimate
+        The estimates in reading order; readings without a usable contact are skipped.
+
+    """
     out = []
     for pose, fx, fy, m0 in readings:
         est = estimate_contact(pose, fx, fy, m0, min_force)

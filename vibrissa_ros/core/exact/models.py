@@ -219,6 +219,17 @@ class RigidModel:
     exactly where the rod becomes orthogonal to the profile (phi = alpha + pi/2, where f -> inf):
     d x0 / d alpha = rho cos(phi - alpha) / cos(phi) vanishes there, so the tracker snaps there
     and no sampled state ever reaches the singular point.
+
+    Parameters
+    ----------
+    stiffness : float, optional
+        k, finite and > 0: the reported f, fx, fy and m0 are multiplied by it (above).
+
+    Raises
+    ------
+    ParameterError
+        When ``stiffness`` is not finite and > 0.
+
     """
 
     name = "rigid"
@@ -310,7 +321,27 @@ MODELS = {"elastica": ElasticaModel, "rigid": RigidModel}
 
 
 def make_model(name: str, **options):
-    """Make a model by name: ``elastica`` or ``rigid`` (option ``stiffness``)."""
+    """
+    Make a model by name: ``elastica`` or ``rigid`` (option ``stiffness``).
+
+    Parameters
+    ----------
+    name : {'elastica', 'rigid'}
+        The model: :class:`ElasticaModel` (paper §2) or :class:`RigidModel` (paper §3).
+    **options
+        Passed to the model's constructor: ``stiffness`` for the rigid model.
+
+    Returns
+    -------
+    ElasticaModel or RigidModel
+        The model.
+
+    Raises
+    ------
+    ParameterError
+        For an unknown model name (the message lists the allowed ones).
+
+    """
     from ..errors import ParameterError
 
     if name not in MODELS:
