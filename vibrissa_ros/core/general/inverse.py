@@ -54,8 +54,26 @@ def estimate_contact_general(pose: FootPose, fx: float, fy: float, m0: float, sh
     """
     Estimate the contact point from one reading of a general whisker (units EI_b, L; world frame).
 
-    None when there is no usable contact: f <= ``min_force``, m0 = 0, or a moment that does not
-    vanish along the whisker (no single frictionless contact produces that reading).
+    Parameters
+    ----------
+    pose : FootPose
+        The foot pose of the reading.
+    fx, fy : float
+        The force of the obstacle on the whisker, world frame [EI_b/L^2].
+    m0 : float
+        The base moment [EI_b/L], counter-clockwise positive.
+    shape : WhiskerShape
+        The whisker's taper and intrinsic curvature.
+    min_force : float, optional
+        A reading with f = |(fx, fy)| <= ``min_force`` has no usable contact.
+
+    Returns
+    -------
+    ContactEstimate or None
+        The estimate (``alpha`` is the force's direction in the world frame); None when there
+        is no usable contact: f <= ``min_force``, m0 = 0, or a moment that does not vanish along
+        the whisker (no single frictionless contact produces that reading).
+
     """
     f = math.hypot(fx, fy)
     if not (math.isfinite(f) and math.isfinite(m0)) or f <= min_force or f == 0.0 or m0 == 0.0:
