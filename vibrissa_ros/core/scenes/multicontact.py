@@ -199,8 +199,10 @@ class MultiContactSolver:
 
     Parameters
     ----------
-    shape : WhiskerShape
-    n : int
+    shape : WhiskerShape, optional
+        The whisker's taper and intrinsic curvature; None: the paper's whisker (uniform,
+        straight).
+    n : int, optional
         Chebyshev points per segment.
 
     """

@@ -65,9 +65,24 @@ class Closest:
     """
     The boundary feature of an obstacle nearest to a point.
 
-    ``distance`` is signed (negative inside), ``x, y`` the nearest boundary point. Either an arc
-    (``arc_index`` into the obstacle's ``arcs``, ``u`` its parameter) or a corner
-    (``vertex_index`` into ``vertices``, ``u`` None); ``feature`` is that Arc or Vertex.
+    Either an arc (``arc_index`` set, ``u`` its parameter) or a corner (``vertex_index`` set,
+    ``u`` None). The parameters are the dataclass's fields, kept as attributes of the same names.
+
+    Parameters
+    ----------
+    distance : float
+        The signed distance to the boundary [L], negative inside.
+    x, y : float
+        The nearest boundary point [L].
+    feature : Arc or Vertex
+        The nearest feature.
+    arc_index : int or None, optional
+        For an arc: its index into the obstacle's ``arcs``.
+    u : float or None, optional
+        For an arc: the nearest point's parameter on it; None at a corner.
+    vertex_index : int or None, optional
+        For a corner: its index into the obstacle's ``vertices``.
+
     """
 
     distance: float
@@ -303,7 +318,27 @@ def clip_polygon(ring: np.ndarray, window: Window) -> np.ndarray:
 # ------------------------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class PegObstacle(Obstacle):
-    """A peg (pole): the disk of radius r >= 0 about (x, y); r = 0 is a point (one vertex)."""
+    """
+    A peg (pole): the disk of radius r >= 0 about (x, y); r = 0 is a point (one vertex).
+
+    Parameters
+    ----------
+    x, y : float
+        The centre [L], finite.
+    r : float, optional
+        The radius [L]: 0 (a point) or within [1e-6, 1e6].
+    name : str, optional
+        The obstacle's name; left at the default, :class:`Scene` numbers it by kind
+        (``peg0``, ``peg1``, ...).
+    friction : float or None, optional
+        The obstacle's own Coulomb coefficient, finite and >= 0; None: the scene's.
+
+    Raises
+    ------
+    ParameterError
+        When a number is not finite or out of its range.
+
+    """
 
     x: float
     y: float
@@ -402,6 +437,24 @@ class PolygonObstacle(Obstacle):
 
     Edge i runs from corner i to corner i + 1 (a :class:`~boundary.SegmentArc`, u = arc length
     from corner i); corner i joins edge i - 1 (incoming) to edge i (outgoing).
+
+    Parameters
+    ----------
+    points : sequence of (float, float)
+        The corners [x, y] [L], at least 3, in either orientation; a closed list (the first
+        point repeated last) is accepted.
+    name : str, optional
+        The obstacle's name; left at the default, :class:`Scene` numbers it by kind
+        (``polygon0``, ``polygon1``, ...).
+    friction : float or None, optional
+        The obstacle's own Coulomb coefficient, finite and >= 0; None: the scene's.
+
+    Raises
+    ------
+    ParameterError
+        When there are fewer than 3 corners, two of them coincide, an edge is longer than
+        1e6 L, or the polygon intersects itself or encloses no area.
+
     """
 
     points: Tuple[Tuple[float, float], ...]
@@ -573,6 +626,25 @@ class CurveObstacle(Obstacle):
 
     g is the natural cubic spline through the points, continued along its end tangents; the
     boundary is one :class:`~boundary.GraphArc` (u = x above, u = -x below). Non-convex.
+
+    Parameters
+    ----------
+    points : sequence of (float, float)
+        At least 3 points [x, y] [L] with strictly increasing x.
+    side : {'above', 'below'}, optional
+        Whether the obstacle is the region above or below the curve.
+    name : str, optional
+        The obstacle's name; left at the default, :class:`Scene` numbers it by kind
+        (``curve0``, ``curve1``, ...).
+    friction : float or None, optional
+        The obstacle's own Coulomb coefficient, finite and >= 0; None: the scene's.
+
+    Raises
+    ------
+    ParameterError
+        When there are fewer than 3 points, their x do not increase strictly (by at
+        least 1e-6 L), or ``side`` is neither.
+
     """
 
     points: Tuple[Tuple[float, float], ...]
@@ -870,6 +942,30 @@ class ProfileObstacle(Obstacle):
     obstacle is the region above the profile's curve in its own frame; for the circle, ellipse and
     two circles the strip above the lower arc, bounded by the straight walls going up from the
     arc's ends (as the single-obstacle tracker has it). All these regions are convex.
+
+    Parameters
+    ----------
+    family : str
+        A profile family of :mod:`profiles` other than the peg: ``parabola``, ``catenary``,
+        ``circle``, ``two_circles`` or ``ellipse``.
+    shape : mapping or tuple of (str, float)
+        The family's parameters by their contract names (:func:`~profiles.make_profile`, without
+        the scan checks); stored as a tuple of (name, value) pairs.
+    x, y : float, optional
+        The translation [L].
+    rotation : float, optional
+        The rotation about the profile's own origin [rad].
+    name : str, optional
+        The obstacle's name; empty: the family's name.
+    friction : float or None, optional
+        The obstacle's own Coulomb coefficient, finite and >= 0; None: the scene's.
+
+    Raises
+    ------
+    ParameterError
+        For an unknown family, a shape :func:`~profiles.make_profile` rejects, or a placement
+        that is not finite.
+
     """
 
     family: str
@@ -1136,6 +1232,21 @@ class Scene:
     Validated on construction: friction finite and >= 0, names unique, and no two obstacles
     overlapping or touching (checked exactly for bounded obstacles; two infinite ones are
     checked within a window around all the obstacles' data, :meth:`window`).
+
+    Parameters
+    ----------
+    obstacles : sequence of Obstacle
+        At least one obstacle. Unnamed ones (name left at the kind's default) are named by kind
+        and index among that kind (``peg0``, ``polygon1``, ...).
+    friction : float, optional
+        The global Coulomb coefficient, finite and >= 0, for obstacles without their own.
+
+    Raises
+    ------
+    ParameterError
+        When there is no obstacle, something is not an obstacle, the friction is out of its
+        range, two obstacles share a name, or two obstacles overlap or touch.
+
     """
 
     def __init__(self, obstacles: Sequence[Obstacle], friction: float = 0.0):
