@@ -172,7 +172,25 @@ class TopicSpec:
 
 
 class LogWriter:
-    """Writes one MCAP log; raises :class:`LogError` (with the OS's reason) when it cannot."""
+    """
+    Writes one MCAP log; raises :class:`LogError` (with the OS's reason) when it cannot.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The log file, created or overwritten.
+    chunk_size : int, optional
+        The MCAP chunk size [bytes] (chunks are ZSTD-compressed).
+    flush_period : float, optional
+        The longest time [s] a written message waits in the open chunk before it is flushed
+        (:meth:`flush_if_due`): what a crash can lose.
+
+    Raises
+    ------
+    LogError
+        When the file cannot be opened or written, with the OS's reason.
+
+    """
 
     def __init__(self, path: str, chunk_size: int = 1 << 20, flush_period: float = 0.5):
         self.path = str(path)
@@ -297,7 +315,34 @@ class LogMessage:
 
 
 def read_log(path: str):
-    """Read a finished MCAP: (schemas, channels by id, metadata, messages in log-time order)."""
+    """
+    Read a finished MCAP: (schemas, channels by id, metadata, messages in log-time order).
+
+    Parameters
+    ----------
+    path : str or path-like
+        The log file.
+
+    Returns
+    -------
+    schemas : dict
+        The MCAP schemas by id.
+    channels : dict
+        The MCAP channels by id.
+    metadata : list
+        The MCAP metadata records, in file order.
+    messages : list of LogMessage
+        The messages in log-time order.
+
+    Raises
+    ------
+    FileNotFoundError
+        When there is no such file.
+    LogError
+        When the file has no summary (not finished: ``vibrissa repair`` rewrites it) or is
+        damaged.
+
+    """
     if not Path(path).is_file():
         raise FileNotFoundError(2, "no such file", str(path))
     try:
@@ -331,8 +376,25 @@ def repair(path: str, output: str) -> int:
     Rewrite a log that was not finished (e.g. after kill -9) into a valid one.
 
     Reads the records in order until the data stops making sense (a chunk cut off by the crash);
-    every complete chunk's messages, all schemas, channels and metadata are kept. Returns the
-    number of messages kept.
+    every complete chunk's messages, all schemas, channels and metadata are kept.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The unfinished log.
+    output : str or path-like
+        The valid log written, created or overwritten.
+
+    Returns
+    -------
+    int
+        The number of messages kept.
+
+    Raises
+    ------
+    LogError
+        When nothing is recoverable (not an MCAP file?).
+
     """
     schemas: Dict[int, Schema] = {}
     channels: Dict[int, Channel] = {}

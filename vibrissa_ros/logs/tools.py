@@ -154,7 +154,26 @@ def decode_contacts(cloud):
 
 
 def resimulate(path: str) -> Resimulation:
-    """Re-run every recorded foot pose with the recorded configuration(s), compare each field."""
+    """
+    Re-run every recorded foot pose with the recorded configuration(s), compare each field.
+
+    Parameters
+    ----------
+    path : str or path-like
+        A finished log written by the whisker node (see :func:`~.mcap_log.read_log`).
+
+    Returns
+    -------
+    Resimulation
+        The states computed again, next to the recorded outputs: the largest relative deviation
+        per field, the number compared, the mismatches.
+
+    Raises
+    ------
+    LogError
+        When the log cannot be read or has no recorded configuration.
+
+    """
     _, channels, metadata, messages = read_log(path)
     configs = configurations(metadata)
     node = configs[0][1].get("node", "/whisker_node")
@@ -268,6 +287,26 @@ def resimulate(path: str) -> Resimulation:
 
 
 def export_rows(path: str):
-    """(time [s], state) per accepted pose of a log, from the recorded poses and configuration."""
+    """
+    (time [s], state) per accepted pose of a log, from the recorded poses and configuration.
+
+    Parameters
+    ----------
+    path : str or path-like
+        A finished log written by the whisker node.
+
+    Returns
+    -------
+    rows : list of tuple
+        (time [s], :class:`~vibrissa_ros.core.state.WhiskerState`) per accepted pose, in order.
+    resimulation : Resimulation
+        The :func:`resimulate` result the rows come from.
+
+    Raises
+    ------
+    LogError
+        When the log cannot be read or has no recorded configuration.
+
+    """
     sim = resimulate(path)
     return [(stamp / 1e9, state) for stamp, state in sim.states], sim
