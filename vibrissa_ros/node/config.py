@@ -226,7 +226,33 @@ SPECS: Dict[str, ParameterSpec] = {spec.name: spec for spec in PARAMETERS}
 
 @dataclass(frozen=True)
 class WhiskerConfig:
-    """A validated configuration of whisker_node and the core objects it builds (dimensionless)."""
+    """
+    A validated configuration of whisker_node and the core objects it builds (dimensionless).
+
+    Made by :func:`build_config`; the parameters are the dataclass's fields, kept as attributes
+    of the same names.
+
+    Parameters
+    ----------
+    values : mapping of str to object
+        The validated parameter values by name (SI units), defaults filled in.
+    profile : ConvexProfile or None
+        The obstacle in whisker lengths; for a scene, its one profile or peg when it has no
+        friction (the single-contact problem), else None.
+    model : object
+        The whisker model the tracker uses (elastica, rigid or the general model).
+    units : Units
+        The scales between SI and the core's dimensionless units.
+    scene : Scene or None, optional
+        ``obstacle.type`` = scene: the scene (whisker lengths); None otherwise.
+    scene_text : str, optional
+        The scene file's text.
+    friction : tuple of float, optional
+        The scene's Coulomb coefficients, one per obstacle.
+    shape : WhiskerShape, optional
+        The whisker's shape (taper, intrinsic curvature) for the scene tracker and the models.
+
+    """
 
     values: Mapping[str, Any]
     profile: Optional[ConvexProfile]
@@ -310,9 +336,22 @@ def build_config(values: Mapping[str, Any]) -> WhiskerConfig:
     """
     Validate whisker_node's parameter values (SI); build the core's profile, model and units.
 
-    Values missing from ``values`` take their defaults; keys that are not parameters (a log's
-    ``node``, ``resets``) are ignored. Raises :class:`ParameterError` naming the parameter, its
-    value and what is allowed.
+    Parameters
+    ----------
+    values : mapping of str to object
+        Parameter values by name (SI units). Values missing take their defaults; keys that are
+        not parameters (a log's ``node``, ``resets``) are ignored.
+
+    Returns
+    -------
+    WhiskerConfig
+        The validated configuration, with the core's profile (or scene), model and units.
+
+    Raises
+    ------
+    ParameterError
+        Naming the parameter, its value and what is allowed.
+
     """
     recorded_scene = values.get(SCENE_TEXT)
     values = validate(PARAMETERS, values)
@@ -507,7 +546,22 @@ CONTOUR_SPECS: Dict[str, ParameterSpec] = {spec.name: spec for spec in CONTOUR_P
 
 @dataclass(frozen=True)
 class ContourConfig:
-    """A validated configuration of contour_node."""
+    """
+    A validated configuration of contour_node.
+
+    Made by :func:`build_contour_config`; the parameters are the dataclass's fields, kept as
+    attributes of the same names.
+
+    Parameters
+    ----------
+    values : mapping of str to object
+        The validated parameter values by name (SI units), defaults filled in.
+    units : Units
+        The scales between SI and the core's dimensionless units (elastica).
+    shape : WhiskerShape, optional
+        The whisker's shape (taper, intrinsic curvature).
+
+    """
 
     values: Mapping[str, Any]
     units: Units
@@ -538,7 +592,25 @@ class ContourConfig:
 
 
 def build_contour_config(values: Mapping[str, Any]) -> ContourConfig:
-    """Validate contour_node's parameter values; raises :class:`ParameterError` with the reason."""
+    """
+    Validate contour_node's parameter values; raises :class:`ParameterError` with the reason.
+
+    Parameters
+    ----------
+    values : mapping of str to object
+        Parameter values by name (SI units); values missing take their defaults.
+
+    Returns
+    -------
+    ContourConfig
+        The validated configuration.
+
+    Raises
+    ------
+    ParameterError
+        With the reason: the parameter, its value and what is allowed.
+
+    """
     values = validate(CONTOUR_PARAMETERS, values)
     return ContourConfig(values, Units.elastica(values["whisker.length"], base_stiffness(values)),
                          whisker_shape(values))

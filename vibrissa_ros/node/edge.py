@@ -114,13 +114,43 @@ def pose_of(msg, z_tolerance: float, angle_tolerance: float) -> Tuple[float, flo
 
 # -- frames ---------------------------------------------------------------------------------------
 def world_to_base(yaw: float, vx: float, vy: float) -> Tuple[float, float]:
-    """Return a world-frame vector seen in the base frame of yaw ``yaw`` (rotated by -yaw)."""
+    """
+    Return a world-frame vector seen in the base frame of yaw ``yaw`` (rotated by -yaw).
+
+    Parameters
+    ----------
+    yaw : float
+        The base frame's yaw in the world frame [rad], counter-clockwise.
+    vx, vy : float
+        The vector's world-frame components (any unit).
+
+    Returns
+    -------
+    tuple of float
+        Its base-frame components (x, y), in the same unit.
+
+    """
     c, s = math.cos(yaw), math.sin(yaw)
     return c * vx + s * vy, -s * vx + c * vy
 
 
 def base_to_world(yaw: float, vx: float, vy: float) -> Tuple[float, float]:
-    """Return a base-frame vector seen in the world frame (rotated by +yaw)."""
+    """
+    Return a base-frame vector seen in the world frame (rotated by +yaw).
+
+    Parameters
+    ----------
+    yaw : float
+        The base frame's yaw in the world frame [rad], counter-clockwise.
+    vx, vy : float
+        The vector's base-frame components (any unit).
+
+    Returns
+    -------
+    tuple of float
+        Its world-frame components (x, y), in the same unit.
+
+    """
     c, s = math.cos(yaw), math.sin(yaw)
     return c * vx - s * vy, s * vx + c * vy
 
@@ -128,7 +158,22 @@ def base_to_world(yaw: float, vx: float, vy: float) -> Tuple[float, float]:
 # -- SI units -------------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class Units:
-    """Scale factors from the core's dimensionless values to SI."""
+    """
+    Scale factors from the core's dimensionless values to SI.
+
+    The parameters are the dataclass's fields, kept as attributes of the same names; the
+    constructors :meth:`elastica` (paper §2) and :meth:`rigid` (paper §3) derive them.
+
+    Parameters
+    ----------
+    length : float
+        The length unit, the whisker's length L [m].
+    force : float
+        The force unit [N]: EI/L^2 (elastica) or c/L (rigid).
+    moment : float
+        The moment unit [N m]: EI/L (elastica) or c (rigid).
+
+    """
 
     length: float  # m
     force: float  # N

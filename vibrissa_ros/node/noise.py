@@ -16,7 +16,27 @@ import numpy as np
 
 @dataclass(frozen=True)
 class NoiseSpec:
-    """Sensor-noise parameters in SI (N, N m); all zero and ``enabled`` False: an ideal sensor."""
+    """
+    Sensor-noise parameters in SI (N, N m); all zero and ``enabled`` False: an ideal sensor.
+
+    The parameters are the dataclass's fields, kept as attributes of the same names (the node's
+    ``noise.*`` parameters, :meth:`from_parameters`).
+
+    Parameters
+    ----------
+    enabled : bool, optional
+        Apply the noise; False: the readings pass unchanged.
+    seed : int, optional
+        The seed of the PCG64 generator.
+    force_stddev, torque_stddev : float, optional
+        Standard deviation of the Gaussian noise on each force component [N] and on the torque
+        [N m].
+    force_bias_x, force_bias_y, torque_bias : float, optional
+        Constant bias added to force x, force y [N] and the torque [N m].
+    force_step, torque_step : float, optional
+        Quantization step (the sensor's resolution) of the force [N] and the torque [N m]; 0: none.
+
+    """
 
     enabled: bool = False
     seed: int = 0
@@ -44,7 +64,16 @@ class NoiseSpec:
 
 
 class SensorNoise:
-    """Applies a :class:`NoiseSpec` to successive readings, in order."""
+    """
+    Applies a :class:`NoiseSpec` to successive readings, in order.
+
+    Parameters
+    ----------
+    spec : NoiseSpec
+        The noise applied; its seed starts the generator, so the same readings in the same order
+        get the same noise.
+
+    """
 
     def __init__(self, spec: NoiseSpec):
         self.spec = spec

@@ -21,9 +21,31 @@ class ParameterSpec:
     """
     One node parameter: its default (which fixes its type), unit, description and range.
 
-    ``minimum``/``maximum`` bound numbers (``exclusive_minimum``: strictly greater); ``choices``
-    lists the allowed strings; ``nonempty`` strings must not be blank; ``resets``: a runtime change
-    rebuilds the whisker (free state).
+    The parameters are the dataclass's fields, kept as attributes of the same names.
+
+    Parameters
+    ----------
+    name : str
+        The parameter's name (dotted, e.g. ``whisker.length``).
+    default : bool, int, float or str
+        The default value; its type is the parameter's type.
+    description : str
+        What the parameter is, for its ROS ParameterDescriptor and the messages.
+    unit : str, optional
+        The unit (SI, e.g. ``m``, ``1/m``), empty when it has none.
+    read_only : bool, optional
+        The parameter cannot change at runtime (the descriptor's ``read_only``).
+    minimum, maximum : float or None, optional
+        The bounds of a number, inclusive; None: unbounded.
+    exclusive_minimum : bool, optional
+        The number must be strictly greater than ``minimum``.
+    choices : tuple of str, optional
+        The allowed strings; empty: any.
+    nonempty : bool, optional
+        A string must not be blank.
+    resets : bool, optional
+        A runtime change rebuilds the whisker (free state).
+
     """
 
     name: str

@@ -226,7 +226,28 @@ def reconstruct_input(path: str, min_force: float = 0.0,
     """
     Reconstruct from a log (its recorded whisker) or a scan CSV (``shape``: its whisker).
 
-    A log carries its whisker's taper and curvature: giving ``shape`` for one is refused.
+    Parameters
+    ----------
+    path : str
+        A whisker_node log (``.mcap``) or a scan CSV (columns x0, or x, y, heading, then fx, fy,
+        m0).
+    min_force : float, optional
+        Readings with a force magnitude <= ``min_force`` are left out; in the input's force unit
+        (N for a log, EI/L^2 for a scan CSV).
+    shape : WhiskerShape or None, optional
+        For a scan CSV: the scanned whisker's taper and curvature (None: the paper's whisker).
+        A log carries its whisker's taper and curvature: giving ``shape`` for one is refused.
+
+    Returns
+    -------
+    Reconstruction
+        The estimates in the input's units and frame, and the truth where the input has it.
+
+    Raises
+    ------
+    VibrissaError
+        When ``shape`` is given for a log, or the input cannot be used (e.g. an empty CSV).
+
     """
     if path.endswith(".mcap"):
         if shape is not None:
