@@ -157,8 +157,26 @@ def plot_runs(
     """
     Draw the figure for one or two models' runs (the first drives the sketch).
 
-    ``abscissa``: draw the observables against the foot's ``x0`` (a scan) or its ``heading``
-    (whisking).
+    Parameters
+    ----------
+    runs : sequence of PlotRun
+        One or two models' runs; the first drives the sketch.
+    profile : ConvexProfile or None
+        The obstacle drawn in the sketch; None: none.
+    units : AxisUnits, optional
+        The axes' units: dimensionless for scans (the default), SI for logs.
+    title : str, optional
+        The figure's title.
+    sketch_count : int, optional
+        About how many whisker shapes the sketch draws.
+    abscissa : {'x0', 'heading'}, optional
+        Draw the observables against the foot's ``x0`` (a scan) or its ``heading`` (whisking).
+
+    Returns
+    -------
+    Figure
+        The drawn figure and what was drawn where.
+
     """
     coord = ABSCISSAE[abscissa]
     scale_key = units.scale_length if abscissa == "x0" else 1.0
@@ -362,6 +380,29 @@ def plot_scene_scan(scene, states: Sequence, events: Sequence = (), title: str =
     Below: the base load m0 and fx, fy (what the follicle's sensor measures), the number of
     contacts with the nearest contact's force, and every contact's arc length s; the spans
     with one, two, three contacts are shaded and the events marked.
+
+    Parameters
+    ----------
+    scene : Scene
+        The obstacles (whisker lengths).
+    states : sequence
+        The scan's scene states, in travel order.
+    events : sequence, optional
+        The scene events crossed, marked on the observables.
+    title : str, optional
+        The figure's title.
+    sketch_count : int, optional
+        About how many whisker shapes the sketch draws.
+    abscissa : {'x0', 'heading'}, optional
+        Draw the observables against the foot's ``x0`` (a scan) or its ``heading`` (whisking).
+    units : AxisUnits, optional
+        The axes' units: dimensionless for scans (the default), SI for logs.
+
+    Returns
+    -------
+    Figure
+        The drawn figure and what was drawn where.
+
     """
     coord = ABSCISSAE[abscissa]
     L, F, M = units.scale_length, units.scale_force, units.scale_moment
@@ -491,11 +532,26 @@ def draw_scene(ax, scene, window: Optional[Tuple[float, float, float, float]] = 
     """
     Draw a scene's obstacles on matplotlib axes: filled, outlined, corners marked.
 
-    ``window`` (x_min, y_min, x_max, y_max) [L] bounds the infinite obstacles (default: the
-    scene's own window, :meth:`Scene.window`); ``scale_length`` converts L to the axes' unit.
     Convex corners are drawn as filled dots, reflex ones as open circles, point pegs as "+".
     Every artist of obstacle ``name`` has gid ``"obstacle:<name>"``. The axes' limits are left to
     the caller.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+        The axes drawn on.
+    scene : Scene
+        The obstacles (whisker lengths).
+    window : tuple of float, optional
+        (x_min, y_min, x_max, y_max) [L], bounds the infinite obstacles (default: the scene's
+        own window, :meth:`Scene.window`).
+    scale_length : float, optional
+        Converts L to the axes' unit.
+    names : bool, optional
+        Write each obstacle's name at the centre of its extent.
+    n : int, optional
+        The number of points of each drawn outline (the obstacles' ``outline``).
+
     """
     window = scene.window() if window is None else window
     L = scale_length

@@ -66,7 +66,17 @@ def write_scan_csv(states: Iterable[WhiskerState], stream: IO[str], by_pose: boo
     """
     Write the scan CSV; ``by_pose``: a row starts with the foot pose x,y,heading, not x0.
 
-    ``contacts``: a scene scan, with the last column ``contacts`` (their number, 0 when free).
+    Parameters
+    ----------
+    states : iterable of WhiskerState
+        The states of a scan, one row each, in order (dimensionless).
+    stream : text stream
+        Where the CSV goes.
+    by_pose : bool, optional
+        A row starts with the foot pose x,y,heading, not x0.
+    contacts : bool, optional
+        A scene scan, with the last column ``contacts`` (their number, 0 when free).
+
     """
     writer = csv.writer(stream, lineterminator="\n")
     header = POSE_CSV_COLUMNS if by_pose else CSV_COLUMNS
@@ -152,7 +162,26 @@ def write_events_json(events: Iterable[Event], stream: IO[str], by_pose: bool = 
 
 
 def read_poses_csv(path: str) -> List[FootPose]:
-    """Read foot poses from a CSV with (at least) columns x, y, heading [L, L, rad], in order."""
+    """
+    Read foot poses from a CSV with (at least) columns x, y, heading [L, L, rad], in order.
+
+    Parameters
+    ----------
+    path : str
+        The CSV file (``vibrissa scan --poses``).
+
+    Returns
+    -------
+    list of FootPose
+        The poses in row order, at least one.
+
+    Raises
+    ------
+    ParameterError
+        When the file cannot be read, a column is missing, a value is not a number, or there is
+        no pose.
+
+    """
     try:
         with open(path, newline="") as stream:
             reader = csv.DictReader(stream)

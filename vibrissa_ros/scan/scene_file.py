@@ -108,9 +108,25 @@ def load_scene(source: Union[str, os.PathLike], length_scale: float = 1.0) -> Sc
     """
     Read a scene from a YAML file (path) or YAML text.
 
-    ``length_scale`` [m]: the whisker's length when the file is in metres (the node); the scene
-    returned is in whisker lengths. Raises :class:`ParameterError` naming the file, the obstacle's
-    index and the key.
+    Parameters
+    ----------
+    source : str or path-like
+        A YAML file's path, or YAML text.
+    length_scale : float, optional
+        [m]: the whisker's length when the file is in metres (the node), > 0; 1: the file is in
+        whisker lengths.
+
+    Returns
+    -------
+    Scene
+        The scene, in whisker lengths.
+
+    Raises
+    ------
+    ParameterError
+        Naming the file, the obstacle's index and the key; also when the file cannot be read,
+        is not valid YAML or ``length_scale`` is not a length > 0.
+
     """
     if not (isinstance(length_scale, (int, float)) and math.isfinite(length_scale)
             and length_scale > 0.0):
@@ -142,7 +158,20 @@ def dump_scene(scene: Scene, path: Optional[Union[str, os.PathLike]] = None,
     """
     Write a scene as YAML (to ``path`` if given) and return the text; :func:`load_scene` reads it.
 
-    ``length_scale`` [m]: write lengths in metres for a whisker of that length.
+    Parameters
+    ----------
+    scene : Scene
+        The scene (whisker lengths).
+    path : str or path-like, optional
+        The file written (UTF-8); None: only the text is returned.
+    length_scale : float, optional
+        [m]: write lengths in metres for a whisker of that length; 1: in whisker lengths.
+
+    Returns
+    -------
+    str
+        The YAML text.
+
     """
     text = yaml.safe_dump(scene_to_dict(scene, length_scale), sort_keys=False,
                           default_flow_style=None)

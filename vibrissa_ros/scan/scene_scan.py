@@ -55,9 +55,25 @@ class SceneScan:
     """
     A scene scan, checked and ready to run (:func:`plan_scene_scan`).
 
-    ``path``: the paper's x0 values of a slide or the foot poses; ``friction``: each obstacle's
-    coefficient; ``single`` and ``model``: the profile and single-contact model of a frictionless
-    one-profile scene (else None).
+    The parameters are the dataclass's fields, kept as attributes of the same names.
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene (whisker lengths).
+    path : tuple
+        The paper's x0 values of a slide (floats) or the foot poses (:class:`FootPose`).
+    by_pose : bool
+        ``path`` holds foot poses, not x0 values.
+    shape : WhiskerShape
+        The whisker's taper and intrinsic curvature.
+    friction : tuple of float
+        Each obstacle's Coulomb coefficient.
+    single : ConvexProfile or None, optional
+        The profile of a frictionless one-profile scene (else None).
+    model : object, optional
+        The single-contact model of a frictionless one-profile scene (else None).
+
     """
 
     scene: Scene
@@ -91,8 +107,34 @@ def plan_scene_scan(scene: Scene, grid=None, poses: Optional[Sequence] = None,
     """
     Check a scene scan before it runs: the solver, the friction override, the first foot.
 
-    ``grid``: the x0 values of a slide, or ``poses``: the foot poses (a whisk, ``--poses``).
-    Raises a :class:`VibrissaError` saying what is wrong.
+    Parameters
+    ----------
+    scene : Scene
+        The scene (whisker lengths).
+    grid : iterable of float, optional
+        The x0 values of a slide; used when ``poses`` is None.
+    poses : sequence of FootPose, optional
+        The foot poses (a whisk, ``--poses``).
+    shape : WhiskerShape, optional
+        The whisker's taper and intrinsic curvature; None: the paper's whisker.
+    solver : {'auto', 'exact', 'numeric'}, optional
+        ``--solver``: the closed forms (``exact``, the paper's uniform straight whisker against
+        one convex profile without friction), the collocation solvers (``numeric``) or whichever
+        applies (``auto``).
+    friction : float, optional
+        A Coulomb coefficient for every obstacle without its own, instead of the scene's.
+
+    Returns
+    -------
+    SceneScan
+        The checked scan, ready to :meth:`~SceneScan.run`.
+
+    Raises
+    ------
+    VibrissaError
+        Saying what is wrong: a solver that does not cover the scene, or a first foot inside or
+        on an obstacle (:class:`InvalidPoseError`).
+
     """
     shape = WhiskerShape() if shape is None else shape
     coefficients = scene_friction(scene, friction)
