@@ -119,12 +119,18 @@ def run_study(
         of vibrissa_ros installed (``pip install vibrissa_ros[batch]``).
     client : distributed.Client, optional
         An existing client to use instead (it is left open).
-    progress : text stream or None
+    progress : text stream or None, optional
         Where the progress bar goes (None: no bar).
-    retries : int
+    retries : int, optional
         How often Dask re-runs a task that raised an unexpected exception.
-    window : int
+    window : int, optional
         At most this many tasks are submitted at a time (more as they complete).
+
+    Returns
+    -------
+    BatchReport
+        What the run did: tasks already done, computed, failed, and the errors of tasks that
+        could not be computed in this run (not written: running again tries them again).
 
     """
     from distributed import as_completed

@@ -553,6 +553,17 @@ class StudyDataset:
 
     ``table(name)`` gives a pyarrow Table of ``poses``, ``events``, ``failures`` or ``tasks``
     (rows in task order); the properties of the same names give pandas DataFrames.
+
+    Parameters
+    ----------
+    path : str
+        The study directory written by ``vibrissa batch``.
+
+    Raises
+    ------
+    DatasetError
+        When the directory has no ``manifest.json`` or is not a dataset of this format.
+
     """
 
     def __init__(self, path: str):
@@ -638,7 +649,25 @@ class StudyDataset:
 def open(
     path: str,
 ) -> StudyDataset:  # noqa: A001 - the module's entry point, ``vibrissa_ros.studies.dataset.open``
-    """Open a study directory written by ``vibrissa batch`` for reading."""
+    """
+    Open a study directory written by ``vibrissa batch`` for reading.
+
+    Parameters
+    ----------
+    path : str
+        The study directory.
+
+    Returns
+    -------
+    StudyDataset
+        The dataset, opened for reading.
+
+    Raises
+    ------
+    DatasetError
+        When there is no such directory, or it is not a study dataset.
+
+    """
     if not os.path.isdir(path):
         raise DatasetError(f"{path}: no such study directory")
     return StudyDataset(path)

@@ -343,7 +343,34 @@ def place_obstacle(
 
 @dataclass(frozen=True)
 class Study:
-    """A validated study: its source text, its digest and its tasks in order."""
+    """
+    A validated study: its source text, its digest and its tasks in order.
+
+    Made by :func:`parse_study`; the parameters are the dataclass's fields, kept as attributes of
+    the same names.
+
+    Parameters
+    ----------
+    text : str
+        The study's YAML source text.
+    digest : str
+        The SHA-256 hex digest of the text and of the scene files' texts (a changed scene file is
+        another study).
+    seed : int
+        The study's seed (>= 0) of the random draws and the sensor noise.
+    tasks : tuple of Task
+        The tasks (one scan each), in order.
+    param_names : tuple of str
+        The profile parameter columns the study uses (:func:`param_column`), in a stable order.
+    has_noise : bool
+        Whether a task adds sensor noise.
+    has_whisking : bool, optional
+        Whether a task whisks (the dataset then has pose and whisking columns).
+    has_scenes : bool, optional
+        Whether a task scans a scene file (the dataset then has scene, friction, contacts
+        columns).
+
+    """
 
     text: str
     digest: str
@@ -370,7 +397,21 @@ def load_study(path: str) -> Study:
     """
     Read and validate a study file; raise :class:`StudyError` (one line) if it is invalid.
 
-    Scene files are found relative to the study file's directory.
+    Parameters
+    ----------
+    path : str
+        The study file (YAML, UTF-8). Scene files are found relative to its directory.
+
+    Returns
+    -------
+    Study
+        The validated study.
+
+    Raises
+    ------
+    StudyError
+        In one line: the file is missing or unreadable, or the study is invalid.
+
     """
     try:
         with open(path, encoding="utf-8") as stream:
@@ -386,9 +427,26 @@ def parse_study(text: str, base_dir: Optional[str] = None, read_scenes: bool = T
     """
     Validate a study given as YAML text and expand it into its tasks.
 
-    Scene files are found relative to ``base_dir`` (default: the working directory). With
-    ``read_scenes`` False they are not read (the tasks then carry no scene text): enough for the
-    dataset's columns, not to run the tasks.
+    Parameters
+    ----------
+    text : str
+        The study's YAML text.
+    base_dir : str, optional
+        Where scene files are found relative to (default: the working directory).
+    read_scenes : bool, optional
+        With False the scene files are not read (the tasks then carry no scene text): enough for
+        the dataset's columns, not to run the tasks.
+
+    Returns
+    -------
+    Study
+        The validated study, expanded into its tasks.
+
+    Raises
+    ------
+    StudyError
+        In one line, what is invalid.
+
     """
     import yaml
 
