@@ -525,7 +525,9 @@ class SceneTracker:
             except ConvergenceError:
                 pieces *= 2
                 self._check_budget()
-        raise ConvergenceError(f"no equilibrium at t = {t_target!r} on the configuration")
+        raise ConvergenceError(
+            f"no equilibrium found at {path.pose(t_target)} with the whisker's present contacts "
+            f"({', '.join(f'{m.kind} on obstacle {m.obstacle}' for m in modes)})")
 
     # -- events ------------------------------------------------------------------------------
     def _event_values(self, modes, vec, pose, dpose, lu=None):
@@ -876,8 +878,8 @@ class SceneTracker:
             found = _vertex_at(self.obstacles[m.obstacle], arc.at(u_end))
             if found is None:
                 raise ModelAssumptionError(
-                    f"a contact reaches the open end of a boundary arc of obstacle {m.obstacle} "
-                    f"at {pose}")
+                    f"a contact slides off the open end of obstacle {m.obstacle}'s boundary (the "
+                    f"end of its curve) at {pose}: the whisker would leave the modelled boundary")
             index, V = found
             ev_kind = "corner"
             if m.kind == "side":

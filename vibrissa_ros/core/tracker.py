@@ -495,19 +495,24 @@ class QuasistaticTracker:
 
     def _check_tip_touch(self, pose: FootPose) -> None:
         """Check that the first contact is the tip on the lower boundary curve; refuse all else."""
-        gap = self._gap(*self._tip(pose))
+        tx, ty = self._tip(pose)
+        gap = self._gap(tx, ty)
         if gap < -1e-9:
             raise ModelAssumptionError(
-                f"at {pose} the whisker's tip enters the obstacle ({self.profile.describe()}) "
-                "across its side, not across its lower boundary curve: not covered by the model"
+                f"at {_describe_pose(pose)}, the whisker's tip would enter the obstacle "
+                f"({self.profile.describe()}) at ({tx:.4g}, {ty:.4g}) across its flank, not "
+                "across its lower boundary: the model covers contact on the lower boundary only"
             )
         c, s = math.cos(pose.heading), math.sin(pose.heading)
         fun = lambda u: min(self._gap(pose.x + u * c, pose.y + u * s), 1e6)  # noqa: E731
         res = minimize_scalar(fun, bounds=(0.0, 0.999), method="bounded", options={"xatol": 1e-10})
         if min(fun(0.0), float(res.fun)) < -1e-9:
+            u = 0.0 if fun(0.0) < -1e-9 else float(res.x)
             raise ModelAssumptionError(
-                f"at {pose} the side of the straight whisker meets the obstacle before its tip: "
-                "not covered by the model (the foot moves into the obstacle)"
+                f"at {_describe_pose(pose)}, the whisker's side, {u:.3g} whisker lengths from "
+                f"the foot at ({pose.x + u * c:.4g}, {pose.y + u * s:.4g}), would meet the "
+                f"obstacle ({self.profile.describe()}) before its tip does: the model covers "
+                "obstacles met tip first (the foot is moving into the obstacle)"
             )
 
     def _advance_to_touch(self, path: _Path, t: float) -> Optional[float]:
@@ -541,8 +546,9 @@ class QuasistaticTracker:
             return brentq(lambda u: self._tip_gap(path, u), t, 1.0, xtol=1e-16, rtol=1e-15)
         if path.dh != 0.0 and self._rod_clearance(path.p1) <= 0.0:
             raise ModelAssumptionError(
-                "the side of the straight whisker would meet the obstacle before its tip: "
-                "not covered by the model (the profile is not a graph over the whisker's normal)"
+                f"turning to {_describe_pose(path.p1)}, the whisker's side would sweep into the "
+                f"obstacle ({self.profile.describe()}) before its tip touches it: the model "
+                "covers obstacles met tip first"
             )
         return None
 
@@ -593,7 +599,7 @@ class QuasistaticTracker:
         alpha_f = math.remainder(alpha_w - (pose.heading - HALF_PI), _TWO_PI)
         if not abs(alpha_f) < HALF_PI:
             raise ModelAssumptionError(
-                f"at {_describe_pose(pose)} the whisker's tip would first meet the obstacle "
+                f"at {_describe_pose(pose)}, the whisker's tip would first meet the obstacle "
                 f"({self.profile.describe()}) at ({tx:.4g}, {ty:.4g}), where its surface is "
                 f"turned {math.degrees(abs(alpha_f)):.1f} deg from facing the foot (90 deg or "
                 "more: the tip would come at it from its far side); the model covers an obstacle "
@@ -601,7 +607,7 @@ class QuasistaticTracker:
             )
         if abs(alpha_f) < 1e-9:
             raise ModelAssumptionError(
-                f"at {_describe_pose(pose)} the whisker's tip meets the obstacle "
+                f"at {_describe_pose(pose)}, the whisker's tip meets the obstacle "
                 f"({self.profile.describe()}) head-on at ({tx:.4g}, {ty:.4g}) (the contact force "
                 "along the whisker's axis): the buckling that follows is not modelled"
             )
@@ -843,14 +849,14 @@ class QuasistaticTracker:
             if (not 0.0 < phi_c - alpha_c < math.pi
                     or (closed_forms and not abs(alpha_c) < HALF_PI)):
                 raise ModelAssumptionError(
-                    f"at {_describe_pose(pose)} the whisker's tip would first meet the obstacle "
+                    f"at {_describe_pose(pose)}, the whisker's tip would first meet the obstacle "
                     f"({self.profile.describe()}) at ({wx:.4g}, {wy:.4g}), where its surface "
                     "faces away from the tip's direction of travel: the contact force would pull "
                     "the tip away from the foot, which the model does not cover"
                 )
             if abs(alpha_c) < 1e-9:
                 raise ModelAssumptionError(
-                    f"at {_describe_pose(pose)} the whisker's tip meets the obstacle "
+                    f"at {_describe_pose(pose)}, the whisker's tip meets the obstacle "
                     f"({self.profile.describe()}) head-on at ({wx:.4g}, {wy:.4g}) (the contact "
                     "force along the whisker's axis): the buckling that follows is not modelled"
                 )
@@ -918,7 +924,7 @@ class QuasistaticTracker:
         except (ArithmeticError, ValueError):
             pass
         return (
-            f"at {_describe_pose(pose)} the contact would slide round the {side} end of the "
+            f"at {_describe_pose(pose)}, the contact would slide round the {side} end of the "
             f"obstacle's lower boundary{where} ({prof.describe()}): the whisker would wrap round "
             "the obstacle's flank, and the model covers contact on its lower boundary only "
             f"(world slopes {math.degrees(lo):.0f} to {math.degrees(hi):.0f} deg)"
@@ -1098,9 +1104,9 @@ class QuasistaticTracker:
             f, s1 = math.inf, 0.0
         if phase == Phase.TANGENTIAL and not s1 > 1e-6:
             raise ModelAssumptionError(
-                f"the contact point slid down to the whisker's foot (s1 = {s1:.3g}, f = {f:.3g}) "
-                f"at {path.pose(t)}: the foot is being driven into the obstacle, which the model "
-                "does not cover"
+                f"at {_describe_pose(path.pose(t))}, the contact point slid down to the whisker's "
+                f"foot (contact at arc length {s1:.3g}, force {f:.3g}): the foot is being driven "
+                f"into the obstacle ({self.profile.describe()}), which the model does not cover"
             )
         try:
             near = [name for name, value in self.model.events(phase, z).items() if value < 1e-8]
@@ -1110,12 +1116,12 @@ class QuasistaticTracker:
             self.model.transition(phase, name, z)
         if abs(z[0]) > HALF_PI - 1e-6:
             raise ModelAssumptionError(
-                f"at {_describe_pose(path.pose(t))} the contact reached the end of the obstacle's "
-                f"lower boundary ({self.profile.describe()}): there its surface turns parallel "
-                "to the whisker, and the model covers contact on the lower boundary only"
+                f"at {_describe_pose(path.pose(t))}, the contact reached the end of the "
+                f"obstacle's lower boundary ({self.profile.describe()}): there its surface turns "
+                "parallel to the whisker, and the model covers contact on the lower boundary only"
             )
         raise ConvergenceError(
-            f"at {_describe_pose(path.pose(t))} the whisker's equilibrium in "
+            f"at {_describe_pose(path.pose(t))}, the whisker's equilibrium in "
             f"{_PHASE_NAMES[int(phase)]} contact with the obstacle ({self.profile.describe()}) "
             "could not be followed further (no solution of the equilibrium equations was found "
             "nearby)"
