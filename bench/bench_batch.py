@@ -29,8 +29,8 @@ import statistics
 import tempfile
 import time
 
-from vibrissa_ros.batch import run_study
-from vibrissa_ros.study import parse_study
+from vibrissa_ros.studies.batch import run_study
+from vibrissa_ros.studies.study import parse_study
 
 RANDOM_PROFILES = """
 description: 10,000 random convex obstacles (2,000 per family), one 301-pose sweep each

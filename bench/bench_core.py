@@ -16,7 +16,7 @@ import time
 import numpy as np
 
 from vibrissa_ros.core import Parabola, QuasistaticTracker, scan_grid
-from vibrissa_ros.core.shooting import ShootingSolver, ShootingState
+from vibrissa_ros.core.checks.shooting import ShootingSolver, ShootingState
 
 
 def main(argv=None):

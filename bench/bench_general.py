@@ -26,8 +26,8 @@ import numpy as np
 
 from vibrissa_ros.core import FootPose, GeneralWhiskerModel, Parabola, Peg, Phase, QuasistaticTracker, WhiskerShape
 from vibrissa_ros.core.errors import VibrissaError
-from vibrissa_ros.core.general_shooting import ShotState, shoot
-from vibrissa_ros.core.models import ElasticaModel
+from vibrissa_ros.core.checks.general_shooting import ShotState, shoot
+from vibrissa_ros.core.exact.models import ElasticaModel
 
 POINTS = (8, 12, 16, 20, 24, 32, 40, 48)
 

@@ -25,8 +25,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "test"))
 from test_inverse import random_profiles  # noqa: E402  (the same generator the tests use)
 
 from vibrissa_ros.core import Catenary, Parabola, TwoCircles, run_scan, scan_grid  # noqa: E402
-from vibrissa_ros.core.inverse import covered_intervals, estimate_contact  # noqa: E402
-from vibrissa_ros.plots import direction_segments  # noqa: E402
+from vibrissa_ros.core.exact.inverse import covered_intervals, estimate_contact  # noqa: E402
+from vibrissa_ros.scan.plots import direction_segments  # noqa: E402
 
 
 def distance_to_profile(profile, x, y):

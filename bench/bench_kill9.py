@@ -24,8 +24,8 @@ import rclpy
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_node import Driver  # noqa: E402
 
-from vibrissa_ros.log_tools import decode  # noqa: E402
-from vibrissa_ros.mcap_log import read_log, repair  # noqa: E402
+from vibrissa_ros.logs.tools import decode  # noqa: E402
+from vibrissa_ros.logs.mcap_log import read_log, repair  # noqa: E402
 from vibrissa_ros.ros.sweep import whisker_node_executable  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -48,7 +48,7 @@ def receiver(work: Path) -> None:
     import rclpy
     from geometry_msgs.msg import WrenchStamped
 
-    from vibrissa_ros.edge import header_ns
+    from vibrissa_ros.node.edge import header_ns
 
     rclpy.init()
     node = rclpy.create_node("bench_receiver")

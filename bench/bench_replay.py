@@ -29,11 +29,11 @@ from geometry_msgs.msg import WrenchStamped
 from domain_coordinator import domain_id
 from rclpy.serialization import serialize_message
 
-from vibrissa_ros.edge import event_record, header_ns
-from vibrissa_ros.log_tools import decode
-from vibrissa_ros.mcap_log import CONFIGURATION_METADATA, LogWriter, TopicSpec, read_log
-from vibrissa_ros.node_config import build_config
-from vibrissa_ros.pipeline import PosePipeline
+from vibrissa_ros.node.edge import event_record, header_ns
+from vibrissa_ros.logs.tools import decode
+from vibrissa_ros.logs.mcap_log import CONFIGURATION_METADATA, LogWriter, TopicSpec, read_log
+from vibrissa_ros.node.config import build_config
+from vibrissa_ros.node.pipeline import PosePipeline
 from vibrissa_ros.ros import messages as m
 from vibrissa_ros.ros.recorder import configuration_record
 

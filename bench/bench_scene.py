@@ -21,8 +21,8 @@ from pathlib import Path
 import numpy as np
 
 from vibrissa_ros.core.profiles import Peg
-from vibrissa_ros.core.scene import CurveObstacle, PegObstacle, PolygonObstacle, ProfileObstacle
-from vibrissa_ros.scene_file import load_scene
+from vibrissa_ros.core.scenes.scene import CurveObstacle, PegObstacle, PolygonObstacle, ProfileObstacle
+from vibrissa_ros.scan.scene_file import load_scene
 
 ROOT = Path(__file__).resolve().parents[1]
 

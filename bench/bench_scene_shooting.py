@@ -28,8 +28,8 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "test"))
 
 from vibrissa_ros.core import FootPose, WhiskerShape  # noqa: E402
-from vibrissa_ros.core.boundary import CircleArc, GraphArc  # noqa: E402
-from vibrissa_ros.core.scene_shooting import (  # noqa: E402
+from vibrissa_ros.core.scenes.boundary import CircleArc, GraphArc  # noqa: E402
+from vibrissa_ros.core.checks.scene_shooting import (  # noqa: E402
     ContactSpec,
     PosePath,
     follow_path,

@@ -26,7 +26,7 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from std_msgs.msg import Float64, String, UInt8
 from visualization_msgs.msg import Marker, MarkerArray
 
-from vibrissa_ros.edge import header_ns
+from vibrissa_ros.node.edge import header_ns
 from vibrissa_ros.ros.messages import pose_stamped
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -21,12 +21,12 @@ pytest.importorskip("pyarrow")
 
 import pyarrow.parquet as pq
 
-from vibrissa_ros import dataset
-from vibrissa_ros.batch import run_study
+from vibrissa_ros.studies import dataset
+from vibrissa_ros.studies.batch import run_study
 from vibrissa_ros.cli import main
-from vibrissa_ros.noise import NoiseSpec, SensorNoise
-from vibrissa_ros.scan_io import CSV_COLUMNS, POSE_CSV_COLUMNS
-from vibrissa_ros.study import parse_study
+from vibrissa_ros.node.noise import NoiseSpec, SensorNoise
+from vibrissa_ros.scan.scan_io import CSV_COLUMNS, POSE_CSV_COLUMNS
+from vibrissa_ros.studies.study import parse_study
 
 ROOT = Path(__file__).resolve().parents[1]
 # dask.dataframe's own parquet reader calls a pandas API that pandas 3.1 deprecates: not ours to fix
@@ -298,7 +298,7 @@ def test_a_killed_driver_resumed_computes_only_the_missing_tasks(client, study, 
 
 
 def test_a_cluster_worker_needs_no_ros():
-    code = ("import sys, vibrissa_ros.batch, vibrissa_ros.dataset, vibrissa_ros.study, vibrissa_ros.cli; "
+    code = ("import sys, vibrissa_ros.studies.batch, vibrissa_ros.studies.dataset, vibrissa_ros.studies.study, vibrissa_ros.cli; "
             "print(sorted(m for m in sys.modules if m.split('.')[0] in ('rclpy', 'rosidl_runtime_py', 'mcap')))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
                          env=dict(os.environ, PYTHONPATH=str(ROOT))).stdout
@@ -325,7 +325,7 @@ def test_a_scene_study_equals_vibrissa_scan_scene_friction_value_for_value(clien
     (tmp_path / "one_peg.yaml").write_text("obstacles:\n  - {type: peg, x: 0.0, y: 0.45, r: 0.05}\n")
     path = tmp_path / "study.yaml"
     path.write_text(SCENE_STUDY)
-    from vibrissa_ros.study import load_study
+    from vibrissa_ros.studies.study import load_study
 
     sub = load_study(str(path))
     out = tmp_path / "ds"

@@ -8,7 +8,7 @@ import sys
 import pytest
 
 from vibrissa_ros.cli import main
-from vibrissa_ros.scan_io import CSV_COLUMNS
+from vibrissa_ros.scan.scan_io import CSV_COLUMNS
 
 
 def _run(args, capsys):

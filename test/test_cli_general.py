@@ -145,7 +145,7 @@ def test_plot_runs_draws_a_peg_and_heading_axis():
     pytest.importorskip("matplotlib")
     from vibrissa_ros.core import FootPose, GeneralWhiskerModel, Peg, WhiskerShape
     from vibrissa_ros.core.scan import run_poses
-    from vibrissa_ros.plots import PlotRun, plot_runs
+    from vibrissa_ros.scan.plots import PlotRun, plot_runs
 
     peg = Peg(-0.3, 0.6, 0.04)
     poses = [FootPose(0.0, 0.0, math.pi / 2 - 0.3 + 0.03 * i) for i in range(41)]

@@ -45,7 +45,7 @@ def test_a_one_obstacle_scene_gives_the_profile_numbers(tmp_path, text, profile)
 
 def test_placed_profile_scene_equals_profile_with_the_same_placement(tmp_path):
     from vibrissa_ros.core.scan import run_scan
-    from vibrissa_ros.scene_file import load_scene
+    from vibrissa_ros.scan.scene_file import load_scene
 
     scene = load_scene(PARABOLA_SCENE)
     profile = scene.single_profile()

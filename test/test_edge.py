@@ -5,7 +5,7 @@ import math
 import pytest
 
 from vibrissa_ros.core import FootPose, Parabola, QuasistaticTracker
-from vibrissa_ros.edge import BadInput, Units, planar_pose, sensor_reading, yaw_quaternion
+from vibrissa_ros.node.edge import BadInput, Units, planar_pose, sensor_reading, yaw_quaternion
 
 HALF_PI = math.pi / 2
 

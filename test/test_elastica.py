@@ -6,8 +6,8 @@ import pytest
 from scipy.special import ellipkinc
 
 from vibrissa_ros.core import tip_loaded_elastica
-from vibrissa_ros.core.elastica import amplitude, family, family_centerline
-from vibrissa_ros.core.shooting import integrate
+from vibrissa_ros.core.exact.elastica import amplitude, family, family_centerline
+from vibrissa_ros.core.checks.shooting import integrate
 
 HALF_PI = math.pi / 2
 P0_LOWER = 0.45694658104446363  # 4 Gamma(3/4)^2 / Gamma(1/4)^2

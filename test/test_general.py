@@ -18,8 +18,8 @@ from vibrissa_ros.core import (
     scan_grid,
 )
 from vibrissa_ros.core.errors import ParameterError
-from vibrissa_ros.core.general import GeneralWhiskerModel, WhiskerShape
-from vibrissa_ros.core.models import ElasticaModel
+from vibrissa_ros.core.general.model import GeneralWhiskerModel, WhiskerShape
+from vibrissa_ros.core.exact.models import ElasticaModel
 
 FIELDS = ("alpha", "s1", "tip_slope", "f", "fx", "fy", "m0")
 
@@ -222,7 +222,7 @@ def test_peg_parameters():
 
 
 # -- second, independent method: shooting (DOP853) on the 4th-order system --------------------
-from vibrissa_ros.core.general_shooting import shoot_state  # noqa: E402
+from vibrissa_ros.core.checks.general_shooting import shoot_state  # noqa: E402
 from vibrissa_ros.core.scan import run_poses  # noqa: E402
 
 

@@ -38,10 +38,10 @@ from vibrissa_ros.core import (
     VibrissaError,
     WhiskerShape,
 )
-from vibrissa_ros.core.inverse import estimate_contact
-from vibrissa_ros.core.inverse_general import estimate_contact_general
-from vibrissa_ros.core.scene import PegObstacle, ProfileObstacle
-from vibrissa_ros.core.scene_tracker import SceneTracker
+from vibrissa_ros.core.exact.inverse import estimate_contact
+from vibrissa_ros.core.general.inverse import estimate_contact_general
+from vibrissa_ros.core.scenes.scene import PegObstacle, ProfileObstacle
+from vibrissa_ros.core.scenes.tracker import SceneTracker
 
 HALF_PI = math.pi / 2
 TWO_PI = 2 * math.pi

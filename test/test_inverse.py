@@ -16,7 +16,7 @@ from vibrissa_ros.core import (
     run_scan,
     scan_grid,
 )
-from vibrissa_ros.core.inverse import covered_intervals, estimate_contact, reconstruct
+from vibrissa_ros.core.exact.inverse import covered_intervals, estimate_contact, reconstruct
 
 
 def random_profiles(seed, n):

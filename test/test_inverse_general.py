@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from vibrissa_ros.core import Catenary, FootPose, GeneralWhiskerModel, Parabola, Peg, Phase, WhiskerShape
-from vibrissa_ros.core.inverse_general import estimate_contact_general
+from vibrissa_ros.core.general.inverse import estimate_contact_general
 from vibrissa_ros.core.scan import run_poses
 
 

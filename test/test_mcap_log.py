@@ -15,7 +15,7 @@ from rosbags.rosbag2 import Reader as RosbagsReader
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from std_msgs.msg import Float64, String
 
-from vibrissa_ros.mcap_log import (
+from vibrissa_ros.logs.mcap_log import (
     LogError,
     LogWriter,
     TopicSpec,

@@ -11,8 +11,8 @@ from rclpy.serialization import deserialize_message, serialize_message
 from visualization_msgs.msg import Marker
 
 from vibrissa_ros.core import FootPose, Parabola, QuasistaticTracker
-from vibrissa_ros.edge import EventRecord, decode_event, header_ns, stamp_parts
-from vibrissa_ros.node_config import build_config
+from vibrissa_ros.node.edge import EventRecord, decode_event, header_ns, stamp_parts
+from vibrissa_ros.node.config import build_config
 from vibrissa_ros.ros import messages as m
 
 

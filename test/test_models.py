@@ -15,7 +15,7 @@ from vibrissa_ros.core import (
     run_scan,
     scan_grid,
 )
-from vibrissa_ros.core.models import RigidModel, make_model
+from vibrissa_ros.core.exact.models import RigidModel, make_model
 
 HALF_PI = math.pi / 2
 PROFILES = [Parabola(0.3), Parabola(0.6), Catenary(0.5, 0.6), TwoCircles(0.4, 0.8, 1.6)]

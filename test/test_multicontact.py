@@ -11,11 +11,11 @@ import math
 import numpy as np
 import pytest
 
-from vibrissa_ros.core.boundary import CircleArc
-from vibrissa_ros.core.general import GeneralWhiskerModel, WhiskerShape
+from vibrissa_ros.core.scenes.boundary import CircleArc
+from vibrissa_ros.core.general.model import GeneralWhiskerModel, WhiskerShape
 from vibrissa_ros.core.profiles import Peg
-from vibrissa_ros.core.scene_tracker import SceneTracker
-from vibrissa_ros.core.tracker import QuasistaticTracker
+from vibrissa_ros.core.scenes.tracker import SceneTracker
+from vibrissa_ros.core.exact.tracker import QuasistaticTracker
 
 
 class _Disk:

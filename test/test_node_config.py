@@ -5,7 +5,7 @@ import math
 import pytest
 
 from vibrissa_ros.core import ParameterError, PlacedProfile
-from vibrissa_ros.node_config import PARAMETERS, SPECS, build_config
+from vibrissa_ros.node.config import PARAMETERS, SPECS, build_config
 
 CONTRACT = [
     "whisker.length", "whisker.bending_stiffness", "model", "rigid.spring_stiffness", "obstacle.type",

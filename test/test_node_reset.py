@@ -12,9 +12,9 @@ import math
 from ros_harness import Probe, pose_msg, start_installed_node, stop, write_params
 from std_srvs.srv import Trigger
 
-from vibrissa_ros.edge import decode_event, header_ns
-from vibrissa_ros.log_tools import decode, reset_requests, resimulate
-from vibrissa_ros.mcap_log import read_log
+from vibrissa_ros.node.edge import decode_event, header_ns
+from vibrissa_ros.logs.tools import decode, reset_requests, resimulate
+from vibrissa_ros.logs.mcap_log import read_log
 
 HALF_PI = math.pi / 2
 # the catenary (p0 0.5, c 0.6 in whisker lengths of 0.1 m)
@@ -42,9 +42,12 @@ def _diagnostics(probe):
 def _call_reset(probe):
     client = probe.node.create_client(Trigger, "/whisker_node/reset")
     assert client.wait_for_service(timeout_sec=10.0)
-    future = client.call_async(Trigger.Request())
-    assert probe.spin_until(future.done, 10.0)
-    return future.result()
+    try:
+        future = client.call_async(Trigger.Request())
+        assert probe.spin_until(future.done, 10.0)
+        return future.result()
+    finally:
+        probe.node.destroy_client(client)
 
 
 def test_reset_service_and_recovery_are_published_counted_recorded(installed, ros_env,

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from vibrissa_ros.node_config import build_config
-from vibrissa_ros.noise import NoiseSpec, SensorNoise
+from vibrissa_ros.node.config import build_config
+from vibrissa_ros.node.noise import NoiseSpec, SensorNoise
 
 
 def test_disabled_noise_returns_the_exact_reading():

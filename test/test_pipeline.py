@@ -5,9 +5,9 @@ import math
 import pytest
 
 from vibrissa_ros.core import ConvergenceError, InvalidPoseError, ModelAssumptionError, run_scan
-from vibrissa_ros.edge import BadInput, sensor_reading, yaw_quaternion
-from vibrissa_ros.node_config import build_config
-from vibrissa_ros.pipeline import DROP_REASONS, PosePipeline, PoseStats, drop_reason
+from vibrissa_ros.node.edge import BadInput, sensor_reading, yaw_quaternion
+from vibrissa_ros.node.config import build_config
+from vibrissa_ros.node.pipeline import DROP_REASONS, PosePipeline, PoseStats, drop_reason
 
 HALF_PI = math.pi / 2
 CATENARY = {"obstacle.type": "catenary", "obstacle.c": 0.06, "obstacle.apex_y": 0.05}

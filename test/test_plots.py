@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from vibrissa_ros.core import Catenary, Parabola, run_scan, scan_grid
-from vibrissa_ros.core.models import make_model
-from vibrissa_ros.plots import PlotRun, direction_segments, plot_runs, si_units, sketch_selection
+from vibrissa_ros.core.exact.models import make_model
+from vibrissa_ros.scan.plots import PlotRun, direction_segments, plot_runs, si_units, sketch_selection
 
 
 @pytest.fixture(scope="module")

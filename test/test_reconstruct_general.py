@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from vibrissa_ros.cli import main
-from vibrissa_ros.node_config import build_config, build_contour_config
-from vibrissa_ros.pipeline import PosePipeline
-from vibrissa_ros.reconstruction import estimate_from_wrench
+from vibrissa_ros.node.config import build_config, build_contour_config
+from vibrissa_ros.node.pipeline import PosePipeline
+from vibrissa_ros.node.reconstruction import estimate_from_wrench
 
 RAT = {"whisker.length": 0.03, "whisker.youngs_modulus": 3.3e9, "whisker.base_radius": 5e-5,
        "whisker.taper": 1.0 / 15.0, "whisker.curvature_k0": 1.0 / 0.06, "whisker.curvature_k1": -100.0}

@@ -11,8 +11,8 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from std_msgs.msg import Float64
 from visualization_msgs.msg import Marker
 
-from vibrissa_ros.mcap_log import LogWriter, read_log
-from vibrissa_ros.node_config import build_config
+from vibrissa_ros.logs.mcap_log import LogWriter, read_log
+from vibrissa_ros.node.config import build_config
 from vibrissa_ros.ros.messages import pose_stamped
 from vibrissa_ros.ros.recorder import Recorder
 

@@ -20,9 +20,9 @@ from rosbags.rosbag2 import Reader as RosbagsReader
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
 from vibrissa_ros.core import run_scan
-from vibrissa_ros.log_tools import log_info, resimulate
-from vibrissa_ros.mcap_log import LogError, read_log
-from vibrissa_ros.node_config import build_config
+from vibrissa_ros.logs.tools import log_info, resimulate
+from vibrissa_ros.logs.mcap_log import LogError, read_log
+from vibrissa_ros.node.config import build_config
 
 HALF_PI = math.pi / 2
 PARAMS = {
@@ -259,7 +259,7 @@ def test_contour_node_reconstructs_a_replayed_log(installed, ros_env, rcl_contex
     from geometry_msgs.msg import PointStamped
     from ros_harness import RELIABLE
 
-    from vibrissa_ros.reconstruction import from_log
+    from vibrissa_ros.node.reconstruction import from_log
 
     proc = start_installed_node(installed, None, ros_env, executable="contour_node",
                                 extra="-r '~/foot_pose:=/whisker_node/foot_pose' -r '~/wrench:=/whisker_node/wrench'")
@@ -310,7 +310,7 @@ def test_sensor_noise_is_seeded_recorded_and_resimulated(installed, ros_env, rcl
     for log, got in zip(logs, (first, second)):
         sim = resimulate(str(log))
         assert not sim.mismatches and sim.worst() <= 1e-12  # resim reproduces the noise bit for bit
-        from vibrissa_ros.edge import sensor_reading
+        from vibrissa_ros.node.edge import sensor_reading
 
         cfg = build_config(noisy)
         exact = np.array([(r.force_base[0], r.force_base[1], r.torque_z)

@@ -30,7 +30,7 @@ from vibrissa_ros.core import (
     VibrissaError,
 )
 from vibrissa_ros.core.profiles import PlacedProfile
-from vibrissa_ros.core.tracker import MAX_POSE_MAGNITUDE
+from vibrissa_ros.core.exact.tracker import MAX_POSE_MAGNITUDE
 
 HALF_PI = 0.5 * math.pi
 BUDGET = TrackerOptions().max_evaluations
@@ -326,7 +326,7 @@ def test_a_whisker_released_exactly_at_a_pose_does_not_touch_again_when_it_moves
     """A tapered whisker (rho 0.25) snaps onto the far flank of Parabola(0.35, 1.3) and releases at
     x0 = -1 exactly, a grid point; the next step used to see the tip on the profile as a new touch
     and crawl for minutes. A free tip on the profile that moves out of it is not a touch."""
-    from vibrissa_ros.core.general import GeneralWhiskerModel, WhiskerShape
+    from vibrissa_ros.core.general.model import GeneralWhiskerModel, WhiskerShape
 
     tracker = QuasistaticTracker(Parabola(0.35, 1.3), 2.0, model=GeneralWhiskerModel(WhiskerShape(0.25, 0.0, 0.0)))
     kinds = []

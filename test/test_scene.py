@@ -9,14 +9,14 @@ from scipy.integrate import quad
 from scipy.interpolate import CubicSpline
 from scipy.optimize import minimize_scalar
 
-from vibrissa_ros.core.boundary import CircleArc, GraphArc, ProfileArc, RayArc, SegmentArc
+from vibrissa_ros.core.scenes.boundary import CircleArc, GraphArc, ProfileArc, RayArc, SegmentArc
 from vibrissa_ros.core.errors import InvalidPoseError, ParameterError
 from vibrissa_ros.core.profiles import Peg, TwoCircles, make_profile
-from vibrissa_ros.core.scene import (
+from vibrissa_ros.core.scenes.scene import (
     CurveObstacle, PegObstacle, PolygonObstacle, ProfileObstacle, Scene, clip_polygon,
     clip_polyline,
 )
-from vibrissa_ros.scene_file import dump_scene, load_scene
+from vibrissa_ros.scan.scene_file import dump_scene, load_scene
 
 L_SHAPE = [[0.0, 0.0], [1.0, 0.0], [1.0, 0.4], [0.4, 0.4], [0.4, 1.0], [0.0, 1.0]]
 OBSTACLES = {

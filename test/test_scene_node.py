@@ -15,15 +15,15 @@ from sensor_msgs.msg import PointCloud2, PointField  # noqa: E402
 from visualization_msgs.msg import Marker  # noqa: E402
 
 from vibrissa_ros.core import FootPose, ParameterError, QuasistaticTracker  # noqa: E402
-from vibrissa_ros.core.scene_tracker import SceneTracker  # noqa: E402
-from vibrissa_ros.edge import (  # noqa: E402
+from vibrissa_ros.core.scenes.tracker import SceneTracker  # noqa: E402
+from vibrissa_ros.node.edge import (  # noqa: E402
     ContactRecord, contact_records, decode_event, encode_event, event_record, planar_pose,
     sensor_reading,
 )
-from vibrissa_ros.node_config import SCENE_TEXT, build_config  # noqa: E402
-from vibrissa_ros.pipeline import PosePipeline  # noqa: E402
+from vibrissa_ros.node.config import SCENE_TEXT, build_config  # noqa: E402
+from vibrissa_ros.node.pipeline import PosePipeline  # noqa: E402
 from vibrissa_ros.ros import messages as m  # noqa: E402
-from vibrissa_ros.scene_file import load_scene  # noqa: E402
+from vibrissa_ros.scan.scene_file import load_scene  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENE_M = ROOT / "config" / "scene_two_pegs_m.yaml"

@@ -23,8 +23,8 @@ from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from ros_harness import Probe, pose_msg, stamp_of, start_installed_node, stop, write_params
 
 from vibrissa_ros.core import run_scan
-from vibrissa_ros.edge import sensor_reading
-from vibrissa_ros.node_config import build_config
+from vibrissa_ros.node.edge import sensor_reading
+from vibrissa_ros.node.config import build_config
 
 HALF_PI = math.pi / 2
 PARAMS = {

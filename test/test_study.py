@@ -9,7 +9,7 @@ import pytest
 pytest.importorskip("yaml")
 
 from vibrissa_ros.cli import main
-from vibrissa_ros.study import StudyError, load_study, parse_study, place_obstacle
+from vibrissa_ros.studies.study import StudyError, load_study, parse_study, place_obstacle
 from vibrissa_ros.core import make_profile
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -159,8 +159,8 @@ def test_out_must_be_a_new_or_a_study_directory(tmp_path, capsys):
 
 
 def test_whisker_geometry_axes_pick_the_general_solver_and_are_refused_for_the_rigid_model():
-    from vibrissa_ros.core.general import GeneralWhiskerModel
-    from vibrissa_ros.core.models import ElasticaModel
+    from vibrissa_ros.core.general.model import GeneralWhiskerModel
+    from vibrissa_ros.core.exact.models import ElasticaModel
 
     study = parse_study(
         "whisker: {taper: [1, 0.0667], curvature_k0: 0.5, curvature_k1: -0.2}\n"
@@ -196,7 +196,7 @@ motion:
 
 
 def test_whisking_motions_keep_the_foot_and_sweep_the_heading():
-    from vibrissa_ros.study import Whisk
+    from vibrissa_ros.studies.study import Whisk
 
     study = parse_study(WHISK_AND_PEG)
     assert study.has_whisking and len(study.tasks) == 2 * 3 * 3
@@ -218,8 +218,8 @@ def test_whisking_motions_keep_the_foot_and_sweep_the_heading():
 
 
 def test_pegs_are_study_obstacles_solved_by_the_general_model():
-    from vibrissa_ros.core.general import GeneralWhiskerModel
-    from vibrissa_ros.core.models import RigidModel
+    from vibrissa_ros.core.general.model import GeneralWhiskerModel
+    from vibrissa_ros.core.exact.models import RigidModel
 
     study = parse_study(WHISK_AND_PEG)
     assert study.param_names == ("p0", "k", "peg_x", "peg_y", "peg_r")
@@ -407,7 +407,7 @@ def test_scene_files_are_a_grid_axis_with_friction_found_beside_the_study(tmp_pa
 
 def test_a_study_without_scenes_keeps_its_columns_and_digest():
     """Datasets written before scenes were study obstacles still resume: same digest, same columns."""
-    from vibrissa_ros.dataset import manifest
+    from vibrissa_ros.studies.dataset import manifest
 
     found = manifest(parse_study(_PARABOLA + "motion: {from: 1, to: -1, step: 0.1}\n"))
     assert found["study_sha256"] == "0d38f7089440e00fa4f1173b5e8b7489a2ad1cd12132f748ed9af516c33765d5"

@@ -279,7 +279,7 @@ def test_settling_on_the_other_flank_after_a_snap():
     would then settle the whisker on the other flank is exercised directly: from x0 = 0 under the
     apex (straight whisker inside), travelling left, it must find the branch that a whisker coming
     back from the left is on."""
-    from vibrissa_ros.core.tracker import _Path
+    from vibrissa_ros.core.exact.tracker import _Path
 
     profile = Parabola(0.3)
     tracker = QuasistaticTracker(profile, 2.0)

@@ -15,10 +15,10 @@ from rcl_interfaces.srv import SetParameters
 from ros_harness import ROOT, Probe, pose_msg, stamp_of, start_installed_node, stop, write_params
 from visualization_msgs.msg import Marker
 
-from vibrissa_ros.core.scene_tracker import SceneTracker
-from vibrissa_ros.edge import contact_records, planar_pose, sensor_reading
-from vibrissa_ros.log_tools import log_info, resimulate
-from vibrissa_ros.node_config import build_config
+from vibrissa_ros.core.scenes.tracker import SceneTracker
+from vibrissa_ros.node.edge import contact_records, planar_pose, sensor_reading
+from vibrissa_ros.logs.tools import log_info, resimulate
+from vibrissa_ros.node.config import build_config
 from vibrissa_ros.ros.messages import decode_contacts
 
 HALF_PI = math.pi / 2

@@ -21,8 +21,8 @@ sys.path.insert(0, str(HERE.parent))
 import test_scene_shooting as scenes  # noqa: E402
 
 from vibrissa_ros.core import FootPose  # noqa: E402
-from vibrissa_ros.core.boundary import CircleArc  # noqa: E402
-from vibrissa_ros.core.scene_shooting import (  # noqa: E402
+from vibrissa_ros.core.scenes.boundary import CircleArc  # noqa: E402
+from vibrissa_ros.core.checks.scene_shooting import (  # noqa: E402
     PosePath,
     follow_path,
     solve_scene_equilibrium,
@@ -31,7 +31,7 @@ from vibrissa_ros.core.scene_shooting import (  # noqa: E402
 NOTE = (
     "Golden equilibria of a whisker (WhiskerShape taper, k0, k1; length 1, base stiffness 1) "
     "clamped at 'pose' (x, y, heading) and touched at two points, frictionless. Computed by "
-    "vibrissa_ros.core.scene_shooting (DOP853 shooting, rtol 1e-13, Newton residual <= 1e-13) "
+    "vibrissa_ros.core.checks.scene_shooting (DOP853 shooting, rtol 1e-13, Newton residual <= 1e-13) "
     "after continuation from a one-contact state (test/data/make_scene_golden.py). Per contact: "
     "kind, feature (circle: centre cx, cy and radius r; curve: a natural-spline graph through "
     "'points' with the obstacle on 'side'), arc length s on the whisker, arc parameter u "

@@ -11,7 +11,7 @@ import numpy as np
 from .errors import ParameterError
 from .profiles import ConvexProfile
 from .state import Event, FootPose, WhiskerState
-from .tracker import QuasistaticTracker
+from .exact.tracker import QuasistaticTracker
 
 
 @dataclass(frozen=True)
@@ -108,12 +108,13 @@ def run_scene(obstacles, poses, shape=None, friction=None) -> ScanResult:
     """
     Scan a scene with the multi-contact tracker: the whisker placed at the first pose (unloaded).
 
-    ``obstacles``: scene obstacles (``core/scene.py``), ``friction`` their Coulomb coefficients,
-    ``shape`` the whisker; ``poses``: foot poses or the paper's x0 values. (A scene of one convex
-    profile or peg without friction is the single-contact problem: ``scene_scan.py`` hands that to
-    :func:`run_scan`, whose numbers the scene tracker reproduces to ~1e-10.)
+    ``obstacles``: scene obstacles (``core/scenes/scene.py``), ``friction`` their Coulomb
+    coefficients, ``shape`` the whisker; ``poses``: foot poses or the paper's x0 values. (A scene
+    of one convex profile or peg without friction is the single-contact problem:
+    ``scan/scene_scan.py`` hands that to :func:`run_scan`, whose numbers the scene tracker
+    reproduces to ~1e-10.)
     """
-    from .scene_tracker import SceneTracker
+    from .scenes.tracker import SceneTracker
 
     poses = [p if isinstance(p, FootPose) else FootPose(float(p)) for p in poses]
     if not poses:

@@ -24,7 +24,7 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, ReliabilityPolicy
 from rclpy.serialization import serialize_message
 
 from .. import __version__
-from ..mcap_log import CONFIGURATION_METADATA, RESET_METADATA, LogError, LogWriter, TopicSpec
+from ..logs.mcap_log import CONFIGURATION_METADATA, RESET_METADATA, LogError, LogWriter, TopicSpec
 
 
 def configuration_record(values: Mapping[str, object], node_name: str, log_time: int,

@@ -9,8 +9,8 @@ pose places the whisker unloaded, README "Recovery: when a step cannot be follow
 the README's topic table says what each carries. Every message with a header carries the stamp
 of the pose that produced it; the wrench and events are always published, the other per-pose
 topics only while somebody subscribes (or the node records). This module only wires: checks and
-steps are :mod:`vibrissa_ros.pipeline`'s, conversions :mod:`vibrissa_ros.edge`'s, messages
-:mod:`.messages`', recording :mod:`.recorder`'s and queueing :mod:`.backlog`'s.
+steps are :mod:`vibrissa_ros.node.pipeline`'s, conversions :mod:`vibrissa_ros.node.edge`'s,
+messages :mod:`.messages`', recording :mod:`.recorder`'s and queueing :mod:`.backlog`'s.
 """
 
 from __future__ import annotations
@@ -24,10 +24,10 @@ from geometry_msgs.msg import PoseStamped, WrenchStamped
 from rclpy.node import Node
 from std_srvs.srv import Trigger
 
-from ..edge import contact_records, event_record, header_ns
-from ..mcap_log import LogError
-from ..node_config import PARAMETERS, WhiskerConfig, build_config
-from ..pipeline import PosePipeline, PoseStats, drop_reason
+from ..node.edge import contact_records, event_record, header_ns
+from ..logs.mcap_log import LogError
+from ..node.config import PARAMETERS, WhiskerConfig, build_config
+from ..node.pipeline import PosePipeline, PoseStats, drop_reason
 from . import messages as m
 from .backlog import PoseBacklog
 from .params import NodeParameters
