@@ -12,6 +12,7 @@ ROS = [
     "ros-jazzy-rclpy",
     "ros-jazzy-rmw-fastrtps-cpp",
     "ros-jazzy-common-interfaces",
+    "ros-jazzy-std-srvs",  # std_srvs/Trigger of ~/reset
     "ros-jazzy-ament-index-python",
     "mcap>=1.5",  # recording (rosbag2 layout), with zstd chunks
     "tqdm>=4.60",  # progress bars of vibrissa sweep and replay

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 from typing import Iterable, List, Optional, Sequence, Tuple
 
 from .elastica import family, family_centerline, family_domain_ok
-from ..state import FootPose, Phase
+from ..state import FootPose, Phase, wrap_heading
 
 HALF_PI = 0.5 * math.pi
 #: s* within this of 1 is the tip (phase 2)
@@ -44,7 +44,7 @@ class ContactEstimate:
     Parameters
     ----------
     pose : FootPose
-        The foot pose of the reading.
+        The foot pose of the reading, its heading in (-pi, pi].
     phase : Phase
         TANGENTIAL when the zero-moment point lies inside the whisker (s1 < 1), TIP otherwise.
     contact : tuple of float
@@ -70,6 +70,12 @@ class ContactEstimate:
     delta: float
 
 
+def canonical_pose(pose: FootPose) -> FootPose:
+    """Return ``pose`` with its heading in (-pi, pi] (whole turns removed)."""
+    heading = wrap_heading(pose.heading)
+    return pose if heading == pose.heading else FootPose(pose.x, pose.y, heading)
+
+
 def estimate_contact(pose: FootPose, fx: float, fy: float, m0: float,
                      min_force: float = 0.0) -> Optional[ContactEstimate]:
     """
@@ -92,13 +98,15 @@ def estimate_contact(pose: FootPose, fx: float, fy: float, m0: float,
     Returns
     -------
     ContactEstimate or None
-        The estimate; None when there is no usable contact: f <= ``min_force``, m0 = 0 (a force
+        The estimate, carrying the pose with its heading in (-pi, pi], like the trackers'
+        states; None when there is no usable contact: f <= ``min_force``, m0 = 0 (a force
         through the foot), or a reading no single frictionless contact can produce.
 
     """
     f = math.hypot(fx, fy)
     if not (math.isfinite(f) and math.isfinite(m0)) or f <= min_force or f == 0.0 or m0 == 0.0:
         return None
+    pose = canonical_pose(pose)
     alpha_w = math.atan2(fx, -fy)
     side = 1 if m0 < 0.0 else -1
     beta = pose.heading - HALF_PI

@@ -330,6 +330,19 @@ class GeneralWhiskerModel:
             self._mirror._mirror = self
         return self._mirror
 
+    def forget(self) -> None:
+        """
+        Drop the warm starts (the last solutions and the memo), of the mirrored model too.
+
+        The tracker calls this whenever the whisker is free, so that what follows depends on the
+        pose alone, not on the history (the solutions of reported states are kept: they redraw
+        centerlines).
+        """
+        for model in (self, self._mirror):
+            if model is not None:
+                model._last = model._base = None
+                model._memo.clear()
+
     def _t_of_s(self, s, s1: float):
         """Node variable t in [0, 1] of arc length s on [0, s1] (inverse of the map)."""
         s = np.asarray(s, dtype=float)
