@@ -70,9 +70,10 @@ def estimate_contact_general(pose: FootPose, fx: float, fy: float, m0: float, sh
     Returns
     -------
     ContactEstimate or None
-        The estimate (``alpha`` is the force's direction in the world frame); None when there
-        is no usable contact: f <= ``min_force``, m0 = 0, or a moment that does not vanish along
-        the whisker (no single frictionless contact produces that reading).
+        The estimate (``alpha`` is the force's direction in the world frame; the pose's heading
+        in (-pi, pi], like the trackers'); None when there is no usable contact:
+        f <= ``min_force``, m0 = 0, or a moment that does not vanish along the whisker (no single
+        frictionless contact produces that reading).
 
     """
     f = math.hypot(fx, fy)
