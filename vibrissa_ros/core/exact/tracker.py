@@ -65,7 +65,29 @@ _NUMERICAL_ERRORS = (ArithmeticError, ValueError, np.linalg.LinAlgError)
 
 @dataclass(frozen=True)
 class TrackerOptions:
-    """Numerical settings of the tracker (defaults give events to ~1e-12 and states to ~1e-14)."""
+    """
+    Numerical settings of the tracker (defaults give events to ~1e-12 and states to ~1e-14).
+
+    The parameters are the dataclass's fields, kept as attributes of the same names.
+
+    Parameters
+    ----------
+    fast_step : float, optional
+        The largest change of the unknowns a fast step may make without the careful
+        continuation.
+    max_arclength_step : float, optional
+        The largest pseudo-arclength step of the careful continuation.
+    newton_tol : float, optional
+        The Newton iterations stop when a correction is this small (relative to the unknowns
+        where they exceed 1).
+    max_evaluations : int, optional
+        The model and profile evaluations one step may use before it raises ConvergenceError.
+    recover : bool, optional
+        A step that cannot be followed re-places the whisker unloaded at the new pose when it is
+        free there (an event ``reset``); False raises instead (README "Recovery: when a step
+        cannot be followed").
+
+    """
 
     fast_step: float = _FAST_STEP
     max_arclength_step: float = _H_MAX
@@ -136,11 +158,20 @@ class QuasistaticTracker:
     ----------
     profile : ConvexProfile
         The obstacle (world frame).
-    pose : FootPose or float
+    pose : FootPose or float, optional
         Where the whisker is placed, straight and free; a float is the paper's x0 (foot at (x0, 0),
-        heading pi/2). Raises :class:`InvalidPoseError` if the straight whisker cuts the obstacle.
-    model : str or model instance
-        ``"elastica"`` (paper §2).
+        heading pi/2).
+    model : str or model instance, optional
+        ``"elastica"`` (paper §2) or ``"rigid"`` (paper §3), or a model object.
+    options : TrackerOptions, optional
+        The numerical settings; None: the defaults.
+
+    Raises
+    ------
+    InvalidPoseError
+        If the straight whisker cuts the obstacle.
+    ParameterError
+        If ``profile`` is not a ConvexProfile.
 
     """
 
