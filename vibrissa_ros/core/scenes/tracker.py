@@ -76,9 +76,27 @@ class SceneContact:
     """
     One contact of a scene state (world frame, dimensionless).
 
-    ``kind``: side, corner, tip or tip_corner (README "Scenes"); ``state``: stick or slip;
-    ``fx, fy`` the force of the obstacle on the whisker, ``N`` its normal and ``T`` its
-    tangential (friction) part; ``s`` the whisker's arc length, ``u`` the feature's parameter.
+    The parameters are the dataclass's fields, kept as attributes of the same names.
+
+    Parameters
+    ----------
+    obstacle : int
+        The obstacle's index in the scene.
+    kind : {'side', 'corner', 'tip', 'tip_corner'}
+        What touches what (README "Scenes").
+    s : float
+        The whisker's arc length at the contact.
+    x, y : float
+        The contact point.
+    fx, fy : float
+        The force of the obstacle on the whisker.
+    N, T : float
+        Its normal and its tangential (friction) part.
+    state : {'stick', 'slip'}
+        The contact's friction state.
+    u : float or None, optional
+        The feature's parameter at the contact.
+
     """
 
     obstacle: int
@@ -105,10 +123,28 @@ class SceneState:
     """
     One quasistatic equilibrium in a scene.
 
-    ``fx, fy, m0``: the total base load (what the follicle's sensor measures: the sum of the
-    contact forces and their moment about the foot, counter-clockwise positive); ``contacts``
-    ordered from the foot to the tip. The scan contract's single-contact columns (phase, alpha,
-    s1, f, contact) describe the contact nearest the foot.
+    The scan contract's single-contact columns (phase, alpha, s1, f, contact) describe the
+    contact nearest the foot. The parameters are the dataclass's fields, kept as attributes of
+    the same names (world frame, dimensionless).
+
+    Parameters
+    ----------
+    pose : FootPose
+        The foot pose.
+    contacts : tuple of SceneContact
+        The contacts, ordered from the foot to the tip.
+    fx, fy, m0 : float
+        The total base load, what the follicle's sensor measures: the sum of the contact forces
+        and their moment about the foot, counter-clockwise positive.
+    tip : tuple of float
+        The position (x, y) of the whisker's tip.
+    tip_slope : float
+        The whisker's slope at its tip [rad].
+    configuration : object, optional
+        The solver's configuration of the contacts (internal: it samples the centerline).
+    solver : object, optional
+        The solver that computed the state (internal: it samples the centerline).
+
     """
 
     pose: FootPose
@@ -168,7 +204,28 @@ class SceneState:
 
 @dataclass(frozen=True)
 class SceneEvent:
-    """Something that happened during a step, located on the path: kind, where, which contact."""
+    """
+    Something that happened during a step, located on the path: kind, where, which contact.
+
+    The parameters are the dataclass's fields, kept as attributes of the same names.
+
+    Parameters
+    ----------
+    kind : str
+        The event's kind (README "Scenes"; ``reset``: the whisker was placed unloaded at the new
+        pose).
+    pose : FootPose
+        The foot pose where it happened.
+    obstacle : int or None, optional
+        The index of the obstacle concerned.
+    contact_kind : str, optional
+        The kind of the contact concerned (side, corner, tip or tip_corner).
+    s : float or None, optional
+        The contact's arc length on the whisker.
+    reason : str, optional
+        Why a ``reset`` happened (the refusal of the step, or a request); empty for other kinds.
+
+    """
 
     kind: str
     pose: FootPose
@@ -202,14 +259,18 @@ class SceneTracker:
     obstacles : sequence
         Obstacles with ``arcs``, ``vertices`` (boundary features) and ``signed_distance(points)``
         (core/scenes/scene.py).
-    pose : FootPose or float
-        Start pose: the whisker is placed there unloaded; it must not cut an obstacle.
-    shape : WhiskerShape
-    friction : sequence of float
-        Coulomb coefficient of each obstacle (default 0).
-    max_evaluations : int
+    pose : FootPose or float, optional
+        Start pose: the whisker is placed there unloaded; it must not cut an obstacle. A float
+        is the paper's x0.
+    shape : WhiskerShape, optional
+        The whisker's taper and intrinsic curvature; None: the paper's whisker.
+    friction : sequence of float, optional
+        Coulomb coefficient of each obstacle (default 0), finite and >= 0.
+    n : int, optional
+        Chebyshev points per segment of the multi-contact solver; None: its default.
+    max_evaluations : int, optional
         Solver evaluations one step may use before it raises ConvergenceError.
-    recover : bool
+    recover : bool, optional
         A step that cannot be followed re-places the whisker unloaded at the new pose when it is
         free there (an event ``reset``); False raises instead (README "Recovery: when a step
         cannot be followed").
