@@ -65,6 +65,13 @@ class PosePipeline:
     A step that cannot be followed re-places the whisker when it is free at the new pose (the
     core's recovery: an event ``reset``); :meth:`request_reset` makes the next accepted pose
     place it, with an event ``reset`` too.
+
+    Parameters
+    ----------
+    config : WhiskerConfig
+        The node's validated configuration (:func:`~vibrissa_ros.node.config.build_config`): the
+        obstacle, model and units, and the sensor noise added to the published wrench.
+
     """
 
     def __init__(self, config: WhiskerConfig):
