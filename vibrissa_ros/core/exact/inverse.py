@@ -93,7 +93,7 @@ def estimate_contact(pose: FootPose, fx: float, fy: float, m0: float,
     m0 : float
         The base moment [EI/L], counter-clockwise positive.
     min_force : float, optional
-        A reading with f = |(fx, fy)| <= ``min_force`` has no usable contact.
+        A reading with a force magnitude f <= ``min_force`` has no usable contact.
 
     Returns
     -------

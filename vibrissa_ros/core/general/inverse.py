@@ -65,7 +65,7 @@ def estimate_contact_general(pose: FootPose, fx: float, fy: float, m0: float, sh
     shape : WhiskerShape
         The whisker's taper and intrinsic curvature.
     min_force : float, optional
-        A reading with f = |(fx, fy)| <= ``min_force`` has no usable contact.
+        A reading with a force magnitude f <= ``min_force`` has no usable contact.
 
     Returns
     -------

@@ -65,12 +65,12 @@ class WhiskerShape:
         rho = tip radius / base radius in (0, 1]; B(s) = (1 - (1 - rho) s)^4 [EI_b].
     k0, k1 : float, optional
         Intrinsic curvature kappa0(s) = k0 + k1 s [1/L], counter-clockwise positive;
-        |k0| + |k1| <= 20 (more would curl the whisker more than about three turns).
+        ``|k0| + |k1| <= 20`` (more would curl the whisker more than about three turns).
 
     Raises
     ------
     ParameterError
-        When a field is not a finite number, the taper is not in (0, 1] or |k0| + |k1| > 20.
+        When a field is not a finite number, the taper is not in (0, 1] or ``|k0| + |k1| > 20``.
 
     """
 
