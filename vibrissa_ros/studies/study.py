@@ -205,7 +205,7 @@ class Task:
     back: bool
     noise: Optional[Noise] = None
     noise_seed: Optional[int] = None
-    #: the whisker's shape (issue 12's general whisker): taper rho = tip / base radius, intrinsic
+    #: the whisker's shape (the general whisker, core.general): taper rho = tip / base radius, intrinsic
     #: curvature k0 + k1 s [1/L]; (1, 0, 0) is the paper's uniform straight whisker
     taper: float = 1.0
     curvature_k0: float = 0.0
