@@ -1,4 +1,5 @@
-"""Cost and self-consistency of the scene shooting solver (the independent check of issue 13).
+"""
+Cost and self-consistency of the scene shooting solver (the independent check of issue 13).
 
 For the golden scenes of test/data/scene_golden.json (two pegs on a straight and on a tapered,
 curved whisker; a tip and a side contact on a non-convex curve) and for one contact on a circle:
