@@ -1,4 +1,5 @@
-"""Writes test/data/catenary_sweep.mcap: a short run of whisker_node, recorded by the node itself.
+"""
+Writes test/data/catenary_sweep.mcap: a short run of whisker_node, recorded by the node itself.
 
 The log the offline tests (info, resim, export, plot, reconstruct) read without DDS. Run it again
 only when the log layout changes: ``python test/data/make_sweep_log.py``. The run: the catenary of
