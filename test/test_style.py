@@ -1,4 +1,5 @@
-"""Style checks as ROS 2 Python packages run them (ament_flake8, ament_pep257), by pytest.
+"""
+Style checks as ROS 2 Python packages run them (ament_flake8, ament_pep257), by pytest.
 
 The configuration is ament's own: flake8 with ament_flake8.ini's settings (line length 99, its
 ignore list) and pydocstyle with the "ament" convention (pep257 minus D100-D107, D203, D212,
@@ -23,7 +24,8 @@ NOT_YET = ("test", "bench", "vibrissa_ros/cli.py")
 def _checked():
     files = [ROOT / "setup.py"] + sorted((ROOT / "vibrissa_ros").rglob("*.py"))
     return [str(f) for f in files
-            if not any(str(f.relative_to(ROOT)) == p or str(f.relative_to(ROOT)).startswith(p + "/")
+            if not any(str(f.relative_to(ROOT)) == p
+                       or str(f.relative_to(ROOT)).startswith(p + "/")
                        for p in NOT_YET)]
 
 
