@@ -241,6 +241,13 @@ class QuasistaticTracker:
                     t, exiting = contact.t, True
                     contact = None
                     continue
+                if self._switch_turns_back(path, contact.side, new_phase, new_z, contact.t):
+                    # neither phase goes on forwards: the branch folds at the switch (a corner),
+                    # and the whisker snaps there as at a smooth fold
+                    contact, t, ev = self._snap(path, contact)
+                    events.append(ev)
+                    exiting = contact is None
+                    continue
                 events.append(self._event("phase", old, new_phase, path, contact))
                 contact = _Contact(new_phase, contact.side, new_z, contact.t)
             elif kind == "release":
@@ -1180,6 +1187,34 @@ class QuasistaticTracker:
                 return t_b
             return brentq(lambda u: self._tip_gap(path, u), t_a, t_b, xtol=1e-16, rtol=1e-15)
         return None
+
+    def _switch_turns_back(self, path, side, phase, z, t) -> bool:
+        """
+        Tell whether the branch of ``phase``, entered at a phase switch, lies behind the switch.
+
+        At a switch (the contact at the tip, tangent to the obstacle) the two phases' branches
+        meet, and the new phase's event that leads back sits at zero: its sign there is rounding.
+        What decides is the direction. The new phase goes on if a short step forwards (tau
+        increasing) on its branch keeps every event function positive. If not, the admissible
+        parts of both phases lie behind the switch (the old phase ended there going forwards):
+        there is no equilibrium nearby ahead, the branch of equilibria folds at the switch (a
+        corner; e.g. a tapered whisker slipping off a peg over its tip) and the whisker snaps.
+        One decision per switch, made on the branch itself: a switch is never undone at the
+        point where it was made, so the phases cannot alternate there.
+        """
+        Y = np.array([z[0], z[1], t * path.length])
+        _, J = self._jacobian(path, phase, side, Y)
+        T = self._tangent(J)  # oriented along increasing tau
+        # the step moves the event that sits at zero by ~1e-6 times its slope on the branch,
+        # far above its rounding (~1e-14), and stays well inside the branch's other features
+        h = 1e-6
+        for _ in range(4):
+            Yn = self._corrector(path, phase, side, Y + h * T, T, h)
+            if Yn is not None:
+                values = self._events_of(phase, (Yn[0], Yn[1]), side).values()
+                return any(value <= 0.0 for value in values)
+            h *= 0.125
+        return False  # no step possible: the continuation decides, and says why it cannot go on
 
     # -- snapping ------------------------------------------------------------------------------
     def _snap(self, path: _Path, contact: _Contact):

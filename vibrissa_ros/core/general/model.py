@@ -346,6 +346,10 @@ class GeneralWhiskerModel:
         key = (int(phase), alpha, mu)
         sol = self._memo.get(key)
         if sol is not None:
+            # it seeds the next guess like a fresh solution: after a switch back to a phase at a
+            # point solved before, _last would otherwise still hold the other phase, and the
+            # next Newton would start from the unloaded shape (which fails for large loads)
+            self._last = sol
             return sol
         last = self._base
         if guess is None and last is not None and last.phase == phase:
