@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 from scipy.optimize import minimize_scalar
 
+# test/, for the tests' generator: the imports below must follow (E402)
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "test"))
 from test_inverse import random_profiles  # noqa: E402  (the same generator the tests use)
 

@@ -22,6 +22,7 @@ from pathlib import Path
 
 import rclpy
 
+# bench/, for bench_node's driver: the imports below must follow (E402)
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_node import Driver  # noqa: E402
 

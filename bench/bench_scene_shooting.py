@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "test"))
+sys.path.insert(0, str(ROOT / "test"))  # the tests' scenes: the imports below follow it (E402)
 
 from vibrissa_ros.core import FootPose, WhiskerShape  # noqa: E402
 from vibrissa_ros.core.scenes.boundary import CircleArc, GraphArc  # noqa: E402

@@ -32,7 +32,10 @@ from vibrissa_ros.core import (
 def random_profile(rng):
     family = rng.choice(["parabola", "catenary", "circle", "two_circles", "ellipse"])
     p0 = rng.uniform(0.05, 0.95)
-    size = lambda: 10 ** rng.uniform(-2, 2)  # noqa: E731
+
+    def size():
+        return 10 ** rng.uniform(-2, 2)
+
     if family == "parabola":
         prof = Parabola(p0, size())
     elif family == "catenary":
@@ -97,7 +100,10 @@ def main():
     evaluations.sort()
     seconds.sort()
     n = len(evaluations)
-    p99 = lambda xs: xs[min(n - 1, int(0.99 * n))]  # noqa: E731
+
+    def p99(xs):
+        return xs[min(n - 1, int(0.99 * n))]
+
     print(f"{n} steps on {args.paths} random paths; budget {TrackerOptions().max_evaluations} "
           "evaluations per step")
     print(f"evaluations per step: median {statistics.median(evaluations):.0f}, p99 "

@@ -42,7 +42,10 @@ def test_base_frame_rotates_with_the_yaw(yaw):
     """
     profile = Parabola(0.3).placed(0.0, 0.0, yaw - HALF_PI)
     c, s = math.cos(yaw - HALF_PI), math.sin(yaw - HALF_PI)
-    foot = lambda x: FootPose(c * x, s * x, yaw)  # noqa: E731
+
+    def foot(x):
+        return FootPose(c * x, s * x, yaw)
+
     state = QuasistaticTracker(profile, foot(2.0)).step(foot(0.3)).state
     r = sensor_reading(state, Units(1.0, 1.0, 1.0))
     along = math.cos(yaw) * state.fx + math.sin(yaw) * state.fy

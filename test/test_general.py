@@ -13,14 +13,18 @@ from vibrissa_ros.core import (
     Catenary,
     Circle,
     Ellipse,
+    FootPose,
     Parabola,
+    Peg,
     Phase,
     QuasistaticTracker,
     TwoCircles,
     run_scan,
     scan_grid,
 )
-from vibrissa_ros.core.errors import ParameterError
+from vibrissa_ros.core.checks.general_shooting import shoot_state
+from vibrissa_ros.core.errors import ModelAssumptionError, ParameterError
+from vibrissa_ros.core.scan import run_poses
 from vibrissa_ros.core.general.model import GeneralWhiskerModel, WhiskerShape
 from vibrissa_ros.core.exact.models import ElasticaModel
 
@@ -152,8 +156,6 @@ def test_centerline_of_a_general_state_ends_at_the_contact():
 
 
 # -- pegs -------------------------------------------------------------------------------------
-from vibrissa_ros.core import FootPose, Peg  # noqa: E402
-from vibrissa_ros.core.errors import ModelAssumptionError  # noqa: E402
 
 
 @pytest.mark.parametrize("p0, R", [(0.4, 0.9), (0.3, 1.5)])
@@ -229,8 +231,6 @@ def test_peg_parameters():
 
 
 # -- second, independent method: shooting (DOP853) on the 4th-order system --------------------
-from vibrissa_ros.core.checks.general_shooting import shoot_state  # noqa: E402
-from vibrissa_ros.core.scan import run_poses  # noqa: E402
 
 
 def _assert_shooting_agrees(shape, peg, scan, every=1):

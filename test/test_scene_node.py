@@ -4,6 +4,7 @@ import os
 
 os.environ.setdefault("ROS_PYTHON_CHECK_FIELDS", "1")  # before the message modules are imported
 
+# E402 below: the imports must follow that setting
 import json  # noqa: E402
 import math  # noqa: E402
 from pathlib import Path  # noqa: E402

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE.parent))
+sys.path.insert(0, str(HERE.parent))  # test/: the imports below must follow it (E402)
 import test_scene_shooting as scenes  # noqa: E402
 
 from vibrissa_ros.core import FootPose  # noqa: E402

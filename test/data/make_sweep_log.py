@@ -19,7 +19,7 @@ import rclpy
 from domain_coordinator import domain_id
 
 HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE.parent))
+sys.path.insert(0, str(HERE.parent))  # the test helpers: the import below must follow (E402)
 from ros_harness import Probe, pose_msg, ros_env, stop, write_params  # noqa: E402
 
 PARAMS = {
