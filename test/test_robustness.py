@@ -252,12 +252,24 @@ def test_far_poses_on_a_narrow_catenary_are_refused_or_computed_never_overflow()
 
 
 def test_big_jump_past_the_obstacle_from_far_away_is_followed_quickly():
-    """A branch met at the end of a 1e5-long jump: tau starts at 0 where the branch begins."""
+    """
+    A branch met at the end of a 1e5-long jump: tau starts at 0 where the branch begins.
+
+    The branch ends where the foot is driven into the obstacle; the target itself is free, so the
+    whisker is re-placed there (recovery), or the step refused with recovery off.
+    """
     prof = Ellipse(0.13244234727160747, 2.9598206473745603, 24.184930555189123)
-    tracker = QuasistaticTracker(prof, FootPose(-1e5, 0.0, HALF_PI))
+    target = FootPose(2.946808431550931, 0.4099353833511268, HALF_PI)
+    strict = QuasistaticTracker(prof, FootPose(-1e5, 0.0, HALF_PI),
+                                options=TrackerOptions(recover=False))
     with pytest.raises(ModelAssumptionError, match="slid down to the whisker's foot"):
-        tracker.step(FootPose(2.946808431550931, 0.4099353833511268, HALF_PI))
-    assert tracker.state.phase == Phase.FREE and tracker.state.pose.x == -1e5
+        strict.step(target)
+    assert strict.state.phase == Phase.FREE and strict.state.pose.x == -1e5
+    tracker = QuasistaticTracker(prof, FootPose(-1e5, 0.0, HALF_PI))
+    result = tracker.step(target)
+    assert [e.kind for e in result.events] == ["reset"]
+    assert "slid down to the whisker's foot" in result.events[0].reason
+    assert result.state == QuasistaticTracker(prof, target).state
 
 
 def test_tangential_contact_unloading_at_a_vertical_tangent_is_a_release():
@@ -303,11 +315,18 @@ def test_numerical_exceptions_become_convergence_errors(monkeypatch):
 
 
 def test_a_step_that_exceeds_its_budget_raises_and_keeps_the_state():
-    tracker = QuasistaticTracker(Parabola(0.3), FootPose(2.0, 0.0, HALF_PI),
-                                 options=TrackerOptions(max_evaluations=50))
+    options = TrackerOptions(max_evaluations=50, recover=False)
+    tracker = QuasistaticTracker(Parabola(0.3), FootPose(2.0, 0.0, HALF_PI), options=options)
     with pytest.raises(ConvergenceError, match="more than 50 evaluations"):
         tracker.step(FootPose(-2.0, 0.0, HALF_PI))
     assert tracker.state.pose.x == 2.0
+    # with recovery (the default) the free target re-places the whisker, the refusal is the reason
+    tracker = QuasistaticTracker(Parabola(0.3), FootPose(2.0, 0.0, HALF_PI),
+                                 options=TrackerOptions(max_evaluations=50))
+    result = tracker.step(FootPose(-2.0, 0.0, HALF_PI))
+    assert [e.kind for e in result.events] == ["reset"]
+    assert "more than 50 evaluations" in result.events[0].reason
+    assert tracker.state.pose.x == -2.0 and tracker.state.phase == Phase.FREE
 
 
 @pytest.mark.parametrize("make", [lambda v: Catenary(0.3, v), lambda v: Circle(0.3, v),

@@ -147,10 +147,10 @@ def test_dry_run_prints_the_size(capsys):
     assert "336 tasks" in capsys.readouterr().out
 
 
-def test_the_readme_shows_the_example_study():
+def test_the_studies_guide_shows_the_example_study():
     import re
 
-    section = (ROOT / "README.md").read_text().split("## Studies at scale", 1)[1]
+    section = (ROOT / "doc" / "guide" / "studies.md").read_text()
     shown = re.search(r"```yaml\n(.+?)```", section, re.S).group(1)
     assert parse_study(shown).tasks == load_study(str(ROOT / "config" / "study_small.yaml")).tasks
 
@@ -271,9 +271,8 @@ def test_the_whisking_example_study_is_small():
     assert {t.profile for t in study.tasks} == {"peg"}
 
 
-def test_the_readme_shows_the_whisking_example_study():
-    section = (ROOT / "README.md").read_text().split("## Studies at scale", 1)[1].split("\n## ",
-                                                                                        1)[0]
+def test_the_studies_guide_shows_the_whisking_example_study():
+    section = (ROOT / "doc" / "guide" / "studies.md").read_text()
     # scene files are found beside the example studies
     shown = [parse_study(block, str(ROOT / "config")) for block in re.findall(r"```yaml\n(.+?)```",
                                                                               section, re.S)]

@@ -19,6 +19,18 @@ import numpy as np
 from .errors import InvalidPoseError
 
 HALF_PI = 0.5 * math.pi
+TWO_PI = 2.0 * math.pi
+
+
+def wrap_heading(heading: float) -> float:
+    """
+    Return ``heading`` [rad] as the trackers carry and report it: in (-pi, pi].
+
+    A heading and the same heading plus whole turns are one whisker; the trackers keep the
+    representative in (-pi, pi] so that nothing downstream depends on how often the foot turned.
+    """
+    wrapped = math.remainder(heading, TWO_PI)
+    return math.pi if wrapped == -math.pi else wrapped
 
 
 class Phase(IntEnum):
@@ -75,8 +87,11 @@ class Event:
     Something that happened during a step, located by root finding on the equilibrium branch.
 
     ``kind`` is ``touch`` (first contact), ``phase`` (tangential <-> tip), ``snap`` (the branch
-    folds: criterion (c) of paper §2.2, the whisker jumps) or ``release`` (the contact force
-    returns to zero and the whisker leaves the obstacle smoothly).
+    folds: criterion (c) of paper §2.2, the whisker jumps), ``release`` (the contact force
+    returns to zero and the whisker leaves the obstacle smoothly) or ``reset`` (the step could not
+    be followed and the whisker was placed unloaded at the new pose, or it was reset on request;
+    README "Recovery: when a step cannot be followed"). ``reason`` says why a ``reset`` happened
+    (empty for the other kinds; not compared).
     """
 
     kind: str
@@ -84,6 +99,7 @@ class Event:
     to_phase: Phase
     pose: FootPose
     alpha: Optional[float] = None
+    reason: str = field(default="", compare=False)
 
     @property
     def x0(self) -> float:

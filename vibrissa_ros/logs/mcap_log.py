@@ -37,6 +37,8 @@ PROFILE = "ros2"
 SCHEMA_ENCODING = "ros2msg"
 MESSAGE_ENCODING = "cdr"
 CONFIGURATION_METADATA = "vibrissa_ros.configuration"
+#: a ``~/reset`` request: ``poses_before`` (foot poses recorded before it) and ``log_time``
+RESET_METADATA = "vibrissa_ros.reset"
 _PRIMITIVES = {
     "bool",
     "byte",

@@ -18,7 +18,7 @@ from typing import Dict, List, Tuple
 from ..core.errors import VibrissaError
 from ..core.state import WhiskerState
 from ..node.edge import contact_records, decode_event, encode_event, event_record, header_ns
-from .mcap_log import CONFIGURATION_METADATA, LogError, LogMessage, read_log
+from .mcap_log import CONFIGURATION_METADATA, RESET_METADATA, LogError, LogMessage, read_log
 from ..node.config import build_config
 from ..node.pipeline import PosePipeline, drop_reason
 
@@ -46,6 +46,17 @@ def configurations(metadata) -> List[Tuple[int, Dict[str, object]]]:
     return sorted(out, key=lambda item: item[0])
 
 
+def reset_requests(metadata) -> List[Tuple[int, int]]:
+    """
+    Return every ``~/reset`` request: (foot poses recorded before it, its log time).
+
+    Sorted; empty for logs without requests (and logs made before the node had ``~/reset``).
+    """
+    return sorted((int(json.loads(record.metadata["poses_before"])),
+                   int(json.loads(record.metadata["log_time"])))
+                  for record in metadata if record.name == RESET_METADATA)
+
+
 # -- info --------------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class LogInfo:
@@ -62,6 +73,20 @@ class LogInfo:
 
 
 def log_info(path: str) -> LogInfo:
+    """
+    Summarize a recorded log: what ``vibrissa info`` prints.
+
+    Parameters
+    ----------
+    path : str
+        The MCAP file.
+
+    Returns
+    -------
+    LogInfo
+        Topics, types, counts, duration, the recorded configurations, phases and events.
+
+    """
     _, channels, metadata, messages = read_log(path)
     counts = Counter(m.topic for m in messages)
     types = {
@@ -169,11 +194,21 @@ def resimulate(path: str) -> Resimulation:
     result = Resimulation()
     pipeline = PosePipeline(build_config(configs[0][1]))
     pending = list(configs[1:])
+    resets = reset_requests(metadata)
     expected: Dict[str, list] = defaultdict(list)
-    for m in poses:
+    for index, m in enumerate(poses):
+        # what happened before this pose: configurations (by log time) and ~/reset requests (by
+        # the poses recorded before them), applied in their log-time order
+        due = []
         while pending and pending[0][0] <= m.log_time:
-            values = pending.pop(0)[1]
-            pipeline.reconfigure(build_config(values), bool(values.get("resets", True)))
+            due.append(pending.pop(0))
+        while resets and resets[0][0] <= index:
+            due.append((resets.pop(0)[1], None))
+        for _, values in sorted(due, key=lambda item: item[0]):
+            if values is None:
+                pipeline.request_reset()
+            else:
+                pipeline.reconfigure(build_config(values), bool(values.get("resets", True)))
         msg = decode(m)
         p, q = msg.pose.position, msg.pose.orientation
         stamp = header_ns(msg)

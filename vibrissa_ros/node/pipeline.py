@@ -14,8 +14,8 @@ from typing import List, Optional, Sequence, Tuple
 import numpy as np
 
 from ..core.errors import ConvergenceError, InvalidPoseError, VibrissaError
-from ..core.scenes.tracker import SceneTracker
-from ..core.state import Event, WhiskerState
+from ..core.scenes.tracker import SceneEvent, SceneTracker
+from ..core.state import Event, FootPose, Phase, WhiskerState
 from ..core.exact.tracker import MAX_POSE_MAGNITUDE, QuasistaticTracker
 from .edge import BadInput, SensorReading, planar_pose, sensor_reading
 from .config import WhiskerConfig
@@ -54,14 +54,38 @@ def drop_reason(exc: BaseException) -> str:
     return "internal_error"
 
 
+#: the reason a ``reset`` event carries when the whisker was reset on request (``~/reset``)
+RESET_ON_REQUEST = "reset on request"
+
+
 class PosePipeline:
-    """Validates foot poses and steps the whisker; the first accepted pose places it."""
+    """
+    Validates foot poses and steps the whisker; the first accepted pose places it.
+
+    A step that cannot be followed re-places the whisker when it is free at the new pose (the
+    core's recovery: an event ``reset``); :meth:`request_reset` makes the next accepted pose
+    place it, with an event ``reset`` too.
+    """
 
     def __init__(self, config: WhiskerConfig):
         self.config = config
         self.tracker: Optional[QuasistaticTracker] = None
         self.last_stamp_ns: Optional[int] = None
         self.noise = SensorNoise(NoiseSpec.from_parameters(config.values))
+        #: the phase the whisker had when a reset was requested (None: no reset pending)
+        self._reset_from: Optional[Phase] = None
+
+    def request_reset(self) -> None:
+        """
+        Forget the whisker (``~/reset``): the next accepted pose places it unloaded.
+
+        That pose's answer carries an event ``reset``. A pose where the unloaded whisker would
+        cut an obstacle is dropped (``inside_obstacle``) and the reset stays pending.
+        """
+        if self._reset_from is None:
+            state = self.state
+            self._reset_from = Phase.FREE if state is None else Phase(int(state.phase))
+        self.tracker = None
 
     def reconfigure(self, config: WhiskerConfig, reset: bool) -> None:
         """
@@ -121,7 +145,8 @@ class PosePipeline:
                            f"allows from the world origin (|x|, |y| <= {limit:g} m)")
         if self.tracker is None:
             tracker = self._place(pose)
-            state, events = tracker.state, ()
+            state, events = tracker.state, self._reset_events(pose)
+            self._reset_from = None
         else:
             tracker = self.tracker
             result = tracker.step(pose)
@@ -129,6 +154,14 @@ class PosePipeline:
         self.tracker = tracker
         self.last_stamp_ns = stamp_ns
         return state, events
+
+    def _reset_events(self, pose: FootPose) -> tuple:
+        """Return the event of a requested reset at the pose that places the whisker, if any."""
+        if self._reset_from is None:
+            return ()
+        if self.config.multi_contact:
+            return (SceneEvent("reset", pose, reason=RESET_ON_REQUEST),)
+        return (Event("reset", self._reset_from, Phase.FREE, pose, None, RESET_ON_REQUEST),)
 
     def _place(self, pose):
         """Return a new tracker with the whisker unloaded at ``pose`` (it must be free there)."""
@@ -150,6 +183,7 @@ class PoseStats:
         self.received = 0
         self.processed = 0
         self.snaps = 0
+        self.resets = 0
         self.dropped: Counter = Counter()
         self.last_error = ""
         self.slow_steps = 0
@@ -163,6 +197,7 @@ class PoseStats:
         self.processed += 1
         self._solve_times_ns.append(solve_ns)
         self.snaps += sum(1 for e in events if e.kind == "snap")
+        self.resets += sum(1 for e in events if e.kind == "reset")
         seconds = solve_ns / 1e9
         self.slowest_step_s = max(self.slowest_step_s, seconds)
         if seconds > self.slow_step_s:
@@ -186,6 +221,7 @@ class PoseStats:
             "poses_processed": self.processed,
             "poses_dropped": sum(self.dropped.values()),
             "snaps": self.snaps,
+            "resets": self.resets,
             **self.period(),
             "backlog_max": self.backlog_max,
             "slow_steps": self.slow_steps,

@@ -134,6 +134,19 @@ def event_record(event: Event, by_pose: bool = False) -> dict:
 
 
 def write_events_json(events: Iterable[Event], stream: IO[str], by_pose: bool = False) -> None:
+    """
+    Write events as the ``--events`` JSON list, in the order crossed.
+
+    Parameters
+    ----------
+    events : iterable of Event
+        The events of a scan.
+    stream : text stream
+        Where the JSON goes.
+    by_pose : bool, optional
+        Locate each event by its foot pose (``x``, ``y``, ``heading``) instead of ``x0``.
+
+    """
     json.dump([event_record(e, by_pose) for e in events], stream, indent=1)
     stream.write("\n")
 

@@ -144,12 +144,15 @@ class _SingleSceneState:
 
 
 def as_scene_event(event):
-    """Return a single-contact event as a scene event (touch, tip, tangential, release, snap)."""
+    """Return a single-contact event as a scene event (touch, tip, tangential, ..., reset)."""
     from ..core.scenes.tracker import SceneEvent
 
-    kind = {"touch": "touch", "release": "release", "snap": "snap"}.get(event.kind, "phase")
+    kind = {"touch": "touch", "release": "release", "snap": "snap", "reset": "reset"}.get(
+        event.kind, "phase")
     if event.kind == "phase":
         kind = "tip" if int(event.to_phase) == 2 else "tangential"
     contact = "tip" if int(event.from_phase if event.kind != "touch" else event.to_phase) == 2 \
         else "side"
+    if kind == "reset":
+        return SceneEvent(kind, event.pose, reason=event.reason)
     return SceneEvent(kind, event.pose, 0, contact, None)

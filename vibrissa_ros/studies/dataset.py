@@ -15,7 +15,8 @@ A study with whisking motions adds the foot pose of every row, ``foot_x``, ``foo
 ``heading`` [L, L, rad] (the columns x, y, heading of ``vibrissa scan --whisk``'s CSV and events;
 a slide's rows: x0, 0, pi/2), after ``step`` in poses and events, and the motion's columns
 ``motion`` (sweep or whisk) and ``whisk_x``, ``whisk_y``, ``whisk_from_deg``, ``whisk_to_deg``,
-``whisk_step_deg`` (null for a slide, as ``sweep_*`` are for a whisk) to the parameters.
+``whisk_step_deg`` (null for a slide, as ``sweep_*`` are for a whisk) to the parameters::
+
     DIR/failures/task-*.parquet  one row per failed task: task, error (class), reason, parameters
 
 A study with scene files (``vibrissa scan --scene``) adds the parameters ``scene`` (the file as the

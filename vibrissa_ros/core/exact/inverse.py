@@ -26,7 +26,7 @@ from dataclasses import dataclass
 from typing import Iterable, List, Optional, Sequence, Tuple
 
 from .elastica import family, family_centerline, family_domain_ok
-from ..state import FootPose, Phase
+from ..state import FootPose, Phase, wrap_heading
 
 HALF_PI = 0.5 * math.pi
 #: s* within this of 1 is the tip (phase 2)
@@ -66,6 +66,12 @@ class ContactEstimate:
     delta: float
 
 
+def canonical_pose(pose: FootPose) -> FootPose:
+    """Return ``pose`` with its heading in (-pi, pi] (whole turns removed)."""
+    heading = wrap_heading(pose.heading)
+    return pose if heading == pose.heading else FootPose(pose.x, pose.y, heading)
+
+
 def estimate_contact(pose: FootPose, fx: float, fy: float, m0: float,
                      min_force: float = 0.0) -> Optional[ContactEstimate]:
     """
@@ -74,11 +80,13 @@ def estimate_contact(pose: FootPose, fx: float, fy: float, m0: float,
     The reading is the force (fx, fy) of the obstacle on the whisker (world frame) and the base
     moment m0 (ccw positive), in the paper's units. None when there is no usable contact:
     f <= ``min_force``, m0 = 0 (a force through the foot), or a reading no single frictionless
-    contact can produce.
+    contact can produce. The estimate carries the pose with its heading in (-pi, pi], like the
+    trackers' states.
     """
     f = math.hypot(fx, fy)
     if not (math.isfinite(f) and math.isfinite(m0)) or f <= min_force or f == 0.0 or m0 == 0.0:
         return None
+    pose = canonical_pose(pose)
     alpha_w = math.atan2(fx, -fy)
     side = 1 if m0 < 0.0 else -1
     beta = pose.heading - HALF_PI

@@ -1,11 +1,11 @@
 """
 Whisker models behind one interface: the equations of a contact branch in the contact frame.
 
-The tracker (:mod:`.tracker`) follows equilibria of a model against a profile. It works in the
-*contact frame*: foot at the origin, undeformed whisker along +y, and mirrored (x -> -x) when the
-whisker bends counter-clockwise, so that every model only ever solves the clockwise case (paper
-§2, WH1). A contact branch is described by two unknowns ``z = (alpha, mu)`` where ``alpha`` is the
-profile slope at the contact (contact frame); the tracker solves
+The tracker (:mod:`vibrissa_ros.core.exact.tracker`) follows equilibria of a model against a
+profile. It works in the *contact frame*: foot at the origin, undeformed whisker along +y, and
+mirrored (x -> -x) when the whisker bends counter-clockwise, so that every model only ever solves
+the clockwise case (paper §2, WH1). A contact branch is described by two unknowns ``z = (alpha,
+mu)`` where ``alpha`` is the profile slope at the contact (contact frame); the tracker solves
 
     load_point(phase, z) = Q(alpha)    (the whisker's contact point lies on the profile)
 

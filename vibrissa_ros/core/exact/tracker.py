@@ -25,7 +25,7 @@ returns a state or raises a :class:`~.errors.VibrissaError`; no other exception 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import List, Optional, Tuple
 
 import numpy as np
@@ -40,7 +40,7 @@ from ..errors import (
 )
 from .models import make_model
 from ..profiles import ConvexProfile, PlacedProfile
-from ..state import Event, FootPose, Phase, StepResult, WhiskerState
+from ..state import Event, FootPose, Phase, StepResult, WhiskerState, wrap_heading
 
 HALF_PI = 0.5 * math.pi
 _TWO_PI = 2.0 * math.pi
@@ -72,10 +72,20 @@ class TrackerOptions:
     newton_tol: float = _NEWTON_TOL
     #: model and profile evaluations one step may use before it raises ConvergenceError
     max_evaluations: int = 100_000
+    #: a step that cannot be followed re-places the whisker unloaded at the new pose when it is
+    #: free there (an event ``reset``); False raises instead (README "Recovery: when a step
+    #: cannot be followed")
+    recover: bool = True
 
 
 class _Path:
-    """The straight path of the foot from pose p0 (t = 0) to pose p1 (t = 1)."""
+    """
+    The straight path of the foot from pose p0 (t = 0) to pose p1 (t = 1).
+
+    The heading turns the short way round: by remainder(p1 - p0, 2 pi), in [-pi, pi] (a turn of
+    exactly pi goes the way of the plain difference p1 - p0). The frame's heading h0 + t dh is
+    continuous along the path; the poses it reports carry the heading wrapped into (-pi, pi].
+    """
 
     __slots__ = ("p0", "p1", "x0", "y0", "h0", "dx", "dy", "dh", "length")
 
@@ -86,7 +96,7 @@ class _Path:
         self.dy = p1.y - p0.y
         dh = math.remainder(p1.heading - p0.heading, _TWO_PI)  # shortest rotation
         self.dh = dh
-        self.p1 = FootPose(p1.x, p1.y, p0.heading + dh) if dh != p1.heading - p0.heading else p1
+        self.p1 = p1
         self.length = math.hypot(self.dx, self.dy) + abs(dh)  # bound on the tip's path length
 
     def pose(self, t: float) -> FootPose:
@@ -94,7 +104,8 @@ class _Path:
             return self.p0
         if t >= 1.0:
             return self.p1
-        return FootPose(self.x0 + t * self.dx, self.y0 + t * self.dy, self.h0 + t * self.dh)
+        return FootPose(self.x0 + t * self.dx, self.y0 + t * self.dy,
+                        wrap_heading(self.h0 + t * self.dh))
 
     def frame(self, t: float) -> Tuple[float, float, float]:
         return self.x0 + t * self.dx, self.y0 + t * self.dy, self.h0 + t * self.dh - HALF_PI
@@ -148,12 +159,7 @@ class QuasistaticTracker:
         pose = _as_pose(pose)
         self._work = 0
         self._budget = self.options.max_evaluations
-        try:
-            self._check_straight_free(pose, what="the initial pose")
-        except _NUMERICAL_ERRORS as exc:
-            if isinstance(exc, VibrissaError):
-                raise
-            raise InvalidPoseError(f"the initial pose {pose} cannot be placed: {exc}") from exc
+        self._check_placeable(pose, "the initial pose")
         self._pose = pose
         self._left_at_end = False
         self._contact: Optional[_Contact] = None
@@ -174,19 +180,108 @@ class QuasistaticTracker:
         """
         Move the foot along the straight path to ``pose`` and follow the equilibrium.
 
-        Returns the new state and the events crossed. On any error (always a
-        :class:`~.errors.VibrissaError`) the tracker keeps its state.
+        The heading turns the short way round (by at most half a turn; exactly half a turn goes
+        the way of the plain difference of the headings). Every heading is taken in (-pi, pi]:
+        a pose and the same pose turned by whole turns give the same result.
+
+        Parameters
+        ----------
+        pose : FootPose or float
+            The new foot pose (a float is the paper's x0).
+
+        Returns
+        -------
+        StepResult
+            The new state and the events crossed.
+
+        Raises
+        ------
+        InvalidPoseError
+            The pose is not valid input (the state is kept).
+        ModelAssumptionError, ConvergenceError
+            The step cannot be followed and the whisker cannot be re-placed unloaded at ``pose``
+            (it would cut the obstacle there), or ``options.recover`` is off; the state is kept.
+            When it can, the whisker is re-placed there instead and the result has one event
+            ``reset`` whose ``reason`` is the refusal (README "Recovery: when a step cannot be
+            followed").
+
         """
         target = _as_pose(pose)
         self._work = 0
+        try:
+            return self._step_checked(target)
+        except (ModelAssumptionError, ConvergenceError) as exc:
+            if not self.options.recover:
+                raise
+            spent = self._work
+            try:
+                result = self.reset(target, reason=str(exc))
+            except InvalidPoseError:
+                raise exc from None
+            return StepResult(result.state, result.events, 0, spent + result.evaluations)
+
+    def reset(self, pose=None, reason: str = "reset on request") -> StepResult:
+        """
+        Place the whisker unloaded at ``pose``, forgetting its history.
+
+        The tracker is then exactly a new tracker placed there (same results for the same poses
+        from then on).
+
+        Parameters
+        ----------
+        pose : FootPose or float, optional
+            Where to place it; default: the current foot pose.
+        reason : str
+            Why, carried by the event.
+
+        Returns
+        -------
+        StepResult
+            The unloaded state and one event ``reset`` (from the phase before to phase 0).
+
+        Raises
+        ------
+        InvalidPoseError
+            The unloaded whisker would cut the obstacle at ``pose`` (the state is kept).
+
+        """
+        target = self._pose if pose is None else _as_pose(pose)
+        self._work = 0
+        self._check_placeable(target, "the reset pose")
+        old = self._state.phase
+        self._pose = target
+        self._left_at_end = False
+        self._contact = None
+        self._forget()
+        self._state = self._free_state(target)
+        event = Event("reset", old, Phase.FREE, target, None, reason)
+        return StepResult(self._state, (event,), 0, self._work)
+
+    def _check_placeable(self, pose: FootPose, what: str) -> None:
+        """Raise InvalidPoseError unless the unloaded whisker is clear of the obstacle at pose."""
+        try:
+            self._check_straight_free(pose, what=what)
+        except VibrissaError:
+            raise
+        except _NUMERICAL_ERRORS as exc:
+            raise InvalidPoseError(f"{what} {pose} cannot be placed: {exc}") from exc
+
+    def _forget(self) -> None:
+        """Drop every warm start: a free whisker carries nothing but its pose."""
+        self._alpha_hint = 0.0
+        forget = getattr(self.model, "forget", None)
+        if forget is not None:
+            forget()
+
+    def _step_checked(self, target: FootPose) -> StepResult:
         try:
             return self._step(target)
         except VibrissaError:
             raise
         except _NUMERICAL_ERRORS as exc:
             raise ConvergenceError(
-                f"the step from {self._pose} to {target} failed numerically "
-                f"({type(exc).__name__}: {exc})"
+                f"the step from {_describe_pose(self._pose)} to {_describe_pose(target)} failed "
+                f"numerically ({type(exc).__name__}: {exc})"
             ) from exc
 
     def _step(self, target: FootPose) -> StepResult:
@@ -275,6 +370,8 @@ class QuasistaticTracker:
             None if contact is None
             else _Contact(contact.phase, contact.side, contact.z, 0.0, contact.jac)
         )
+        if contact is None:
+            self._forget()
         self._state = state
         return StepResult(state, tuple(events), substeps, self._work)
 
@@ -405,19 +502,24 @@ class QuasistaticTracker:
 
     def _check_tip_touch(self, pose: FootPose) -> None:
         """Check that the first contact is the tip on the lower boundary curve; refuse all else."""
-        gap = self._gap(*self._tip(pose))
+        tx, ty = self._tip(pose)
+        gap = self._gap(tx, ty)
         if gap < -1e-9:
             raise ModelAssumptionError(
-                f"at {pose} the whisker's tip enters the obstacle ({self.profile.describe()}) "
-                "across its side, not across its lower boundary curve: not covered by the model"
+                f"at {_describe_pose(pose)}, the whisker's tip would enter the obstacle "
+                f"({self.profile.describe()}) at ({tx:.4g}, {ty:.4g}) across its flank, not "
+                "across its lower boundary: the model covers contact on the lower boundary only"
             )
         c, s = math.cos(pose.heading), math.sin(pose.heading)
         fun = lambda u: min(self._gap(pose.x + u * c, pose.y + u * s), 1e6)  # noqa: E731
         res = minimize_scalar(fun, bounds=(0.0, 0.999), method="bounded", options={"xatol": 1e-10})
         if min(fun(0.0), float(res.fun)) < -1e-9:
+            u = 0.0 if fun(0.0) < -1e-9 else float(res.x)
             raise ModelAssumptionError(
-                f"at {pose} the side of the straight whisker meets the obstacle before its tip: "
-                "not covered by the model (the foot moves into the obstacle)"
+                f"at {_describe_pose(pose)}, the whisker's side, {u:.3g} whisker lengths from "
+                f"the foot at ({pose.x + u * c:.4g}, {pose.y + u * s:.4g}), would meet the "
+                f"obstacle ({self.profile.describe()}) before its tip does: the model covers "
+                "obstacles met tip first (the foot is moving into the obstacle)"
             )
 
     def _advance_to_touch(self, path: _Path, t: float) -> Optional[float]:
@@ -451,8 +553,9 @@ class QuasistaticTracker:
             return brentq(lambda u: self._tip_gap(path, u), t, 1.0, xtol=1e-16, rtol=1e-15)
         if path.dh != 0.0 and self._rod_clearance(path.p1) <= 0.0:
             raise ModelAssumptionError(
-                "the side of the straight whisker would meet the obstacle before its tip: "
-                "not covered by the model (the profile is not a graph over the whisker's normal)"
+                f"turning to {_describe_pose(path.p1)}, the whisker's side would sweep into the "
+                f"obstacle ({self.profile.describe()}) before its tip touches it: the model "
+                "covers obstacles met tip first"
             )
         return None
 
@@ -503,13 +606,17 @@ class QuasistaticTracker:
         alpha_f = math.remainder(alpha_w - (pose.heading - HALF_PI), _TWO_PI)
         if not abs(alpha_f) < HALF_PI:
             raise ModelAssumptionError(
-                f"first touch where the profile slope relative to the whisker is {alpha_f!r} rad: "
-                "the profile is not a graph over the whisker's normal there"
+                f"at {_describe_pose(pose)}, the whisker's tip would first meet the obstacle "
+                f"({self.profile.describe()}) at ({tx:.4g}, {ty:.4g}), where its surface is "
+                f"turned {math.degrees(abs(alpha_f)):.1f} deg from facing the foot (90 deg or "
+                "more: the tip would come at it from its far side); the model covers an obstacle "
+                "whose lower boundary faces the foot"
             )
         if abs(alpha_f) < 1e-9:
             raise ModelAssumptionError(
-                "the tip touches the profile head-on (contact force along the whisker's axis): "
-                "the buckling that follows is not modelled"
+                f"at {_describe_pose(pose)}, the whisker's tip meets the obstacle "
+                f"({self.profile.describe()}) head-on at ({tx:.4g}, {ty:.4g}) (the contact force "
+                "along the whisker's axis): the buckling that follows is not modelled"
             )
         side = 1 if alpha_f > 0.0 else -1
         alpha_c = abs(alpha_f)
@@ -749,15 +856,18 @@ class QuasistaticTracker:
             if (not 0.0 < phi_c - alpha_c < math.pi
                     or (closed_forms and not abs(alpha_c) < HALF_PI)):
                 raise ModelAssumptionError(
-                    f"first touch where the obstacle's slope relative to the whisker is "
-                    f"{alpha_f!r} rad: the contact force would pull the tip away from the foot"
+                    f"at {_describe_pose(pose)}, the whisker's tip would first meet the obstacle "
+                    f"({self.profile.describe()}) at ({wx:.4g}, {wy:.4g}), where its surface "
+                    "faces away from the tip's direction of travel: the contact force would pull "
+                    "the tip away from the foot, which the model does not cover"
                 )
             if abs(alpha_c) < 1e-9:
                 raise ModelAssumptionError(
-                    "the tip touches the obstacle head-on (contact force along the whisker's "
-                    "axis): the buckling that follows is not modelled"
+                    f"at {_describe_pose(pose)}, the whisker's tip meets the obstacle "
+                    f"({self.profile.describe()}) head-on at ({wx:.4g}, {wy:.4g}) (the contact "
+                    "force along the whisker's axis): the buckling that follows is not modelled"
                 )
-            event = Event("touch", Phase.FREE, Phase.TIP, pose, alpha_w)
+            event = Event("touch", Phase.FREE, Phase.TIP, pose, self._profile_slope(alpha_w))
             tau_left = (1.0 - t_touch) * path.length
             if tau_left <= 1e-13:
                 return None
@@ -781,20 +891,17 @@ class QuasistaticTracker:
                 "tip-first touches only; use the general (numeric) solver"
             )
         phase, z = side_touch_start(s_star, alpha_c)
-        event = Event("touch", Phase.FREE, phase, pose, alpha_w)
+        event = Event("touch", Phase.FREE, phase, pose, self._profile_slope(alpha_w))
         return _Contact(phase, side, z, t_touch), event
 
     # -- contact branch ----------------------------------------------------------------------
     def _profile_cf(self, path: _Path, side: int, alpha: float, t: float):
         """Profile point of contact-frame slope alpha at path parameter t, with d/dalpha, d/dt."""
         X, Y, beta = path.frame(t)
-        aw = side * alpha + beta
+        aw = self._profile_slope(side * alpha + beta)
         prof = self.profile
         if not prof.alpha_min < aw < prof.alpha_max:
-            raise ModelAssumptionError(
-                f"the contact would move to profile slope {aw!r} rad, outside the profile "
-                f"({prof.describe()})"
-            )
+            raise ModelAssumptionError(self._off_the_end(path.pose(t), aw))
         px, py = prof.point(aw)
         rho = prof.radius_of_curvature(aw)
         c, s = math.cos(beta), math.sin(beta)
@@ -809,6 +916,26 @@ class QuasistaticTracker:
         qtx = side * db * (rho * ca + qy) - mx
         qty = side * db * (rho * sa - qx) - my
         return qx, qy, qax, qay, qtx, qty
+
+    def _off_the_end(self, pose: FootPose, alpha: float) -> str:
+        """Say, in the user's terms, that the contact would slide round an end of the profile."""
+        prof = self.profile
+        lo, hi = prof.alpha_min, prof.alpha_max
+        end = hi if alpha >= hi else lo
+        side = "right" if end == hi else "left"
+        where = ""
+        try:
+            px, py = prof.point(end - math.copysign(1e-9, end - 0.5 * (lo + hi)))
+            if math.hypot(px - pose.x, py - pose.y) < 1e3:
+                where = f" at ({px:.4g}, {py:.4g})"
+        except (ArithmeticError, ValueError):
+            pass
+        return (
+            f"at {_describe_pose(pose)}, the contact would slide round the {side} end of the "
+            f"obstacle's lower boundary{where} ({prof.describe()}): the whisker would wrap round "
+            "the obstacle's flank, and the model covers contact on its lower boundary only "
+            f"(world slopes {math.degrees(lo):.0f} to {math.degrees(hi):.0f} deg)"
+        )
 
     def _residual(self, path, phase, side, z, t):
         """R = P(z) - Q(alpha, t) and its Jacobian rows w.r.t. (z0, z1, tau)."""
@@ -984,9 +1111,9 @@ class QuasistaticTracker:
             f, s1 = math.inf, 0.0
         if phase == Phase.TANGENTIAL and not s1 > 1e-6:
             raise ModelAssumptionError(
-                f"the contact point slid down to the whisker's foot (s1 = {s1:.3g}, f = {f:.3g}) "
-                f"at {path.pose(t)}: the foot is being driven into the obstacle, which the model "
-                "does not cover"
+                f"at {_describe_pose(path.pose(t))}, the contact point slid down to the whisker's "
+                f"foot (contact at arc length {s1:.3g}, force {f:.3g}): the foot is being driven "
+                f"into the obstacle ({self.profile.describe()}), which the model does not cover"
             )
         try:
             near = [name for name, value in self.model.events(phase, z).items() if value < 1e-8]
@@ -996,12 +1123,15 @@ class QuasistaticTracker:
             self.model.transition(phase, name, z)
         if abs(z[0]) > HALF_PI - 1e-6:
             raise ModelAssumptionError(
-                f"the contact reached the end of the profile's lower arc at {path.pose(t)}: its "
-                "tangent turns parallel to the whisker (the profile is no longer a graph over the "
-                "whisker's normal)"
+                f"at {_describe_pose(path.pose(t))}, the contact reached the end of the "
+                f"obstacle's lower boundary ({self.profile.describe()}): there its surface turns "
+                "parallel to the whisker, and the model covers contact on the lower boundary only"
             )
         raise ConvergenceError(
-            f"lost the equilibrium branch (phase {int(phase)}, z = {z}) at {path.pose(t)}"
+            f"at {_describe_pose(path.pose(t))}, the whisker's equilibrium in "
+            f"{_PHASE_NAMES[int(phase)]} contact with the obstacle ({self.profile.describe()}) "
+            "could not be followed further (no solution of the equilibrium equations was found "
+            "nearby)"
         )
 
     def _follow_rest(self, path: _Path, contact: _Contact):
@@ -1248,7 +1378,8 @@ class QuasistaticTracker:
             d *= 2.0
         else:
             raise ModelAssumptionError("no free whisker pose found to settle the snap")
-        helper = QuasistaticTracker(self.profile, start, self.model, self.options)
+        helper = QuasistaticTracker(self.profile, start, self.model,
+                                    replace(self.options, recover=False))
         result = helper.step(pose)
         if any(e.kind == "snap" for e in result.events) or helper._contact is None:
             raise ModelAssumptionError(
@@ -1258,7 +1389,22 @@ class QuasistaticTracker:
 
     # -- results -------------------------------------------------------------------------------
     def _world_alpha(self, pose: FootPose, contact: _Contact) -> float:
-        return contact.side * contact.z[0] + pose.heading - HALF_PI
+        return self._profile_slope(contact.side * contact.z[0] + pose.heading - HALF_PI)
+
+    def _profile_slope(self, alpha: float) -> float:
+        """
+        Return a world slope as the profile takes it: whole turns removed.
+
+        Into the profile's slope window (alpha_min, alpha_max) when it lies there modulo 2 pi,
+        else next to it; into (-pi, pi] for a peg (every slope occurs on it).
+        """
+        lo, hi = self.profile.alpha_min, self.profile.alpha_max
+        if math.isinf(hi - lo):
+            return wrap_heading(alpha)
+        if lo < alpha < hi:
+            return alpha
+        mid = 0.5 * (lo + hi)
+        return mid + math.remainder(alpha - mid, _TWO_PI)
 
     def _event(self, kind, old, new, path, contact):
         pose = path.pose(contact.t)
@@ -1287,7 +1433,7 @@ class QuasistaticTracker:
     def _contact_state(self, pose: FootPose, phase: Phase, side: int, z) -> WhiskerState:
         f, m0_c, s1, phi1_c, (ox, oy) = self._side_model(side).contact_quantities(phase, z)
         beta = pose.heading - HALF_PI
-        alpha_w = side * z[0] + beta
+        alpha_w = self._profile_slope(side * z[0] + beta)
         cx, cy = self.profile.point(alpha_w)
         # the tip: the contact point plus the contact-frame offset, turned into the world frame
         tx, ty = pose.contact_to_world(ox, oy, side)
@@ -1309,6 +1455,15 @@ class QuasistaticTracker:
             shape=(float(int(phase)), float(z[0]), float(z[1])),
             model=self._side_model(side),
         )
+
+
+_PHASE_NAMES = {0: "no", 1: "tangential (side)", 2: "tip"}
+
+
+def _describe_pose(pose: FootPose) -> str:
+    """Return a foot pose in words: position [L] and heading [deg]."""
+    return (f"the foot pose x = {pose.x:.6g}, y = {pose.y:.6g} (whisker lengths), heading "
+            f"{math.degrees(pose.heading):.4g} deg")
 
 
 def _solve3(m, b) -> Optional[np.ndarray]:
@@ -1340,18 +1495,19 @@ def _solve3(m, b) -> Optional[np.ndarray]:
 
 
 def _as_pose(pose) -> FootPose:
+    """Check a foot pose (or the paper's x0) and return it with its heading in (-pi, pi]."""
     if isinstance(pose, (int, float, np.floating, np.integer)) and not isinstance(pose, bool):
         pose = FootPose(float(pose), 0.0, HALF_PI)
     if not isinstance(pose, FootPose):
         raise InvalidPoseError(f"a foot pose must be a FootPose or the paper's x0, got {pose!r}")
-    if max(abs(pose.x), abs(pose.y), abs(pose.heading)) <= MAX_POSE_MAGNITUDE:
-        return pose
-    for key in ("x", "y", "heading"):
-        value = getattr(pose, key)
-        if abs(value) > MAX_POSE_MAGNITUDE:
-            unit = "rad" if key == "heading" else "whisker lengths"
-            raise InvalidPoseError(
-                f"foot pose {key} = {value!r} is out of range: |{key}| must be at most "
-                f"{MAX_POSE_MAGNITUDE:g} {unit}"
-            )
-    return pose
+    if max(abs(pose.x), abs(pose.y), abs(pose.heading)) > MAX_POSE_MAGNITUDE:
+        for key in ("x", "y", "heading"):
+            value = getattr(pose, key)
+            if abs(value) > MAX_POSE_MAGNITUDE:
+                unit = "rad" if key == "heading" else "whisker lengths"
+                raise InvalidPoseError(
+                    f"foot pose {key} = {value!r} is out of range: |{key}| must be at most "
+                    f"{MAX_POSE_MAGNITUDE:g} {unit}"
+                )
+    heading = wrap_heading(pose.heading)
+    return pose if heading == pose.heading else FootPose(pose.x, pose.y, heading)

@@ -24,7 +24,7 @@ from typing import Optional
 from scipy.integrate import solve_ivp
 
 from .model import WhiskerShape
-from ..exact.inverse import TIP_TOLERANCE, ContactEstimate
+from ..exact.inverse import TIP_TOLERANCE, ContactEstimate, canonical_pose
 from ..state import FootPose, Phase
 
 HALF_PI = 0.5 * math.pi
@@ -60,6 +60,7 @@ def estimate_contact_general(pose: FootPose, fx: float, fy: float, m0: float, sh
     f = math.hypot(fx, fy)
     if not (math.isfinite(f) and math.isfinite(m0)) or f <= min_force or f == 0.0 or m0 == 0.0:
         return None
+    pose = canonical_pose(pose)  # the heading in (-pi, pi], like the trackers'
     alpha = math.atan2(fx, -fy)
     rhs = loaded_whisker_rhs(shape, f, alpha)
 

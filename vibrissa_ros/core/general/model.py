@@ -274,14 +274,15 @@ class GeneralWhiskerModel:
     """
     The tapered, intrinsically curved elastica behind the tracker's model interface.
 
-    Parameters
-    ----------
-    shape : WhiskerShape
-    n : int
-        Chebyshev points on the loaded part [0, s1].
-
     Unknowns (contact frame): phase 1 (tangential, theta(s1) = alpha, s1 < 1) ``z = (alpha, s1)``;
     phase 2 (tip, s1 = 1, theta(1) >= alpha) ``z = (alpha, gamma)``, gamma = theta0(1) - theta(1).
+
+    Parameters
+    ----------
+    shape : WhiskerShape, optional
+        Taper and intrinsic curvature (default: the paper's uniform, straight whisker).
+    n : int, optional
+        Chebyshev points on the loaded part [0, s1].
 
     """
 
@@ -319,6 +320,19 @@ class GeneralWhiskerModel:
             self._mirror = GeneralWhiskerModel(WhiskerShape(sh.taper, -sh.k0, -sh.k1), self.n)
             self._mirror._mirror = self
         return self._mirror
+
+    def forget(self) -> None:
+        """
+        Drop the warm starts (the last solutions and the memo), of the mirrored model too.
+
+        The tracker calls this whenever the whisker is free, so that what follows depends on the
+        pose alone, not on the history (the solutions of reported states are kept: they redraw
+        centerlines).
+        """
+        for model in (self, self._mirror):
+            if model is not None:
+                model._last = model._base = None
+                model._memo.clear()
 
     def _t_of_s(self, s, s1: float):
         """Node variable t in [0, 1] of arc length s on [0, s1] (inverse of the map)."""

@@ -25,14 +25,14 @@ iteration).
 
 Contact kinds (``ContactMode.kind``) and their unknowns / equations:
 
-=============  ======================  =============================================
-kind           unknowns                equations
-=============  ======================  =============================================
-``side``       s, u, N (+ T stick)     r(s) = b(u), sin(theta(s) - phi(u)) = 0
-``corner``     s, N (+ T stick)        r(s) = V
-``tip``        u, N (+ T stick)        r(1) = b(u)
-``tip_corner`` Fx, Fy                  r(1) = V
-=============  ======================  =============================================
+==============  ======================  =============================================
+kind            unknowns                equations
+==============  ======================  =============================================
+``side``        s, u, N (+ T stick)     r(s) = b(u), sin(theta(s) - phi(u)) = 0
+``corner``      s, N (+ T stick)        r(s) = V
+``tip``         u, N (+ T stick)        r(1) = b(u)
+``tip_corner``  Fx, Fy                  r(1) = V
+==============  ======================  =============================================
 
 Forces: side and tip F = N n(u) + T t(u) (n the outward normal, t the arc's tangent); corner
 F = N nu + T tau (nu = e (-sin, cos) theta(s), the whisker's normal away from the corner, tau its

@@ -19,7 +19,7 @@ event                  change of the configuration
 ``corner``             a contact slides to the end of an edge: side -> corner, tip -> tip_corner
 ``edge``               a corner's force leaves the corner's normal cone: corner -> side,
                        tip_corner -> tip on the adjacent edge
-``slip``               a sticking contact reaches |T| = mu N: stick -> slip
+``slip``               a sticking contact reaches ``|T| = mu N``: stick -> slip
 ``stick``              a slipping contact's slip rate returns to zero: slip -> stick
 ``merge``              two contacts on one arc meet: they become one
 ``snap``               the equilibrium folds (Newton finds no solution beyond t): the
@@ -175,6 +175,8 @@ class SceneEvent:
     obstacle: Optional[int] = None
     contact_kind: str = ""
     s: Optional[float] = None
+    #: why a ``reset`` happened (the refusal of the step, or a request); empty for other kinds
+    reason: str = field(default="", compare=False)
 
     @property
     def x0(self) -> float:
@@ -207,12 +209,16 @@ class SceneTracker:
         Coulomb coefficient of each obstacle (default 0).
     max_evaluations : int
         Solver evaluations one step may use before it raises ConvergenceError.
+    recover : bool
+        A step that cannot be followed re-places the whisker unloaded at the new pose when it is
+        free there (an event ``reset``); False raises instead (README "Recovery: when a step
+        cannot be followed").
 
     """
 
     def __init__(self, obstacles: Sequence[Any], pose=2.0, shape: Optional[WhiskerShape] = None,
                  friction: Optional[Sequence[float]] = None, n: Optional[int] = None,
-                 max_evaluations: int = 10_000):
+                 max_evaluations: int = 10_000, recover: bool = True):
         self.obstacles = tuple(obstacles)
         self.shape = shape if shape is not None else WhiskerShape()
         self.solver = MultiContactSolver(self.shape) if n is None else MultiContactSolver(
@@ -233,20 +239,33 @@ class SceneTracker:
                     f"obstacle {i} is a point peg (r = 0): the scene tracker needs r > 0 (a point "
                     "is supported as the only obstacle, without friction: --profile peg)")
         self.max_evaluations = int(max_evaluations)
+        self.recover = bool(recover)
         pose = _as_pose(pose)
+        self._start = 0
+        self._check_placeable(pose, "the initial pose")
+        self._place(pose)
+
+    def _check_placeable(self, pose: FootPose, what: str) -> None:
+        """Raise InvalidPoseError unless the unloaded whisker is clear of every obstacle."""
+        cut = self._penetration((), np.zeros(0), pose)
+        if cut is not None:
+            raise InvalidPoseError(
+                f"{what} {pose} puts the unloaded whisker inside obstacle {cut[0]} "
+                f"(at arc length {cut[1]:.3g}); place it where the whisker is free")
+
+    def _place(self, pose: FootPose) -> None:
+        """Place the whisker unloaded at pose, as a new tracker does (no warm start kept)."""
         self._modes: Tuple[ContactMode, ...] = ()
         self._vec = np.zeros(0)
         self._pose = pose
+        self._forget()
+        self._state = self._make_state(pose, self._modes, self._vec)
+
+    def _forget(self) -> None:
+        """Drop the step size and caches carried between steps: a free whisker is its pose."""
         self._h = 1.0
-        self._start = 0
         self._lu_cache = None
         self._values_cache = None
-        cut = self._penetration(self._modes, self._vec, pose)
-        if cut is not None:
-            raise InvalidPoseError(
-                f"the initial pose {pose} puts the unloaded whisker inside obstacle {cut[0]} "
-                f"(at arc length {cut[1]:.3g}); place it where the whisker is free")
-        self._state = self._make_state(pose, self._modes, self._vec)
 
     # -- public ------------------------------------------------------------------------------
     @property
@@ -258,9 +277,79 @@ class SceneTracker:
         return self._pose
 
     def step(self, pose) -> SceneStepResult:
-        """Move the foot along the straight path to ``pose``; keep the state on any error."""
+        """
+        Move the foot along the straight path to ``pose`` and follow the equilibrium.
+
+        Headings as :meth:`QuasistaticTracker.step <vibrissa_ros.core.tracker.QuasistaticTracker
+        .step>` takes them: in (-pi, pi], turned the short way round.
+
+        Parameters
+        ----------
+        pose : FootPose or float
+            The new foot pose (a float is the paper's x0).
+
+        Returns
+        -------
+        SceneStepResult
+            The new state and the events crossed.
+
+        Raises
+        ------
+        InvalidPoseError
+            The pose is not valid input (the state is kept).
+        ModelAssumptionError, ConvergenceError
+            The step cannot be followed and the unloaded whisker would cut an obstacle at
+            ``pose``, or ``recover`` is off; the state is kept. When the whisker is free there it
+            is re-placed instead, and the result has one event ``reset`` (README "Recovery: when
+            a step cannot be followed").
+
+        """
         target = _as_pose(pose)
         self._start = self.solver.evaluations
+        try:
+            return self._step_checked(target)
+        except (ModelAssumptionError, ConvergenceError) as exc:
+            if not self.recover:
+                raise
+            spent = self._spent()
+            try:
+                result = self.reset(target, reason=str(exc))
+            except InvalidPoseError:
+                raise exc from None
+            return SceneStepResult(result.state, result.events, 0, spent + result.evaluations)
+
+    def reset(self, pose=None, reason: str = "reset on request") -> SceneStepResult:
+        """
+        Place the whisker unloaded at ``pose``, forgetting its history.
+
+        The tracker is then exactly a new tracker placed there.
+
+        Parameters
+        ----------
+        pose : FootPose or float, optional
+            Where to place it; default: the current foot pose.
+        reason : str
+            Why, carried by the event.
+
+        Returns
+        -------
+        SceneStepResult
+            The unloaded state and one event ``reset``.
+
+        Raises
+        ------
+        InvalidPoseError
+            The unloaded whisker would cut an obstacle at ``pose`` (the state is kept).
+
+        """
+        target = self._pose if pose is None else _as_pose(pose)
+        start = self.solver.evaluations
+        self._check_placeable(target, "the reset pose")
+        self._place(target)
+        event = SceneEvent("reset", target, reason=reason)
+        return SceneStepResult(self._state, (event,), 0, self.solver.evaluations - start)
+
+    def _step_checked(self, target: FootPose) -> SceneStepResult:
         try:
             return self._step(target)
         except VibrissaError:
@@ -363,9 +452,18 @@ class SceneTracker:
             t, vec, values = t_new, new_vec, new_values
             if iters <= 4 + len(modes):
                 h = min(1.0, h * 2.0, _MAX_MOVE / path.length)
-        self._h = max(h, 1e-3)
+        turns = path.p1.heading - (path.h0 + path.dh)
+        if modes and abs(turns) > math.pi:
+            # the step crossed heading +-pi: its slopes follow the path's continuous heading,
+            # the state the target's, a whole turn apart
+            K = self.solver.layout(modes)[0]
+            vec = vec.copy()
+            vec[:K] += turns
         state = self._make_state(path.p1, modes, vec)
         self._modes, self._vec, self._pose, self._state = modes, vec, path.p1, state
+        self._h = max(h, 1e-3)
+        if not modes:
+            self._forget()
         return SceneStepResult(state, tuple(events), substeps, self._spent())
 
     def _advance(self, modes, vec, path, t, t_new, dpose):
@@ -427,7 +525,9 @@ class SceneTracker:
             except ConvergenceError:
                 pieces *= 2
                 self._check_budget()
-        raise ConvergenceError(f"no equilibrium at t = {t_target!r} on the configuration")
+        raise ConvergenceError(
+            f"no equilibrium found at {path.pose(t_target)} with the whisker's present contacts "
+            f"({', '.join(f'{m.kind} on obstacle {m.obstacle}' for m in modes)})")
 
     # -- events ------------------------------------------------------------------------------
     def _event_values(self, modes, vec, pose, dpose, lu=None):
@@ -778,8 +878,8 @@ class SceneTracker:
             found = _vertex_at(self.obstacles[m.obstacle], arc.at(u_end))
             if found is None:
                 raise ModelAssumptionError(
-                    f"a contact reaches the open end of a boundary arc of obstacle {m.obstacle} "
-                    f"at {pose}")
+                    f"a contact slides off the open end of obstacle {m.obstacle}'s boundary (the "
+                    f"end of its curve) at {pose}: the whisker would leave the modelled boundary")
             index, V = found
             ev_kind = "corner"
             if m.kind == "side":
