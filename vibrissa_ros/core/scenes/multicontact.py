@@ -501,14 +501,20 @@ class MultiContactSolver:
         prev = math.inf
         for it in range(max_iter):
             fresh = lu is None
+            # an iterate may put two contacts at one arc length (a segment of length 0): the
+            # residual is then not finite, which is reported below, not warned about
+            with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+                if fresh:
+                    R, J = self.residual(modes, vec, pose)
+                else:
+                    R, _ = self.residual(modes, vec, pose, want_jacobian=False)
             if fresh:
-                R, J = self.residual(modes, vec, pose)
+                if not np.all(np.isfinite(J)):
+                    raise ConvergenceError("multi-contact: the Jacobian is not finite")
                 try:
                     lu = sla.lu_factor(J, check_finite=False)
                 except (ValueError, np.linalg.LinAlgError):
                     raise ConvergenceError("multi-contact: singular Jacobian") from None
-            else:
-                R, _ = self.residual(modes, vec, pose, want_jacobian=False)
             size = float(np.max(np.abs(R)))
             if not math.isfinite(size):
                 raise ConvergenceError("multi-contact: the residual is not finite")
