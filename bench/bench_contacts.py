@@ -23,6 +23,7 @@ import time
 
 import numpy as np
 
+# the checkout's package, for a run from bench/: the imports below must follow (E402)
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
 
 from vibrissa_ros.core.general.model import GeneralWhiskerModel, WhiskerShape  # noqa: E402

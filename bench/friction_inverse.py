@@ -21,6 +21,7 @@ import sys
 
 import numpy as np
 
+# the checkout's package, for a run from bench/: the imports below must follow (E402)
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
 
 from vibrissa_ros.core.exact.inverse import estimate_contact  # noqa: E402

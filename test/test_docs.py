@@ -1,4 +1,5 @@
-"""The documentation site (doc/): it builds with warnings as errors, and what it shows runs.
+"""
+The documentation site (doc/): it builds with warnings as errors, and what it shows runs.
 
 The HTML build fails on a broken reference, a figure command that fails (every figure is drawn by
 the command shown above it) or a docstring of the API reference that misses a section numpydoc
@@ -49,12 +50,17 @@ def test_the_examples_run(site):
     doctest = _sphinx("doctest", base / "doctrees", base / "doctest")
     assert doctest.returncode == 0, doctest.stdout + doctest.stderr
     report = (base / "doctest" / "output.txt").read_text()
-    assert re.search(r"\b0 failures in tests", report) and not re.search(r"[1-9]\d* failures? in", report)
+    assert (re.search(r"\b0 failures in tests", report)
+            and not re.search(r"[1-9]\d* failures? in", report))
     assert int(re.search(r"(\d+) tests", report).group(1)) >= 20, report
 
 
 def test_the_two_questions_are_one_click_from_the_index(site):
-    """'How do I run a whisking study?' and 'what exactly does m0 mean?' are linked from the index."""
+    """
+    The index links to both questions' answers.
+
+    'How do I run a whisking study?' and 'what exactly does m0 mean?'
+    """
     base, _ = site
     index = (base / "html" / "index.html").read_text()
     assert 'href="getting-started.html#first-whisking-study"' in index

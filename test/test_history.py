@@ -1,4 +1,5 @@
-"""History does not matter: whole turns, refusals, jumps and resets leave no trace.
+"""
+History does not matter: whole turns, refusals, jumps and resets leave no trace.
 
 The recovery rule (README "Recovery: when a step cannot be followed"): a step that cannot be
 followed re-places the whisker unloaded at the new pose when it is free there (an event
@@ -80,7 +81,7 @@ _FRESH = {}
 
 
 def fresh_results(family):
-    """A new tracker's results on the family's clean sweep from FREE (computed once)."""
+    """Return a new tracker's results on the family's clean sweep from FREE (computed once)."""
     if family not in _FRESH:
         tracker = FAMILIES[family](FREE)
         _FRESH[family] = [tracker.step(pose) for pose in sweep_of(family)]
@@ -245,8 +246,11 @@ def test_the_inverse_is_invariant_under_whole_turns():
 
 # -- the rule, directly -----------------------------------------------------------------------
 def test_a_step_that_cannot_be_followed_to_a_free_pose_resets_there():
-    """The whisker's side would sweep into the catenary before its tip: not modelled. The target
-    is free: the whisker is placed there, one event reset says why."""
+    """
+    The whisker's side would sweep into the catenary before its tip: not modelled.
+
+    The target is free: the whisker is placed there, one event reset says why.
+    """
     prof = Catenary(0.5, 0.6, scan_checks=False)
     start, target = FootPose(0.14, 0.27, 0.86), FootPose(0.93, 0.05, -3.02)
     strict = QuasistaticTracker(prof, start, options=TrackerOptions(recover=False))
@@ -294,9 +298,12 @@ def test_reset_on_request_and_its_refusal():
 
 
 def test_a_half_turn_goes_the_way_of_the_plain_difference():
-    """Exactly half a turn: the heading runs linearly between the two headings taken in
-    (-pi, pi], so between -pi/2 and pi/2 (either way) it passes 0 (along +x), never pi. (Whole
-    turns added to the input round its heading by ~1e-15, which decides such a tie either way.)"""
+    """
+    Exactly half a turn: the heading runs linearly between the two headings in (-pi, pi].
+
+    So between -pi/2 and pi/2 (either way) it passes 0 (along +x), never pi. (Whole turns added to
+    the input round its heading by ~1e-15, which decides such a tie either way.)
+    """
     for peg_x, swept in ((0.7, True), (-0.7, False)):
         for a, b in ((-HALF_PI, HALF_PI), (HALF_PI, -HALF_PI)):
             tracker = QuasistaticTracker(Peg(peg_x, 0.0, 0.1), FootPose(0.0, 0.0, a))
@@ -311,7 +318,7 @@ ISSUE_SWEEP = [FootPose(2 - 0.02 * i, 0.0, HALF_PI) for i in range(200)]
 
 
 def issue_walk(n):
-    """The issue's random walk: n random valid poses, seed 7 of Python's random."""
+    """Return the issue's random walk: n random valid poses, seed 7 of Python's random."""
     rng = random.Random(7)
     return [FootPose(rng.uniform(-2, 2), rng.uniform(-1, 0.5), rng.uniform(0, TWO_PI))
             for _ in range(n)]
@@ -334,8 +341,12 @@ def _answers(tracker, sweep):
 
 
 def test_issue_eight_turns_are_forgotten(issue_fresh):
-    """Placed at pi/2 + 16 pi it used to answer 64 poses and refuse the rest ("the contact would
-    move to profile slope 51.26 rad")."""
+    """
+    Eight whole turns in the first heading leave no trace.
+
+    Placed at pi/2 + 16 pi it used to answer 64 poses and refuse the rest ("the contact would
+    move to profile slope 51.26 rad").
+    """
     tracker = QuasistaticTracker(ISSUE_PROFILE, FootPose(2.0, 0.0, HALF_PI + 16 * math.pi))
     got = _answers(tracker, ISSUE_SWEEP)
     assert all(r is not None for r in got)
@@ -345,9 +356,13 @@ def test_issue_eight_turns_are_forgotten(issue_fresh):
 
 @pytest.mark.parametrize("n", [29, 300])
 def test_issue_random_walk_then_the_sweep(n, issue_fresh):
-    """After 29 poses of the walk the sweep's first 137 poses used to be refused (and the last 63
+    """
+    After the issue's random walk, the sweep is answered as by a new tracker.
+
+    After 29 poses of the walk the sweep's first 137 poses used to be refused (and the last 63
     answered a turn off); after 300 and a return to (2, 0, pi/2) the state's heading was
-    pi/2 - 8 turns and the sweep refused from its touch on. Now: answered, as a new tracker."""
+    pi/2 - 8 turns and the sweep refused from its touch on.
+    """
     tracker = QuasistaticTracker(ISSUE_PROFILE, FootPose(2.0, 0.0, HALF_PI))
     _answers(tracker, issue_walk(n))
     assert -math.pi < tracker.pose.heading <= math.pi

@@ -1,5 +1,8 @@
-"""The log tools on a log recorded by whisker_node and checked in (no DDS): info, resim, export,
-plot, reconstruct, repair."""
+"""
+The log tools on a log recorded by whisker_node and checked in (no DDS).
+
+info, resim, export, plot, reconstruct, repair.
+"""
 
 import csv
 import shutil

@@ -1,4 +1,5 @@
-"""whisker_node's recovery over real DDS: ~/reset, the event reset, its count and its log.
+"""
+whisker_node's recovery over real DDS: ~/reset, the event reset, its count and its log.
 
 A step the model cannot follow to a pose where the whisker is free re-places it there (event
 reset from the core); ``~/reset`` (std_srvs/Trigger) makes the next accepted pose place it (event
@@ -51,7 +52,7 @@ def _call_reset(probe):
 
 
 def test_reset_service_and_recovery_are_published_counted_recorded(installed, ros_env,
-                                                                    rcl_context, tmp_path):
+                                                                   rcl_context, tmp_path):
     log = tmp_path / "reset.mcap"
     values = dict(PARAMS, **{"record.path": str(log)})
     proc = start_installed_node(installed, write_params(tmp_path / "reset.yaml", values), ros_env)

@@ -43,7 +43,8 @@ def test_scripts_install_where_ros2_run_looks():
 CORE = ROOT / "vibrissa_ros" / "core"
 
 
-@pytest.mark.parametrize("path", sorted(CORE.rglob("*.py")), ids=lambda p: str(p.relative_to(CORE)))
+@pytest.mark.parametrize("path", sorted(CORE.rglob("*.py")),
+                         ids=lambda p: str(p.relative_to(CORE)))
 def test_the_core_imports_nothing_from_ros(path):
     tree = ast.parse(path.read_text())
     names = set()
@@ -52,7 +53,8 @@ def test_the_core_imports_nothing_from_ros(path):
             names.update(a.name.split(".")[0] for a in node.names)
         elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
             names.add(node.module.split(".")[0])
-    assert not names & {"rclpy", "rosidl_runtime_py", "geometry_msgs", "std_msgs", "mcap", "matplotlib"}
+    assert not names & {"rclpy", "rosidl_runtime_py", "geometry_msgs", "std_msgs", "mcap",
+                        "matplotlib"}
 
 
 PACKAGE = ROOT / "vibrissa_ros"
@@ -100,7 +102,7 @@ CHECKS = "vibrissa_ros.core.checks"
                                         if "checks" not in p.relative_to(PACKAGE).parts),
                          ids=lambda p: str(p.relative_to(PACKAGE)))
 def test_no_product_module_imports_an_independent_check(path):
-    """core/checks holds second solvers for tests and benchmarks: a product path never uses them."""
+    """core/checks holds second solvers for tests and benchmarks: no product path uses them."""
     used = {m for m in _modules_imported(path) if m == CHECKS or m.startswith(CHECKS + ".")}
     assert not used, f"{path.relative_to(ROOT)} imports {sorted(used)}"
 
@@ -131,12 +133,13 @@ def test_the_ros_free_adapters_import_without_ros():
     import sys
 
     code = ("import sys; sys.modules['rclpy'] = None\n"
-            "import vibrissa_ros.cli, vibrissa_ros.scan.scan_io, vibrissa_ros.logs.mcap_log, vibrissa_ros.scan.plots,"
-            " vibrissa_ros.node.reconstruction, vibrissa_ros.logs.tools, vibrissa_ros.node.edge,"
-            " vibrissa_ros.node.pipeline, vibrissa_ros.node.config\n"
+            "import vibrissa_ros.cli, vibrissa_ros.scan.scan_io, vibrissa_ros.logs.mcap_log, "
+            "vibrissa_ros.scan.plots, vibrissa_ros.node.reconstruction, vibrissa_ros.logs.tools, "
+            "vibrissa_ros.node.edge, vibrissa_ros.node.pipeline, vibrissa_ros.node.config\n"
             "assert vibrissa_ros.cli.main(['scan', '--profile', 'parabola', '--param', 'p0=0.3',"
             " '--from', '2', '--to', '1.9', '--step', '0.1', '--csv', '-']) == 0\n")
-    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          timeout=120)
     assert proc.returncode == 0, proc.stderr
 
 

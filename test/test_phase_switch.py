@@ -1,5 +1,8 @@
-"""Phase switches (the contact reaching the tip, the tip turning tangent) are decided by the
-direction of the branches, never by the rounding of an event function that sits at zero.
+"""
+Phase switches are decided by the direction of the branches.
+
+The contact reaching the tip, the tip turning tangent: never by the rounding of an event function
+that sits at zero.
 
 At a switch both phases' branches meet. If the new phase goes on forwards the tracker switches;
 if its admissible part lies behind the switch too, no equilibrium exists just ahead (the branch
@@ -7,7 +10,8 @@ of equilibria folds at the switch, a corner) and the whisker snaps there, e.g. a
 slipping off a peg over its tip. The independent shooting solver is the reference: at every
 switch the event function of the phase that ends there is zero to 1e-8 and the contact slopes
 agree to 1e-8 (measured ~1e-13), and just beyond a switch the shooting equilibria say which phase
-exists."""
+exists.
+"""
 
 import math
 
@@ -20,7 +24,7 @@ from vibrissa_ros.core.checks.general_shooting import ShotState, _integrate, sho
 
 
 def _peg_scene(seed, shift=0.0, radius_scale=1.0):
-    """The scenes of test_inverse_general's random pegs (even seeds: the foot translating)."""
+    """Build the scenes of test_inverse_general's random pegs (even seeds: foot translating)."""
     rng = np.random.default_rng(seed)
     shape = WhiskerShape(rng.uniform(0.1, 1.0), rng.uniform(-1.0, 1.0), rng.uniform(-0.5, 0.5))
     peg = Peg(rng.uniform(-0.3, 0.3), rng.uniform(0.4, 0.9), rng.uniform(0.0, 0.2) * radius_scale)
@@ -37,7 +41,7 @@ def _run(profile, model, xs):
 
 
 def _state_before(profile, model, xs, x_event, gap=1e-7):
-    """The tracker's state a little before x_event (the foot moves towards -x)."""
+    """Track to the state a little before x_event (the foot moves towards -x)."""
     tracker = QuasistaticTracker(profile, FootPose(xs[0], 0.0), model=model)
     for x in xs[1:]:
         if x <= x_event + gap:
@@ -60,7 +64,7 @@ def _shoot(shape, profile, x, phase, state):
 
 
 def _inside(shape, x, shot, side):
-    """The phase's inequality at a shooting equilibrium (> 0 inside the phase)."""
+    """Evaluate the phase's inequality at a shooting equilibrium (> 0 inside the phase)."""
     if shot.phase == Phase.TANGENTIAL:
         return 1.0 - shot.s1
     theta1 = _integrate(shape, FootPose(x, 0.0), shot.m0, shot.f, shot.alpha, 1.0)[2]

@@ -43,7 +43,7 @@ def test_a_sweep_through_the_pipeline_equals_the_core_scan():
     ],
 )
 def test_bad_poses_are_dropped_with_their_reason_and_the_state_is_kept(frame, stamp, position,
-                                                                        quaternion, reason):
+                                                                       quaternion, reason):
     pipe = _pipeline()
     pipe.handle("world", 5, (0.15, 0.0, 0.0), Q)
     before = pipe.state

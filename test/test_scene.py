@@ -339,7 +339,8 @@ def test_metres_are_converted_to_whisker_lengths():
 obstacles:
   - {type: peg, x: 0.0, y: 0.0225, r: 0.0015}
   - {type: polygon, vertices: [[0.015, 0.03], [0.025, 0.03], [0.025, 0.04]]}
-  - {type: parabola, p0: 0.015, k: 40.0, placement: {x: 0.05, y: 0.0, rotation: -1.5707963267948966}}
+  - {type: parabola, p0: 0.015, k: 40.0,
+     placement: {x: 0.05, y: 0.0, rotation: -1.5707963267948966}}
   - {type: circle, p0: 0.005, R: 0.01, placement: {x: -0.05, y: 0.0, rotation: 3.14159}}
 """
     scene = load_scene(metres, length_scale=length)

@@ -1,4 +1,5 @@
-"""The scene shooting solver: several contacts with friction, checked against independent answers.
+"""
+The scene shooting solver: several contacts with friction, checked against independent answers.
 
 One contact must equal the exact single-contact models; several contacts are checked by physics
 that the solver does not impose (global equilibrium, the moment along the whisker, Maxwell-Betti

@@ -1,4 +1,5 @@
-"""The node under a storm: thousands of poses as fast as DDS takes them, valid and invalid mixed.
+"""
+The node under a storm: thousands of poses as fast as DDS takes them, valid and invalid mixed.
 
 Afterwards the node is alive, has published nothing non-finite, has counted every pose (processed
 or dropped by reason, on /diagnostics), lost none on the way, and answers a clean sweep pose for
@@ -44,8 +45,11 @@ EXPECTED_REASON = {"nan": "not_finite", "inf": "not_finite", "quaternion": "quat
 
 
 def storm(n, rng, first_stamp):
-    """(kind, message) pairs: a random walk with big jumps and random headings, interleaved
-    with every kind of bad input."""
+    """
+    Yield (kind, message) pairs: a random walk with big jumps and random headings.
+
+    Interleaved with every kind of bad input.
+    """
     kinds = ["walk"] * 60 + ["jump"] * 3 + ["turn"] * 3 + ["far"] * 4 + ["nan", "inf"] * 3 + \
         ["quaternion"] * 5 + ["z", "roll"] * 3 + ["frame"] * 5 + ["back"] * 5
     x, y, yaw = 0.15, 0.0, HALF_PI
@@ -67,7 +71,8 @@ def storm(n, rng, first_stamp):
             msg = pose_msg(x, y, yaw, stamp)
         elif kind == "far":  # absurd magnitudes, otherwise well-formed
             big = float(rng.choice([1e6, -1e6, 1e300, -1e300]))
-            msg = pose_msg(big, y, yaw, stamp) if rng.random() < 0.5 else pose_msg(x, big, yaw, stamp)
+            msg = (pose_msg(big, y, yaw, stamp) if rng.random() < 0.5
+                   else pose_msg(x, big, yaw, stamp))
         elif kind in ("nan", "inf"):
             bad = math.nan if kind == "nan" else -math.inf
             msg = pose_msg(x, y, yaw, stamp)
@@ -93,7 +98,7 @@ def storm(n, rng, first_stamp):
 
 
 def _diagnostics(probe, timeout=10.0):
-    """The latest status of our node (keys -> values)."""
+    """Return the latest status of our node (keys -> values)."""
     start = len(probe.got["diagnostics"])
     probe.spin_until(lambda: len(probe.got["diagnostics"]) > start, timeout)
     for array in reversed(probe.got["diagnostics"]):
@@ -119,7 +124,7 @@ def _finite_numbers(probe):
 
 
 def test_the_node_survives_a_storm_and_then_answers_a_clean_sweep(installed, ros_env, rcl_context,
-                                                                   tmp_path):
+                                                                  tmp_path):
     proc = start_installed_node(installed, write_params(tmp_path / "storm.yaml", PARAMS), ros_env)
     probe = Probe(rcl_context, "/whisker_node", name="probe_storm", qos=KEEP_ALL, pose_qos=SENDER)
     try:
@@ -195,4 +200,3 @@ def _drain(probe, quiet=1.0):
     while counts != {k: len(v) for k, v in probe.got.items() if k != "diagnostics"}:
         counts = {k: len(v) for k, v in probe.got.items() if k != "diagnostics"}
         probe.spin_for(quiet)
-

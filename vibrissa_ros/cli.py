@@ -154,7 +154,8 @@ def build_parser() -> argparse.ArgumentParser:
         type=_taper,
         default=None,
         metavar="RHO",
-        help="tip radius / base radius in (0, 1] (default 1): bending stiffness (1-(1-RHO)s)^4 EI_b",
+        help="tip radius / base radius in (0, 1] (default 1): bending stiffness "
+        "(1-(1-RHO)s)^4 EI_b",
     )
     scan.add_argument(
         "--curvature",
@@ -198,9 +199,9 @@ def build_parser() -> argparse.ArgumentParser:
         "--whisk",
         type=_foot,
         metavar="X,Y",
-        help="whisk instead of sliding: the foot fixed at (X, Y), the heading sweeping from --from "
-        "to --to by --step degrees (counter-clockwise from +x; 90 = the paper's set-up), and back "
-        "with --back; written as --poses is (columns x,y,heading, heading in rad). Write "
+        help="whisk instead of sliding: the foot fixed at (X, Y), the heading sweeping from "
+        "--from to --to by --step degrees (counter-clockwise from +x; 90 = the paper's set-up), "
+        "and back with --back; written as --poses is (columns x,y,heading, heading in rad). Write "
         "--whisk=-1.5,0 for a negative X",
     )
     scan.add_argument(
@@ -369,10 +370,11 @@ def build_parser() -> argparse.ArgumentParser:
     rec.set_defaults(func=_cmd_reconstruct)
     batch = sub.add_parser(
         "batch",
-        help="run a study (a grid and/or random sample of scans) on Dask and write a Parquet dataset",
-        description="Run every task of a study (one task = one scan, as 'vibrissa scan' computes it) on an "
-        "embedded Dask cluster or an existing one, and write the results as a Parquet dataset in DIR. "
-        "Running the same command again computes only the tasks that are missing.",
+        help="run a study (a grid and/or random sample of scans) on Dask and write a Parquet "
+        "dataset",
+        description="Run every task of a study (one task = one scan, as 'vibrissa scan' computes "
+        "it) on an embedded Dask cluster or an existing one, and write the results as a Parquet "
+        "dataset in DIR. Running the same command again computes only the tasks that are missing.",
     )
     batch.add_argument("study", help="the study file (YAML; see config/study_small.yaml)")
     batch.add_argument(
@@ -413,8 +415,8 @@ def _cmd_batch(args) -> int:
         return 2
     if args.workers is not None and args.scheduler:
         print(
-            "vibrissa batch: error: --workers sizes the embedded cluster; with --scheduler the cluster's "
-            "own workers run the study",
+            "vibrissa batch: error: --workers sizes the embedded cluster; with --scheduler the "
+            "cluster's own workers run the study",
             file=sys.stderr,
         )
         return 2
@@ -439,8 +441,8 @@ def _cmd_batch(args) -> int:
         return 2
     except KeyboardInterrupt:
         print(
-            "vibrissa batch: interrupted; the tasks written are kept: run the same command again to "
-            "compute the rest",
+            "vibrissa batch: interrupted; the tasks written are kept: run the same command again "
+            "to compute the rest",
             file=sys.stderr,
         )
         return 130
@@ -449,23 +451,24 @@ def _cmd_batch(args) -> int:
         return 1
     if report.computed == 0 and not report.errors:
         print(
-            f"vibrissa batch: all {report.tasks} tasks of {args.study} are already in {args.out}; nothing to do",
+            f"vibrissa batch: all {report.tasks} tasks of {args.study} are already in "
+            f"{args.out}; nothing to do",
             file=sys.stderr,
         )
         return 0
     rate = report.computed / report.seconds if report.seconds > 0 else 0.0
     print(
         f"vibrissa batch: {report.computed} tasks computed ({report.failed} failed, reasons in "
-        f"{args.out}/failures), {report.already_done} were already done; {report.workers} workers, "
-        f"{report.seconds:.1f} s ({rate:.2f} tasks/s) -> {args.out}",
+        f"{args.out}/failures), {report.already_done} were already done; "
+        f"{report.workers} workers, {report.seconds:.1f} s ({rate:.2f} tasks/s) -> {args.out}",
         file=sys.stderr,
     )
     if report.errors:
         for index, message in report.errors[:5]:
             print(f"vibrissa batch: error: task {index} not computed: {message}", file=sys.stderr)
         print(
-            f"vibrissa batch: {len(report.errors)} tasks not computed; run the same command again to retry "
-            "them",
+            f"vibrissa batch: {len(report.errors)} tasks not computed; run the same command again "
+            "to retry them",
             file=sys.stderr,
         )
         return 1
@@ -488,7 +491,7 @@ def rigid_output_path(path: str) -> str:
 
 
 def _scan_path(args):
-    """The foot positions (x0 grid) or poses (--poses, --whisk) of a scan."""
+    """Return the foot positions (x0 grid) or poses (--poses, --whisk) of a scan."""
     sweep = (args.x_from, args.x_to, args.step)
     if args.poses is not None:
         if args.whisk is not None:
@@ -506,7 +509,7 @@ def _scan_path(args):
 
 
 def _elastica_model(args, profile):
-    """The exact elastica or the general solver, by --solver, --taper and --curvature."""
+    """Choose the exact elastica or the general solver, by --solver, --taper and --curvature."""
     from .scan.scene_scan import elastica_model
 
     k0, k1 = args.curvature or (0.0, 0.0)
