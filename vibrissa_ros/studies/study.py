@@ -205,8 +205,8 @@ class Task:
     back: bool
     noise: Optional[Noise] = None
     noise_seed: Optional[int] = None
-    #: the whisker's shape (the general whisker, core.general): taper rho = tip / base radius, intrinsic
-    #: curvature k0 + k1 s [1/L]; (1, 0, 0) is the paper's uniform straight whisker
+    #: the whisker's shape (the general whisker, core.general): taper rho = tip / base radius,
+    #: intrinsic curvature k0 + k1 s [1/L]; (1, 0, 0) is the paper's uniform straight whisker
     taper: float = 1.0
     curvature_k0: float = 0.0
     curvature_k1: float = 0.0
