@@ -12,6 +12,7 @@ ROS = [
     "ros-jazzy-rclpy",
     "ros-jazzy-rmw-fastrtps-cpp",
     "ros-jazzy-common-interfaces",
+    "ros-jazzy-std-srvs",  # std_srvs/Trigger of ~/reset
     "ros-jazzy-ament-index-python",
     "mcap>=1.5",  # recording (rosbag2 layout), with zstd chunks
     "tqdm>=4.60",  # progress bars of vibrissa sweep and replay
@@ -35,6 +36,12 @@ BATCH = ["dask[distributed]>=2024.8.0", "pyarrow>=16.0", "pandas>=2.2.2", "tqdm>
          "pyyaml>=5.4"]
 # the dataset's other readers, for the read-back tests
 DATASET_READERS = ["dask[dataframe]>=2024.8.0", "polars>=1.0"]
+# the documentation site (doc/, built by test/test_docs.py); lower bounds from the projects'
+# changelogs: myst-parser 2.0: fenced directives, (label)= targets, myst_heading_anchors and the
+# dollarmath, deflist, colon_fence extensions, on Sphinx 6 or 7 (hence sphinx 6); numpydoc 1.6: a
+# validator that handles properties and decorated functions (numpydoc_validation_checks and
+# numpydoc_validation_exclude); sphinx-rtd-theme 2.0: the first release for Sphinx 7
+DOC = ["sphinx>=6.1", "myst-parser>=2.0", "numpydoc>=1.6", "sphinx-rtd-theme>=2.0"] + PLOTS
 # the core's own tests: they also run on numpy 1.x (.ci/run), without ROS
 CORE_TEST = ["pytest>=7", "mpmath>=1.3", "hypothesis>=6.100"]
 
@@ -57,7 +64,8 @@ setup(
         "plots": PLOTS,
         "batch": BATCH,
         "core-test": CORE_TEST,
-        "test": ROS + TOOLS + READERS + PLOTS + BATCH + DATASET_READERS + CORE_TEST + LINT
+        "doc": DOC,
+        "test": ROS + TOOLS + READERS + PLOTS + BATCH + DATASET_READERS + CORE_TEST + LINT + DOC
         + ["catkin_pkg>=1.0"],
     },
     zip_safe=True,

@@ -1,17 +1,17 @@
-"""Throughput of ``vibrissa batch``: scaling from 1 to 2 workers, the engine's overhead per task, and what
-a large study costs.
+"""
+Throughput of ``vibrissa batch``: scaling to 2 workers, overhead per task, a large study's cost.
 
 Three measurements, all in the same run (the machine may be shared: medians and same-run ratios):
 
 1. scaling: the same sample of tasks of the random-profile study below, on an embedded cluster of 1
-   worker and of 2 workers, alternately, ``--repeats`` times each; the ratio of the median wall times
-   (cluster start-up excluded: it is paid once per study);
+   worker and of 2 workers, alternately, ``--repeats`` times each; the ratio of the median wall
+   times (cluster start-up excluded: it is paid once per study);
 2. overhead: ``--overhead-tasks`` tasks of ~1 s each (a fine scan) on 1 worker; Dask's own task
    stream gives each task's compute time on the worker, the rest of the wall time (scheduling,
    transfer of the results, writing them) is the engine's overhead;
 3. a 10,000-task study of random convex profiles (five families, random shapes, a 301-pose sweep
-   each): a seeded sample of ``--sample`` tasks on ``--workers`` workers (``--sample 10000``: all of
-   it), giving tasks/s, poses/s, core-seconds per task, and the extrapolation to a data set of
+   each): a seeded sample of ``--sample`` tasks on ``--workers`` workers (``--sample 10000``: all
+   of it), giving tasks/s, poses/s, core-seconds per task, and the extrapolation to a data set of
    240,000 sweeps in core-hours.
 
 Run: python bench/bench_batch.py [--repeats 3] [--scaling-tasks 40] [--sample 200] [--workers 2]
@@ -29,8 +29,8 @@ import statistics
 import tempfile
 import time
 
-from vibrissa_ros.batch import run_study
-from vibrissa_ros.study import parse_study
+from vibrissa_ros.studies.batch import run_study
+from vibrissa_ros.studies.study import parse_study
 
 RANDOM_PROFILES = """
 description: 10,000 random convex obstacles (2,000 per family), one 301-pose sweep each
@@ -47,7 +47,8 @@ obstacles:
     params: {p0: {uniform: [0.1, 0.6]}, R: {loguniform: [1.0, 4.0]}}
   - profile: two_circles
     samples: 2000
-    params: {p0: {uniform: [0.1, 0.6]}, R_left: {loguniform: [1.0, 4.0]}, R_right: {loguniform: [1.0, 4.0]}}
+    params: {p0: {uniform: [0.1, 0.6]}, R_left: {loguniform: [1.0, 4.0]},
+             R_right: {loguniform: [1.0, 4.0]}}
   - profile: ellipse
     samples: 2000
     params: {p0: {uniform: [0.1, 0.6]}, a: {loguniform: [0.3, 1.5]}, b: {loguniform: [1.0, 3.0]}}
@@ -66,14 +67,15 @@ motion: {from: 2.0, to: -2.0, step: 0.0003}
 def _cluster(n):
     from distributed import Client, LocalCluster
 
-    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0",
-                           silence_logs=logging.ERROR)
+    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                           dashboard_address=":0", silence_logs=logging.ERROR)
     return cluster, Client(cluster)
 
 
 def _compute(stream):
     """Seconds the workers spent computing tasks, from Dask's task stream."""
-    return sum(ss["stop"] - ss["start"] for rec in stream.data for ss in rec["startstops"] if ss["action"] == "compute")
+    return sum(ss["stop"] - ss["start"] for rec in stream.data for ss in rec["startstops"]
+               if ss["action"] == "compute")
 
 
 def _worker_cpu(client):
@@ -88,7 +90,8 @@ def _subset(study, tasks):
 def _close(cluster, client):
     client.close()
     cluster.close()
-    logging.getLogger("distributed").setLevel(logging.ERROR)  # closing restores the cluster's log level
+    # closing restores the cluster's log level
+    logging.getLogger("distributed").setLevel(logging.ERROR)
 
 
 def _timed_run(study, client, root):
@@ -118,7 +121,8 @@ def main(argv=None):
         # 1. scaling, 1 vs 2 workers, alternately
         from distributed import get_task_stream
 
-        scaling = _subset(big, sorted(rng.sample(big.tasks, args.scaling_tasks), key=lambda t: t.index))
+        scaling = _subset(big, sorted(rng.sample(big.tasks, args.scaling_tasks),
+                                      key=lambda t: t.index))
         clusters = {n: _cluster(n) for n in (1, 2)}
         walls = {1: [], 2: []}
         busy = {1: [], 2: []}
@@ -133,17 +137,20 @@ def main(argv=None):
                 walls[n].append(wall)
                 busy[n].append(_compute(stream) / (n * wall))
         m1, m2 = statistics.median(walls[1]), statistics.median(walls[2])
-        print(f"scaling: {args.scaling_tasks} tasks, 1 worker {m1:.2f} s, 2 workers {m2:.2f} s (medians of "
-              f"{args.repeats}); 2 workers = {m1 / m2:.2f}x the throughput of 1")
+        print(f"scaling: {args.scaling_tasks} tasks, 1 worker {m1:.2f} s, 2 workers "
+              f"{m2:.2f} s (medians of {args.repeats}); 2 workers = {m1 / m2:.2f}x "
+              "the throughput of 1")
         print(f"scaling: workers busy computing {100 * statistics.median(busy[1]):.0f}% (1) and "
               f"{100 * statistics.median(busy[2]):.0f}% (2) of the wall time, and got "
-              f"{statistics.median(cores[1]):.2f} and {statistics.median(cores[2]):.2f} cores of CPU time; load average "
-              f"{load:.1f} -> {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores (above the workers' count: "
-              "the machine is shared and the ratio understates the engine)")
+              f"{statistics.median(cores[1]):.2f} and {statistics.median(cores[2]):.2f} cores of "
+              f"CPU time; load average {load:.1f} -> {os.getloadavg()[0]:.1f} on {os.cpu_count()} "
+              "cores (above the workers' count: the machine is shared and the ratio "
+              "understates the engine)")
         c1, c2 = statistics.median(cores[1]), statistics.median(cores[2])
         per_core = (m1 / m2) / (c2 / c1)
-        print(f"scaling: per core of CPU time obtained, 2 workers do {per_core:.2f}x the work of 1 (1.00: perfect); "
-              f"with two whole cores that is {2 * per_core:.2f}x (an estimate: re-measure on a quiet machine)")
+        print(f"scaling: per core of CPU time obtained, 2 workers do {per_core:.2f}x the work of "
+              f"1 (1.00: perfect); with two whole cores that is {2 * per_core:.2f}x (an estimate: "
+              "re-measure on a quiet machine)")
 
         # 2. overhead per task for ~1 s tasks, on 1 worker, from Dask's task stream
         slow = parse_study(SLOW_TASKS)
@@ -158,26 +165,30 @@ def main(argv=None):
             overheads.append((wall - compute) / n)
             computes.append(compute / n)
         oh, task = statistics.median(overheads), statistics.median(computes)
-        print(f"overhead: {len(slow.tasks)} tasks of {task:.2f} s (median compute on the worker); engine "
-              f"overhead {oh * 1e3:.1f} ms per task = {100 * oh / task:.1f}% (scheduling, transfer, writing; "
-              f"median of {args.repeats})")
+        print(f"overhead: {len(slow.tasks)} tasks of {task:.2f} s (median compute on "
+              f"the worker); engine overhead {oh * 1e3:.1f} ms per task = {100 * oh / task:.1f}% "
+              f"(scheduling, transfer, writing; median of {args.repeats})")
         for cluster, c in clusters.values():
             _close(cluster, c)
 
         # 3. the random-profile study: a sample (or all of it)
         n = min(args.sample, len(big.tasks))
-        sample = big if n == len(big.tasks) else _subset(big, sorted(rng.sample(big.tasks, n), key=lambda t: t.index))
+        sample = big if n == len(big.tasks) else _subset(
+            big, sorted(rng.sample(big.tasks, n), key=lambda t: t.index))
         cluster, client = _cluster(args.workers)
         wall, report = _timed_run(sample, client, root)
         _close(cluster, client)
         poses = sum(len(t.grid()) for t in sample.tasks)
         core_s = wall * args.workers / n
-        print(f"random profiles: {n} tasks ({report.failed} failed) on {args.workers} workers in {wall:.1f} s: "
-              f"{n / wall:.2f} tasks/s, {poses / wall:,.0f} poses/s, {core_s:.3f} core-s per task")
-        print(f"random profiles: all 10,000 tasks: {len(big.tasks) * core_s / 3600:.2f} core-hours "
+        print(f"random profiles: {n} tasks ({report.failed} failed) on {args.workers} workers "
+              f"in {wall:.1f} s: {n / wall:.2f} tasks/s, {poses / wall:,.0f} poses/s, "
+              f"{core_s:.3f} core-s per task")
+        print("random profiles: all 10,000 tasks: "
+              f"{len(big.tasks) * core_s / 3600:.2f} core-hours "
               f"({len(big.tasks) * core_s / args.workers / 60:.1f} min on this machine)")
-        print(f"extrapolation: 240,000 sweeps of 301 poses: {240_000 * core_s / 3600:.1f} core-hours "
-              f"(x31 for a 31-whisker array: {31 * 240_000 * core_s / 3600:.0f} core-hours)")
+        print("extrapolation: 240,000 sweeps of 301 poses: "
+              f"{240_000 * core_s / 3600:.1f} core-hours (x31 for a 31-whisker array: "
+              f"{31 * 240_000 * core_s / 3600:.0f} core-hours)")
     finally:
         shutil.rmtree(root, ignore_errors=True)
 

@@ -23,13 +23,14 @@ import time
 
 import numpy as np
 
+# the checkout's package, for a run from bench/: the imports below must follow (E402)
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
 
-from vibrissa_ros.core.general import GeneralWhiskerModel, WhiskerShape  # noqa: E402
+from vibrissa_ros.core.general.model import GeneralWhiskerModel, WhiskerShape  # noqa: E402
 from vibrissa_ros.core.profiles import Circle  # noqa: E402
-from vibrissa_ros.core.scene_tracker import SceneTracker  # noqa: E402
-from vibrissa_ros.core.tracker import QuasistaticTracker  # noqa: E402
-from vibrissa_ros.scene_file import load_scene  # noqa: E402
+from vibrissa_ros.core.scenes.tracker import SceneTracker  # noqa: E402
+from vibrissa_ros.core.exact.tracker import QuasistaticTracker  # noqa: E402
+from vibrissa_ros.scan.scene_file import load_scene  # noqa: E402
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 

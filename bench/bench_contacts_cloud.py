@@ -15,9 +15,9 @@ import numpy as np
 from builtin_interfaces.msg import Time
 from rclpy.serialization import serialize_message
 
-from vibrissa_ros.edge import contact_records
-from vibrissa_ros.node_config import build_config
-from vibrissa_ros.pipeline import PosePipeline
+from vibrissa_ros.node.edge import contact_records
+from vibrissa_ros.node.config import build_config
+from vibrissa_ros.node.pipeline import PosePipeline
 from vibrissa_ros.ros.messages import contacts_cloud
 
 ROOT = Path(__file__).resolve().parents[1]

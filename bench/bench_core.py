@@ -1,4 +1,5 @@
-"""Speed of the mechanics core, with the independent shooting solver as the in-run baseline.
+"""
+Speed of the mechanics core, with the independent shooting solver as the in-run baseline.
 
 Forward scan of the parabola p0 = 0.3 from x0 = 2 to -2 at step 1e-4 (40,001 poses), one
 QuasistaticTracker.step per pose, timed one by one; then the shooting solver on a sample of the
@@ -16,7 +17,7 @@ import time
 import numpy as np
 
 from vibrissa_ros.core import Parabola, QuasistaticTracker, scan_grid
-from vibrissa_ros.core.shooting import ShootingSolver, ShootingState
+from vibrissa_ros.core.checks.shooting import ShootingSolver, ShootingState
 
 
 def main(argv=None):
@@ -40,9 +41,10 @@ def main(argv=None):
         states.append(st)
     wall = time.perf_counter() - wall0
     phases = np.array([int(s.phase) for s in states])
-    print(f"core: {len(times)} poses in {wall:.3f} s = {len(times) / wall:,.0f} poses/s (one core)")
-    print(f"core: median step {np.median(times) / 1e3:.1f} us, p99 {np.percentile(times, 99) / 1e3:.1f} us, "
-          f"max {times.max() / 1e3:.0f} us")
+    print(f"core: {len(times)} poses in {wall:.3f} s = {len(times) / wall:,.0f} "
+          "poses/s (one core)")
+    print(f"core: median step {np.median(times) / 1e3:.1f} us, p99 "
+          f"{np.percentile(times, 99) / 1e3:.1f} us, max {times.max() / 1e3:.0f} us")
     for ph in (0, 1, 2):
         sel = times[phases == ph]
         if len(sel):
@@ -57,15 +59,19 @@ def main(argv=None):
         st, prev = states[i], states[i - 1]
         if prev.phase != st.phase:
             continue
-        seed_state = ShootingState(prev.x0, int(prev.phase), prev.m0, prev.f, prev.alpha, prev.s1, prev.tip_slope)
-        seed = (seed_state.kappa0, seed_state.f, seed_state.alpha) + ((seed_state.s1,) if st.phase == 1 else ())
+        seed_state = ShootingState(prev.x0, int(prev.phase), prev.m0, prev.f, prev.alpha, prev.s1,
+                                   prev.tip_slope)
+        seed = ((seed_state.kappa0, seed_state.f, seed_state.alpha)
+                + ((seed_state.s1,) if st.phase == 1 else ()))
         t0 = time.perf_counter_ns()
         sol = solver.solve(st.x0, int(st.phase), seed)
         shoot_times.append(time.perf_counter_ns() - t0)
         core_times.append(times[i])
-        worst = max(worst, abs(sol.f - st.f), abs(sol.m0 - st.m0), abs(sol.alpha - st.alpha), abs(sol.s1 - st.s1))
+        worst = max(worst, abs(sol.f - st.f), abs(sol.m0 - st.m0), abs(sol.alpha - st.alpha),
+                    abs(sol.s1 - st.s1))
     ms, mc = statistics.median(shoot_times), statistics.median(core_times)
-    print(f"shooting (solve_ivp DOP853 rtol 1e-13 + hybr): {len(shoot_times)} poses, median {ms / 1e6:.1f} ms")
+    print(f"shooting (solve_ivp DOP853 rtol 1e-13 + hybr): {len(shoot_times)} poses, median "
+          f"{ms / 1e6:.1f} ms")
     print(f"core on the same poses: median {mc / 1e3:.1f} us; speed ratio {ms / mc:,.0f}x; "
           f"largest difference {worst:.1e}")
 

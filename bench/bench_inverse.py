@@ -1,12 +1,13 @@
-"""Accuracy of the contour reconstruction from the base wrench (the inverse problem), measured.
+"""
+Accuracy of the contour reconstruction from the base wrench (the inverse problem), measured.
 
 1. Noise-free: random convex profiles (random families, shapes, placements), back-and-forth scans;
    the largest distance between an estimated and the true contact point, and the phase agreement.
-2. Noisy: Gaussian noise with sigma = 1% of the scan's peak |f| on fx and fy and 1% of the peak |m0|
-   on m0; readings with f < 3 sigma are taken as no contact. For the paper's examples: the error
-   distribution (median, 95th percentile, max, in L) of the estimates' distance to the true profile
-   and to the true contact point, which part of the profile each phase recovers, and the fraction of
-   the profile within the whisker's reach recovered by one sweep direction and by both.
+2. Noisy: Gaussian noise with sigma = 1% of the scan's peak |f| on fx and fy and 1% of the peak
+   |m0| on m0; readings with f < 3 sigma are taken as no contact. For the paper's examples: the
+   error distribution (median, 95th percentile, max, in L) of the estimates' distance to the true
+   profile and to the true contact point, which part of the profile each phase recovers, and the
+   fraction of the profile within the whisker's reach recovered by one sweep direction and by both.
 
 Run: python bench/bench_inverse.py [--seeds 20]
 """
@@ -21,18 +22,20 @@ from pathlib import Path
 import numpy as np
 from scipy.optimize import minimize_scalar
 
+# test/, for the tests' generator: the imports below must follow (E402)
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "test"))
 from test_inverse import random_profiles  # noqa: E402  (the same generator the tests use)
 
 from vibrissa_ros.core import Catenary, Parabola, TwoCircles, run_scan, scan_grid  # noqa: E402
-from vibrissa_ros.core.inverse import covered_intervals, estimate_contact  # noqa: E402
-from vibrissa_ros.plots import direction_segments  # noqa: E402
+from vibrissa_ros.core.exact.inverse import covered_intervals, estimate_contact  # noqa: E402
+from vibrissa_ros.scan.plots import direction_segments  # noqa: E402
 
 
 def distance_to_profile(profile, x, y):
-    a0 = profile.alpha_at_x(min(max(x, profile.xi(profile.alpha_min + 1e-3)), profile.xi(profile.alpha_max - 1e-3)))
-    res = minimize_scalar(lambda a: math.dist(profile.point(a), (x, y)), bracket=(a0 - 0.05, a0 + 0.05),
-                          tol=1e-12)
+    a0 = profile.alpha_at_x(min(max(x, profile.xi(profile.alpha_min + 1e-3)),
+                                profile.xi(profile.alpha_max - 1e-3)))
+    res = minimize_scalar(lambda a: math.dist(profile.point(a), (x, y)),
+                          bracket=(a0 - 0.05, a0 + 0.05), tol=1e-12)
     return res.fun
 
 
@@ -64,7 +67,8 @@ def noisy(name, profile, seed, x_max):
     for d, (a, b) in enumerate(direction_segments(states)):
         xs = []
         for st in states[a:b]:
-            fx, fy, m0 = st.fx + rng.normal(0, sf), st.fy + rng.normal(0, sf), st.m0 + rng.normal(0, sm)
+            fx, fy, m0 = (st.fx + rng.normal(0, sf), st.fy + rng.normal(0, sf),
+                          st.m0 + rng.normal(0, sm))
             est = estimate_contact(st.pose, fx, fy, m0, min_force=3 * sf)
             if est is None:
                 continue
@@ -81,18 +85,19 @@ def noisy(name, profile, seed, x_max):
         return covered / (reach[1] - reach[0])
 
     tp, tc = np.array(to_profile), np.array(to_contact)
-    print(f"\n{name}: sigma_f = {sf:.4f}, sigma_m = {sm:.4f} (1% of peak f {f_peak:.3f}, peak |m0| {m_peak:.3f}); "
-          f"{len(tp)} estimates")
-    print(f"  distance to the true profile [L]: median {np.median(tp):.2e}, p95 {np.percentile(tp, 95):.2e}, "
-          f"max {tp.max():.2e}")
-    print(f"  distance to the true contact [L]: median {np.median(tc):.2e}, p95 {np.percentile(tc, 95):.2e}, "
-          f"max {tc.max():.2e}")
+    print(f"\n{name}: sigma_f = {sf:.4f}, sigma_m = {sm:.4f} (1% of peak f {f_peak:.3f}, peak "
+          f"|m0| {m_peak:.3f}); {len(tp)} estimates")
+    print(f"  distance to the true profile [L]: median {np.median(tp):.2e}, p95 "
+          f"{np.percentile(tp, 95):.2e}, max {tp.max():.2e}")
+    print(f"  distance to the true contact [L]: median {np.median(tc):.2e}, p95 "
+          f"{np.percentile(tc, 95):.2e}, max {tc.max():.2e}")
     for ph, label in ((1, "tangential"), (2, "tip")):
         spans = covered_intervals([x for x in phase_x[ph]], 0.02)
         text = ", ".join(f"[{a:+.2f}, {b:+.2f}]" for a, b in spans[:6]) or "none"
         print(f"  x recovered in phase {ph} ({label}): {text}")
-    print(f"  profile within reach x in [{reach[0]:.3f}, {reach[1]:.3f}]: recovered {fraction(per_direction[0]):.1%} "
-          f"by the first sweep direction, {fraction(per_direction[0] + per_direction[1]):.1%} by both")
+    print(f"  profile within reach x in [{reach[0]:.3f}, {reach[1]:.3f}]: recovered "
+          f"{fraction(per_direction[0]):.1%} by the first sweep direction, "
+          f"{fraction(per_direction[0] + per_direction[1]):.1%} by both")
 
 
 def main(argv=None):
@@ -100,8 +105,10 @@ def main(argv=None):
     parser.add_argument("--seed", type=int, default=11)
     args = parser.parse_args(argv)
     noise_free(args.seed)
-    for name, prof, x_max in (("parabola p0 = 0.3", Parabola(0.3), 2.0), ("catenary p0 = 0.5, c = 0.6", Catenary(0.5, 0.6), 1.5),
-                              ("two circles p0 = 0.4, R = 0.8 | 1.6", TwoCircles(0.4, 0.8, 1.6), 1.8)):
+    for name, prof, x_max in (("parabola p0 = 0.3", Parabola(0.3), 2.0),
+                              ("catenary p0 = 0.5, c = 0.6", Catenary(0.5, 0.6), 1.5),
+                              ("two circles p0 = 0.4, R = 0.8 | 1.6",
+                               TwoCircles(0.4, 0.8, 1.6), 1.8)):
         noisy(name, prof, args.seed, x_max)
 
 

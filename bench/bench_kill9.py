@@ -1,4 +1,5 @@
-"""What a kill -9 of a recording whisker_node loses, measured.
+"""
+What a kill -9 of a recording whisker_node loses, measured.
 
 Streams foot poses at --rate into whisker_node with record.path set, kills it with SIGKILL at a
 random moment, repairs the log with `vibrissa repair` and measures how long before the kill the
@@ -21,11 +22,12 @@ from pathlib import Path
 
 import rclpy
 
+# bench/, for bench_node's driver: the imports below must follow (E402)
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_node import Driver  # noqa: E402
 
-from vibrissa_ros.log_tools import decode  # noqa: E402
-from vibrissa_ros.mcap_log import read_log, repair  # noqa: E402
+from vibrissa_ros.logs.tools import decode  # noqa: E402
+from vibrissa_ros.logs.mcap_log import read_log, repair  # noqa: E402
 from vibrissa_ros.ros.sweep import whisker_node_executable  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -84,11 +86,12 @@ def main(argv=None):
             for run in range(args.runs):
                 loss = one_run(context, args.rate, Path(tmp), rng)
                 losses.append(loss)
-                print(f"run {run + 1}: the oldest lost pose was sent {loss * 1e3:.0f} ms before the kill", flush=True)
+                print(f"run {run + 1}: the oldest lost pose was sent {loss * 1e3:.0f} ms before "
+                      "the kill", flush=True)
     finally:
         rclpy.try_shutdown(context=context)
-    print(f"kill -9 at {args.rate:.0f} Hz: worst loss {max(losses) * 1e3:.0f} ms of data over {args.runs} runs "
-          f"(median {sorted(losses)[len(losses) // 2] * 1e3:.0f} ms)")
+    print(f"kill -9 at {args.rate:.0f} Hz: worst loss {max(losses) * 1e3:.0f} ms of data over "
+          f"{args.runs} runs (median {sorted(losses)[len(losses) // 2] * 1e3:.0f} ms)")
 
 
 if __name__ == "__main__":

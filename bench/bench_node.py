@@ -1,4 +1,5 @@
-"""Pose -> wrench latency and loss of whisker_node at a fixed rate, next to a trivial echo node.
+"""
+Pose -> wrench latency and loss of whisker_node at a fixed rate, next to a trivial echo node.
 
 Three processes per measured node, so that neither end's Python sits on the measured path: the
 node under test, a sender (publishes foot poses, each stamped with its send time) and a receiver
@@ -48,7 +49,7 @@ def receiver(work: Path) -> None:
     import rclpy
     from geometry_msgs.msg import WrenchStamped
 
-    from vibrissa_ros.edge import header_ns
+    from vibrissa_ros.node.edge import header_ns
 
     rclpy.init()
     node = rclpy.create_node("bench_receiver")
@@ -163,7 +164,8 @@ def main(argv=None):
     parser.add_argument("--ramp", type=lambda s: [float(v) for v in s.split(",")],
                         default=[1000, 2000, 3000, 4000, 5000])
     parser.add_argument("--ramp-seconds", type=float, default=5.0)
-    parser.add_argument("--log", default=os.path.join(tempfile.gettempdir(), "vibrissa_bench.mcap"),
+    parser.add_argument("--log",
+                        default=os.path.join(tempfile.gettempdir(), "vibrissa_bench.mcap"),
                         help="where the recording run writes its log")
     parser.add_argument("--nodes", default="whisker,recording,echo",
                         help="which to measure: whisker, recording (record.path), echo")
@@ -201,8 +203,8 @@ def main(argv=None):
                   f"p99 {np.percentile(w, 99) / np.percentile(e, 99):.2f}x")
     if "recording" in results and "log_bytes" in results["recording"]:
         size = results["recording"]["log_bytes"]
-        print(f"recording: a {args.seconds:.0f} s log at {args.rate:.0f} Hz is {size / 1e6:.1f} MB "
-              f"({size / args.seconds / args.rate:.0f} bytes per pose, zstd)")
+        print(f"recording: a {args.seconds:.0f} s log at {args.rate:.0f} Hz is "
+              f"{size / 1e6:.1f} MB ({size / args.seconds / args.rate:.0f} bytes per pose, zstd)")
 
 
 if __name__ == "__main__":

@@ -1,4 +1,5 @@
-"""``vibrissa replay --rate 0`` of a 60 s, 1 kHz log into a fresh whisker_node: time and loss.
+"""
+``vibrissa replay --rate 0`` of a 60 s, 1 kHz log into a fresh whisker_node: time and loss.
 
 Writes a log like whisker_node records it (the catenary of config/catenary.yaml, the foot sweeping
 x = 0.15 -> -0.15 -> 0.15 m every 10 s at 1 kHz, with every output computed by the node's own
@@ -29,11 +30,11 @@ from geometry_msgs.msg import WrenchStamped
 from domain_coordinator import domain_id
 from rclpy.serialization import serialize_message
 
-from vibrissa_ros.edge import event_record, header_ns
-from vibrissa_ros.log_tools import decode
-from vibrissa_ros.mcap_log import CONFIGURATION_METADATA, LogWriter, TopicSpec, read_log
-from vibrissa_ros.node_config import build_config
-from vibrissa_ros.pipeline import PosePipeline
+from vibrissa_ros.node.edge import event_record, header_ns
+from vibrissa_ros.logs.tools import decode
+from vibrissa_ros.logs.mcap_log import CONFIGURATION_METADATA, LogWriter, TopicSpec, read_log
+from vibrissa_ros.node.config import build_config
+from vibrissa_ros.node.pipeline import PosePipeline
 from vibrissa_ros.ros import messages as m
 from vibrissa_ros.ros.recorder import configuration_record
 
@@ -55,7 +56,7 @@ def sweep_x(t: float, period: float = 10.0, amplitude: float = 0.15) -> float:
 
 
 def write_log(path: Path, seconds: float, rate: float) -> int:
-    """A log as whisker_node records it; returns the number of poses."""
+    """Write a log as whisker_node records it; return the number of poses."""
     cfg = build_config(VALUES)
     pipeline = PosePipeline(cfg)
     log = LogWriter(str(path), chunk_size=1 << 20)
@@ -67,13 +68,15 @@ def write_log(path: Path, seconds: float, rate: float) -> int:
         stamp = t0 + int(round(i * 1e9 / rate))
         pose = m.pose_stamped(sweep_x(i / rate), 0.0, math.pi / 2, stamp)
         state, events = pipeline.handle("world", stamp, (sweep_x(i / rate), 0.0, 0.0),
-                                        (0.0, 0.0, pose.pose.orientation.z, pose.pose.orientation.w))
+                                        (0.0, 0.0, pose.pose.orientation.z,
+                                         pose.pose.orientation.w))
         reading, sensed = pipeline.reading(state)
         out = [("foot_pose", pose),
                ("wrench", m.fill_wrench(WrenchStamped(), pose.header.stamp, cfg.base_frame,
                                         sensed[:2], sensed[2])),
                ("phase", m.phase_msg(reading.phase)),
-               ("contact_force", m.vector_stamped(pose.header.stamp, "world", reading.force_world)),
+               ("contact_force",
+                m.vector_stamped(pose.header.stamp, "world", reading.force_world)),
                ("contact_force_magnitude", m.float_msg(reading.force_magnitude))]
         if reading.contact_world is not None:
             out += [("contact_point", m.point_stamped(pose.header.stamp, "world",
@@ -118,7 +121,7 @@ def run_once(log: Path, n: int, tmp: Path, env, context):
     second.unlink(missing_ok=True)
     exe = Path(sys.executable).with_name("whisker_node")
     args = [f"{k}:={v}" for k, v in VALUES.items()] + [f"record.path:={second}",
-                                                        "diagnostics.period:=0.1"]
+                                                       "diagnostics.period:=0.1"]
     cmd = [str(exe), "--ros-args", "--log-level", "warn"] + [a for p in args for a in ("-p", p)]
     node = subprocess.Popen(cmd, env=env, start_new_session=True)
     time.sleep(2.0)  # let it come up
@@ -147,8 +150,8 @@ def main(argv=None):
     args = parser.parse_args(argv)
     with domain_id() as domain, tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
-        env = dict(os.environ, ROS_DOMAIN_ID=str(domain), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
-                   ROS_LOG_DIR=str(tmp / "roslog"))
+        env = dict(os.environ, ROS_DOMAIN_ID=str(domain),
+                   ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST", ROS_LOG_DIR=str(tmp / "roslog"))
         os.environ.update(env)
         log = tmp / "run.mcap"
         t = time.monotonic()
@@ -163,10 +166,10 @@ def main(argv=None):
             for _ in range(args.repeat):
                 runs.append(run_once(log, n, tmp, env, context))
                 t_replay, t_done, ok, lost, differ = runs[-1]
-                print(f"replay --rate 0: published and acknowledged in {t_replay:.1f} s; node done "
-                      f"after {t_done:.1f} s ({n / t_done:.0f} poses/s, {args.seconds / t_done:.1f}x "
-                      f"real time); lost {lost}, differing wrenches {differ}"
-                      f"{'' if ok else '  <- the node did not handle every pose'}")
+                print(f"replay --rate 0: published and acknowledged in {t_replay:.1f} s; node "
+                      f"done after {t_done:.1f} s ({n / t_done:.0f} poses/s, "
+                      f"{args.seconds / t_done:.1f}x real time); lost {lost}, differing wrenches "
+                      f"{differ}{'' if ok else '  <- the node did not handle every pose'}")
         finally:
             rclpy.try_shutdown(context=context)
     print(f"median: replay {statistics.median(r[0] for r in runs):.1f} s, all answered "

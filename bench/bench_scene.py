@@ -1,4 +1,5 @@
-"""Cost of the scene's geometric queries: signed distance of points to each kind of obstacle.
+"""
+Cost of the scene's geometric queries: signed distance of points to each kind of obstacle.
 
 The solvers of several contacts call ``signed_distance`` on the whisker's points at every step and
 ``closest`` when a touch is located, so this is their geometric overhead. For each obstacle kind
@@ -21,8 +22,9 @@ from pathlib import Path
 import numpy as np
 
 from vibrissa_ros.core.profiles import Peg
-from vibrissa_ros.core.scene import CurveObstacle, PegObstacle, PolygonObstacle, ProfileObstacle
-from vibrissa_ros.scene_file import load_scene
+from vibrissa_ros.core.scenes.scene import (CurveObstacle, PegObstacle, PolygonObstacle,
+                                            ProfileObstacle)
+from vibrissa_ros.scan.scene_file import load_scene
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -1,4 +1,5 @@
-"""Cost and self-consistency of the scene shooting solver (the independent check of issue 13).
+"""
+Cost and self-consistency of the scene shooting solver (the independent check of issue 13).
 
 For the golden scenes of test/data/scene_golden.json (two pegs on a straight and on a tapered,
 curved whisker; a tip and a side contact on a non-convex curve) and for one contact on a circle:
@@ -25,11 +26,11 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "test"))
+sys.path.insert(0, str(ROOT / "test"))  # the tests' scenes: the imports below follow it (E402)
 
 from vibrissa_ros.core import FootPose, WhiskerShape  # noqa: E402
-from vibrissa_ros.core.boundary import CircleArc, GraphArc  # noqa: E402
-from vibrissa_ros.core.scene_shooting import (  # noqa: E402
+from vibrissa_ros.core.scenes.boundary import CircleArc, GraphArc  # noqa: E402
+from vibrissa_ros.core.checks.scene_shooting import (  # noqa: E402
     ContactSpec,
     PosePath,
     follow_path,

@@ -1,7 +1,8 @@
-"""Cost of one tracker step on random foot paths: the worst case is what bounds the node's latency.
+"""
+Cost of one tracker step on random foot paths: the worst case is what bounds the node's latency.
 
-Random profiles of every family (sizes over 1e-2..1e2, random placements), both models, random walks
-with big jumps, far poses (1e5, 1e6 L), rotations and reversals — the same kinds of paths the
+Random profiles of every family (sizes over 1e-2..1e2, random placements), both models, random
+walks with big jumps, far poses (1e5, 1e6 L), rotations and reversals — the same kinds of paths the
 property tests draw. Prints the evaluations (model and profile evaluations, the unit the tracker's
 budget counts) and the wall time per step: median, p99 and the worst, and how the steps ended.
 
@@ -31,7 +32,10 @@ from vibrissa_ros.core import (
 def random_profile(rng):
     family = rng.choice(["parabola", "catenary", "circle", "two_circles", "ellipse"])
     p0 = rng.uniform(0.05, 0.95)
-    size = lambda: 10 ** rng.uniform(-2, 2)  # noqa: E731
+
+    def size():
+        return 10 ** rng.uniform(-2, 2)
+
     if family == "parabola":
         prof = Parabola(p0, size())
     elif family == "catenary":
@@ -50,11 +54,13 @@ def random_profile(rng):
 def next_pose(rng, pose, rotate):
     r = rng.random()
     if r < 0.25:
-        return FootPose(rng.uniform(-3, 3), rng.uniform(-0.5, 0.6), rng.uniform(0, math.pi) if rotate else math.pi / 2)
+        return FootPose(rng.uniform(-3, 3), rng.uniform(-0.5, 0.6),
+                        rng.uniform(0, math.pi) if rotate else math.pi / 2)
     if r < 0.28:
         return FootPose(rng.choice([1e5, -1e5, 1e6]), 0.0, math.pi / 2)
     return FootPose(
-        pose.x + rng.gauss(0, 0.2), pose.y + rng.gauss(0, 0.05), pose.heading + (rng.gauss(0, 0.2) if rotate else 0.0)
+        pose.x + rng.gauss(0, 0.2), pose.y + rng.gauss(0, 0.05),
+        pose.heading + (rng.gauss(0, 0.2) if rotate else 0.0)
     )
 
 
@@ -94,12 +100,17 @@ def main():
     evaluations.sort()
     seconds.sort()
     n = len(evaluations)
-    p99 = lambda xs: xs[min(n - 1, int(0.99 * n))]  # noqa: E731
-    print(f"{n} steps on {args.paths} random paths; budget {TrackerOptions().max_evaluations} evaluations per step")
-    print(f"evaluations per step: median {statistics.median(evaluations):.0f}, p99 {p99(evaluations)}, max {evaluations[-1]}")
+
+    def p99(xs):
+        return xs[min(n - 1, int(0.99 * n))]
+
+    print(f"{n} steps on {args.paths} random paths; budget {TrackerOptions().max_evaluations} "
+          "evaluations per step")
+    print(f"evaluations per step: median {statistics.median(evaluations):.0f}, p99 "
+          f"{p99(evaluations)}, max {evaluations[-1]}")
     print(
-        f"wall time per step:   median {statistics.median(seconds) * 1e3:.2f} ms, p99 {p99(seconds) * 1e3:.1f} ms, "
-        f"max {seconds[-1] * 1e3:.1f} ms"
+        f"wall time per step:   median {statistics.median(seconds) * 1e3:.2f} ms, p99 "
+        f"{p99(seconds) * 1e3:.1f} ms, max {seconds[-1] * 1e3:.1f} ms"
     )
     print(f"costliest step: {worst[0]} evaluations, {worst[1] * 1e3:.1f} ms: {worst[2]}")
     print("outcomes: " + ", ".join(f"{k} {v}" for k, v in outcomes.most_common()))

@@ -1,4 +1,5 @@
-"""The baseline for bench_node.py: a trivial node that answers each foot pose with an empty wrench.
+"""
+The baseline for bench_node.py: a trivial node that answers each foot pose with an empty wrench.
 
 Same topics, QoS and executor as whisker_node, no mechanics: what rclpy and DDS cost on their own.
 """
@@ -13,7 +14,8 @@ from vibrissa_ros.ros.run import run_node
 class EchoNode(Node):
     def __init__(self):
         super().__init__("whisker_node")
-        qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000, reliability=ReliabilityPolicy.RELIABLE)
+        qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000,
+                         reliability=ReliabilityPolicy.RELIABLE)
         self._pub = self.create_publisher(WrenchStamped, "~/wrench", qos)
         self.create_subscription(PoseStamped, "~/foot_pose", self._on_pose, qos)
 

@@ -21,11 +21,12 @@ import sys
 
 import numpy as np
 
+# the checkout's package, for a run from bench/: the imports below must follow (E402)
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
 
-from vibrissa_ros.core.inverse import estimate_contact  # noqa: E402
+from vibrissa_ros.core.exact.inverse import estimate_contact  # noqa: E402
 from vibrissa_ros.core.scan import run_scene  # noqa: E402
-from vibrissa_ros.scene_file import load_scene  # noqa: E402
+from vibrissa_ros.scan.scene_file import load_scene  # noqa: E402
 
 SCENE = "obstacles:\n  - {type: circle, p0: 0.5, R: 1.0}\n"
 

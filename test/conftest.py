@@ -1,19 +1,17 @@
+import csv
+import math
 import sys
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).parent))  # test helpers (ros_harness)
-
-import csv
-import math
-from pathlib import Path
-
 import pytest
+
+sys.path.insert(0, str(Path(__file__).parent))  # test helpers (ros_harness)
 
 DATA = Path(__file__).parent / "data"
 
 
 def read_reference(name="elastica_parabola_p0_0.3.csv"):
-    """Rows (dicts of floats, NaN for empty) and the '# event:' header records of a reference scan."""
+    """Read a reference scan: rows (dicts of floats, NaN for empty), '# event:' header records."""
     path = DATA / name
     events = []
     lines = []
@@ -25,7 +23,8 @@ def read_reference(name="elastica_parabola_p0_0.3.csv"):
             elif not line.startswith("#"):
                 lines.append(line)
     reader = csv.DictReader(lines)
-    rows = [{k: (float(v) if v not in ("", "nan") else math.nan) for k, v in row.items()} for row in reader]
+    rows = [{k: (float(v) if v not in ("", "nan") else math.nan) for k, v in row.items()}
+            for row in reader]
     return rows, events
 
 
@@ -36,12 +35,13 @@ def reference_scan():
 
 @pytest.fixture(scope="session")
 def ros_domain(tmp_path_factory):
-    """A ROS_DOMAIN_ID reserved for this test session, set for this process and its children."""
+    """Reserve a ROS_DOMAIN_ID for this test session, set for this process and its children."""
     import os
 
     from domain_coordinator import domain_id
 
-    keys = ("ROS_DOMAIN_ID", "ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_LOG_DIR", "ROS_PYTHON_CHECK_FIELDS")
+    keys = ("ROS_DOMAIN_ID", "ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_LOG_DIR",
+            "ROS_PYTHON_CHECK_FIELDS")
     saved = {k: os.environ.get(k) for k in keys}
     with domain_id() as domain:
         os.environ["ROS_DOMAIN_ID"] = str(domain)
@@ -67,7 +67,7 @@ def ros_env(ros_domain):
 
 @pytest.fixture(scope="session")
 def installed(tmp_path_factory, ros_env):
-    """The package built with ``colcon build`` (the CI build check) into a temporary workspace."""
+    """Build the package with ``colcon build`` (the CI build check) into a temporary workspace."""
     from ros_harness import colcon_build
 
     return colcon_build(tmp_path_factory.mktemp("ws"), ros_env)

@@ -1,4 +1,5 @@
-"""Launch-free ROS 2 test harness: build with colcon, start installed nodes, probe their topics.
+"""
+Launch-free ROS 2 test harness: build with colcon, start installed nodes, probe their topics.
 
 Isolation: every test session reserves its own ROS_DOMAIN_ID (domain_coordinator), discovery is
 limited to this machine, logs go to a temporary folder, and ROS_PYTHON_CHECK_FIELDS=1 makes a wrong
@@ -26,12 +27,14 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from std_msgs.msg import Float64, String, UInt8
 from visualization_msgs.msg import Marker, MarkerArray
 
-from vibrissa_ros.edge import header_ns
+from vibrissa_ros.node.edge import header_ns
 from vibrissa_ros.ros.messages import pose_stamped
 
 ROOT = Path(__file__).resolve().parents[1]
-RELIABLE = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000, reliability=ReliabilityPolicy.RELIABLE)
-LATCHED = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1, reliability=ReliabilityPolicy.RELIABLE,
+RELIABLE = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000,
+                      reliability=ReliabilityPolicy.RELIABLE)
+LATCHED = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,
+                     reliability=ReliabilityPolicy.RELIABLE,
                      durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
 
@@ -60,7 +63,7 @@ def colcon_build(workdir: Path, env: Dict[str, str]) -> Path:
 
 
 def write_params(path: Path, values: Dict[str, object], node: str = "/**") -> Path:
-    """A ROS 2 parameter file (JSON is YAML) with nested keys for the dotted names."""
+    """Write a ROS 2 parameter file (JSON is YAML) with nested keys for the dotted names."""
     tree: Dict[str, object] = {}
     for name, value in values.items():
         parts = name.split(".")
@@ -72,19 +75,26 @@ def write_params(path: Path, values: Dict[str, object], node: str = "/**") -> Pa
     return path
 
 
-def start_installed_node(install: Path, params_file: Optional[Path], env: Dict[str, str], namespace: str = "",
-                         executable: str = "whisker_node", extra: str = "") -> subprocess.Popen:
-    """Start an installed executable the way ``ros2 run vibrissa_ros <exe>`` finds it: source the
-    workspace, ask the ament index for the package prefix, exec <prefix>/lib/vibrissa_ros/<exe>."""
-    lookup = f'"{sys.executable}" -c "from ament_index_python.packages import get_package_prefix as g; print(g(\'vibrissa_ros\'))"'
+def start_installed_node(install: Path, params_file: Optional[Path], env: Dict[str, str],
+                         namespace: str = "", executable: str = "whisker_node",
+                         extra: str = "") -> subprocess.Popen:
+    """
+    Start an installed executable the way ``ros2 run vibrissa_ros <exe>`` finds it.
+
+    Source the workspace, ask the ament index for the package prefix, exec
+    <prefix>/lib/vibrissa_ros/<exe>.
+    """
+    lookup = (f'"{sys.executable}" -c "from ament_index_python.packages import get_package_prefix '
+              'as g; print(g(\'vibrissa_ros\'))"')
     args = "--ros-args"
     if params_file is not None:
         args += f" --params-file {params_file}"
     if namespace:
         args += f" -r __ns:={namespace}"
-    cmd = f'. "{install}/local_setup.bash" && exec "$({lookup})/lib/vibrissa_ros/{executable}" {args} {extra}'
-    return subprocess.Popen(["bash", "-c", cmd], env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                            text=True, start_new_session=True)
+    cmd = (f'. "{install}/local_setup.bash" && exec "$({lookup})/lib/vibrissa_ros/{executable}" '
+           f'{args} {extra}')
+    return subprocess.Popen(["bash", "-c", cmd], env=env, stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT, text=True, start_new_session=True)
 
 
 def stop(proc: subprocess.Popen, sig=signal.SIGINT, timeout: float = 10.0) -> int:
@@ -139,7 +149,8 @@ class Probe:
         for topic, (kind, default_qos) in self.TOPICS.items():
             use = default_qos if (qos is None or topic in self.LATCHED_TOPICS) else qos
             self.node.create_subscription(kind, f"{prefix}/{topic}", self._keep(topic), use)
-        self.node.create_subscription(DiagnosticArray, "/diagnostics", self._keep("diagnostics"), 50)
+        self.node.create_subscription(DiagnosticArray, "/diagnostics",
+                                      self._keep("diagnostics"), 50)
         self.pub = self.node.create_publisher(PoseStamped, f"{prefix}/foot_pose", pose_qos)
         self.executor = SingleThreadedExecutor(context=context)
         self.executor.add_node(self.node)
@@ -185,7 +196,8 @@ class Probe:
         ok = self.spin_until(
             lambda: any(stamp_of(m) == stamp for m in self.got["wrench"][-3:])
             and any(stamp_of(m) == stamp for m in self.got["contact_force"][-3:])
-            and len(self.got["phase"]) > n_phase and len(self.got["contact_force_magnitude"]) > n_phase
+            and len(self.got["phase"]) > n_phase
+            and len(self.got["contact_force_magnitude"]) > n_phase
             and (not centerline or any(stamp_of(m) == stamp for m in self.got["centerline"][-3:])),
             timeout,
         )
@@ -197,10 +209,11 @@ class Probe:
         stamp = stamp_of(msg)
         self.pub.publish(msg)
         self.spin_for(wait)
-        assert not any(stamp_of(m) == stamp for m in self.got["wrench"]), "a dropped pose was answered"
+        assert not any(stamp_of(m) == stamp
+                       for m in self.got["wrench"]), "a dropped pose was answered"
 
     def diagnostics_value(self, key: str, after: float = 0.0) -> str:
-        """A key of the next /diagnostics status from our node received after ``after`` (monotonic)."""
+        """Return ``key`` of our node's next /diagnostics status after ``after`` (monotonic)."""
         start = len(self.got["diagnostics"])
         self.spin_until(lambda: len(self.got["diagnostics"]) > start, 10.0)
         for array in reversed(self.got["diagnostics"]):

@@ -1,6 +1,10 @@
-"""vibrissa batch on a real Dask LocalCluster of 2 worker processes: results equal serial ``vibrissa scan``
-runs value for value; a lost worker and a killed driver lose nothing and duplicate nothing; a resumed
-run computes only what is missing and ends with the very dataset of an uninterrupted run."""
+"""
+vibrissa batch on a real Dask LocalCluster of 2 worker processes.
+
+Results equal serial ``vibrissa scan`` runs value for value; a lost worker and a killed driver lose
+nothing and duplicate nothing; a resumed run computes only what is missing and ends with the very
+dataset of an uninterrupted run.
+"""
 
 import csv
 import io
@@ -19,21 +23,23 @@ import pytest
 pytest.importorskip("distributed")
 pytest.importorskip("pyarrow")
 
-import pyarrow.parquet as pq
+# the imports need pyarrow and Dask: after the skips above
+import pyarrow.parquet as pq  # noqa: E402
 
-from vibrissa_ros import dataset
-from vibrissa_ros.batch import run_study
-from vibrissa_ros.cli import main
-from vibrissa_ros.noise import NoiseSpec, SensorNoise
-from vibrissa_ros.scan_io import CSV_COLUMNS, POSE_CSV_COLUMNS
-from vibrissa_ros.study import parse_study
+from vibrissa_ros.studies import dataset  # noqa: E402
+from vibrissa_ros.studies.batch import run_study  # noqa: E402
+from vibrissa_ros.cli import main  # noqa: E402
+from vibrissa_ros.node.noise import NoiseSpec, SensorNoise  # noqa: E402
+from vibrissa_ros.scan.scan_io import CSV_COLUMNS, POSE_CSV_COLUMNS  # noqa: E402
+from vibrissa_ros.studies.study import parse_study  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
-# dask.dataframe's own parquet reader calls a pandas API that pandas 3.1 deprecates: not ours to fix
+# dask.dataframe's own parquet reader calls a pandas API that pandas 3.1 deprecates: not ours
+# to fix
 pytestmark = pytest.mark.filterwarnings("ignore:The inplace keyword:DeprecationWarning")
 
-# 32 tasks of 81-161 poses: two whiskers, parabolas and random ellipses, tilted, swept both ways; two of
-# them fail (the tilted flat parabola is cut by the straight whisker at the start)
+# 32 tasks of 81-161 poses: two whiskers, parabolas and random ellipses, tilted, swept both ways;
+# two of them fail (the tilted flat parabola is cut by the straight whisker at the start)
 STUDY = """
 seed: 2
 whisker: {model: [elastica, rigid], spring_stiffness: 3}
@@ -55,8 +61,8 @@ noise: {force_stddev: 0.002, torque_stddev: 0.001}
 def client():
     from distributed import Client, LocalCluster
 
-    cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0",
-                           silence_logs=50)
+    cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                           dashboard_address=":0", silence_logs=50)
     with Client(cluster) as c:
         yield c
     cluster.close()
@@ -71,7 +77,7 @@ def study(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def reference(client, study, tmp_path_factory):
-    """The uninterrupted run."""
+    """Run the study uninterrupted: the dataset the other runs must end with."""
     out = tmp_path_factory.mktemp("reference") / "ds"
     report = run_study(study[1], str(out), client=client, progress=None)
     assert report.complete and report.computed == 32 and report.failed == 2 and not report.errors
@@ -94,15 +100,19 @@ def test_every_task_equals_vibrissa_scan_of_it_value_for_value(reference, study,
 
 
 def test_a_study_of_tapered_and_curved_whiskers_equals_vibrissa_scan(client, tmp_path, capsys):
-    """Whisker geometry as study axes: the general solver, picked as vibrissa scan --solver auto
-    picks it; every task equals ``vibrissa scan --taper --curvature`` value for value."""
+    """
+    Whisker geometry as study axes: the general solver, picked as --solver auto picks it.
+
+    Every task equals ``vibrissa scan --taper --curvature`` value for value.
+    """
     text = """
 whisker: {taper: [1, 0.3], curvature_k0: [0, 0.5]}
 obstacles: [{profile: parabola, params: {p0: 0.35}}]
 motion: {from: 1.6, to: -1.6, step: 0.1}
 """
     sub = parse_study(text)
-    assert {(t.taper, t.curvature_k0) for t in sub.tasks} == {(1.0, 0.0), (1.0, 0.5), (0.3, 0.0), (0.3, 0.5)}
+    assert {(t.taper, t.curvature_k0) for t in sub.tasks} == {(1.0, 0.0), (1.0, 0.5), (0.3, 0.0),
+                                                              (0.3, 0.5)}
     out = tmp_path / "ds"
     report = run_study(sub, str(out), client=client, progress=None)
     assert report.complete and report.computed == 4 and report.failed == 0
@@ -111,9 +121,9 @@ motion: {from: 1.6, to: -1.6, step: 0.1}
     _assert_equals_vibrissa_scan(ds, sub, tmp_path, capsys)
 
 
-# 18 tasks: two whiskers, two pegs and a parabola, a slide and two whisks (from beside the parabola, and from
-# the origin); the rigid model fails where a peg meets the whisker's side, the whisk from the origin cannot
-# start inside the parabola
+# 18 tasks: two whiskers, two pegs and a parabola, a slide and two whisks (from beside the
+# parabola, and from the origin); the rigid model fails where a peg meets the whisker's side, the
+# whisk from the origin cannot start inside the parabola
 WHISK_AND_PEG = """
 seed: 4
 whisker: {model: [elastica, rigid], spring_stiffness: 3}
@@ -131,7 +141,11 @@ noise: {force_stddev: 0.002}
 
 
 def test_a_study_of_whisks_and_pegs_equals_vibrissa_scan(client, tmp_path, capsys):
-    """Whisking and pegs as study axes: every task equals ``vibrissa scan --whisk`` / ``--profile peg``."""
+    """
+    Whisking and pegs as study axes.
+
+    Every task equals ``vibrissa scan --whisk`` / ``--profile peg``.
+    """
     sub = parse_study(WHISK_AND_PEG)
     out = tmp_path / "ds"
     report = run_study(sub, str(out), client=client, progress=None)
@@ -187,12 +201,15 @@ def _assert_equals_vibrissa_scan(ds, study, tmp_path, capsys):
         want_events = json.loads(ev_path.read_text())
         got_events = events[events.task == task.index]
         where = ("x", "y", "heading") if whisk else ("x0",)
-        got_where = [got_events.foot_x, got_events.foot_y, got_events.heading] if whisk else [got_events.x0]
-        assert [tuple(e[k] for k in where + ("kind", "from_phase", "to_phase")) for e in want_events] == \
+        got_where = ([got_events.foot_x, got_events.foot_y, got_events.heading] if whisk
+                     else [got_events.x0])
+        assert [tuple(e[k] for k in where + ("kind", "from_phase", "to_phase"))
+                for e in want_events] == \
             list(zip(*got_where, got_events.kind, got_events.from_phase, got_events.to_phase))
         assert len(want_events) == len(got_events)
         # the task's parameters ride along on every row
-        assert set(mine.profile) == {task.profile} and set(mine.rotation_deg) == {task.rotation_deg}
+        assert (set(mine.profile) == {task.profile}
+                and set(mine.rotation_deg) == {task.rotation_deg})
         assert set(mine.model) == {task.model}
 
 
@@ -201,7 +218,8 @@ def test_noisy_columns_are_the_node_noise_model_seeded_per_task(reference):
     for task in (0, 17):
         rows = poses[poses.task == task]
         seed = int(rows.noise_seed.iloc[0])
-        noise = SensorNoise(NoiseSpec(enabled=True, seed=seed, force_stddev=0.002, torque_stddev=0.001))
+        noise = SensorNoise(NoiseSpec(enabled=True, seed=seed, force_stddev=0.002,
+                                      torque_stddev=0.001))
         for _, r in rows.iterrows():
             assert noise.apply(r.fx, r.fy, r.m0) == (r.fx_noisy, r.fy_noisy, r.m0_noisy)
     assert poses.groupby("task").noise_seed.first().nunique() == 30
@@ -212,11 +230,13 @@ def test_the_dataset_reads_the_same_in_pandas_pyarrow_dask_and_polars(reference)
     import pyarrow.dataset as pads
 
     want = dataset.open(str(reference)).table("poses").to_pandas()
-    assert len(want) == sum(len(t.grid()) for t in parse_study(STUDY).tasks if t.index not in (3, 19))
+    assert len(want) == sum(len(t.grid()) for t in parse_study(STUDY).tasks
+                            if t.index not in (3, 19))
     by_pandas = pd.read_parquet(reference / "poses")
     by_arrow = pads.dataset(str(reference / "poses"), format="parquet").to_table().to_pandas()
     for got in (by_pandas, by_arrow):
-        pd.testing.assert_frame_equal(got.sort_values(["task", "step"]).reset_index(drop=True), want)
+        pd.testing.assert_frame_equal(got.sort_values(["task", "step"]).reset_index(drop=True),
+                                      want)
     dd = pytest.importorskip("dask.dataframe")
     by_dask = dd.read_parquet(str(reference / "poses")).compute(scheduler="sync")
     assert len(by_dask) == len(want)
@@ -240,7 +260,8 @@ def test_another_study_into_the_same_directory_is_refused(reference, study, tmp_
     assert "another study" in capsys.readouterr().err
 
 
-def test_a_worker_killed_mid_study_loses_and_duplicates_nothing(client, study, reference, tmp_path):
+def test_a_worker_killed_mid_study_loses_and_duplicates_nothing(client, study, reference,
+                                                                tmp_path):
     out = tmp_path / "ds"
     pids = list(client.run(os.getpid).values())
     killed = []
@@ -256,7 +277,8 @@ def test_a_worker_killed_mid_study_loses_and_duplicates_nothing(client, study, r
 
     killer = threading.Thread(target=kill_one_worker_mid_study)
     killer.start()
-    report = run_study(study[1], str(out), client=client, progress=None, window=6)  # refilled as tasks end
+    # refilled as tasks end
+    report = run_study(study[1], str(out), client=client, progress=None, window=6)
     killer.join()
     assert killed, "the study ended before a worker could be killed"
     assert report.complete and report.computed == 32 and not report.errors
@@ -265,15 +287,18 @@ def test_a_worker_killed_mid_study_loses_and_duplicates_nothing(client, study, r
         assert got[name].equals(want[name]), name
     poses = got["poses"].to_pandas()
     assert not poses.duplicated(["task", "step"]).any()
-    client.wait_for_workers(2, timeout=60)  # the nanny restarted it: the next tests have two workers again
+    # the nanny restarted it: the next tests have two workers again
+    client.wait_for_workers(2, timeout=60)
 
 
-def test_a_killed_driver_resumed_computes_only_the_missing_tasks(client, study, reference, tmp_path):
+def test_a_killed_driver_resumed_computes_only_the_missing_tasks(client, study, reference,
+                                                                 tmp_path):
     out = tmp_path / "ds"
     env = dict(os.environ, PYTHONPATH=str(ROOT))
-    proc = subprocess.Popen([sys.executable, "-m", "vibrissa_ros", "batch", str(study[0]), "--out", str(out),
-                             "--workers", "2", "--quiet"], env=env, start_new_session=True,
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    proc = subprocess.Popen([sys.executable, "-m", "vibrissa_ros", "batch", str(study[0]), "--out",
+                             str(out), "--workers", "2", "--quiet"], env=env,
+                            start_new_session=True, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.PIPE)
     try:
         deadline = time.monotonic() + 90
         while time.monotonic() < deadline and proc.poll() is None:
@@ -298,15 +323,17 @@ def test_a_killed_driver_resumed_computes_only_the_missing_tasks(client, study, 
 
 
 def test_a_cluster_worker_needs_no_ros():
-    code = ("import sys, vibrissa_ros.batch, vibrissa_ros.dataset, vibrissa_ros.study, vibrissa_ros.cli; "
-            "print(sorted(m for m in sys.modules if m.split('.')[0] in ('rclpy', 'rosidl_runtime_py', 'mcap')))")
+    code = ("import sys, vibrissa_ros.studies.batch, vibrissa_ros.studies.dataset, "
+            "vibrissa_ros.studies.study, vibrissa_ros.cli; print(sorted(m for m in sys.modules if "
+            "m.split('.')[0] in ('rclpy', 'rosidl_runtime_py', 'mcap')))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
                          env=dict(os.environ, PYTHONPATH=str(ROOT))).stdout
     assert out.strip() == "[]"
 
 
-# scene files in a study: two pegs (peg1 with its own coefficient) and one peg, each with friction 0 and 0.3
-# (the frictionless one-peg scene is the single-contact problem), beside a peg profile; a slide and a whisk
+# scene files in a study: two pegs (peg1 with its own coefficient) and one peg, each with friction
+# 0 and 0.3 (the frictionless one-peg scene is the single-contact problem), beside a peg profile; a
+# slide and a whisk
 SCENE_STUDY = """
 whisker: {model: elastica}
 obstacles:
@@ -320,12 +347,14 @@ motion:
 """
 
 
-def test_a_scene_study_equals_vibrissa_scan_scene_friction_value_for_value(client, tmp_path, capsys):
+def test_a_scene_study_equals_vibrissa_scan_scene_friction_value_for_value(client, tmp_path,
+                                                                           capsys):
     (tmp_path / "pegs.yaml").write_text((ROOT / "config" / "scene_two_pegs.yaml").read_text())
-    (tmp_path / "one_peg.yaml").write_text("obstacles:\n  - {type: peg, x: 0.0, y: 0.45, r: 0.05}\n")
+    (tmp_path / "one_peg.yaml").write_text(
+        "obstacles:\n  - {type: peg, x: 0.0, y: 0.45, r: 0.05}\n")
     path = tmp_path / "study.yaml"
     path.write_text(SCENE_STUDY)
-    from vibrissa_ros.study import load_study
+    from vibrissa_ros.studies.study import load_study
 
     sub = load_study(str(path))
     out = tmp_path / "ds"
@@ -334,8 +363,10 @@ def test_a_scene_study_equals_vibrissa_scan_scene_friction_value_for_value(clien
     ds = dataset.open(str(out))
     poses, events, tasks = ds.poses, ds.events, ds.tasks
     assert list(tasks.scene[:8:2]) == ["pegs.yaml", "pegs.yaml", "one_peg.yaml", "one_peg.yaml"]
-    assert list(tasks.friction[:8:2]) == [0.0, 0.3, 0.0, 0.3] and tasks.scene.isna()[8] and tasks.friction.isna()[8]
-    assert list(tasks.profile) == ["scene"] * 8 + ["peg"] * 2 and list(tasks.peg_x.isna()) == [True] * 8 + [False] * 2
+    assert (list(tasks.friction[:8:2]) == [0.0, 0.3, 0.0, 0.3]
+            and tasks.scene.isna()[8] and tasks.friction.isna()[8])
+    assert (list(tasks.profile) == ["scene"] * 8 + ["peg"] * 2
+            and list(tasks.peg_x.isna()) == [True] * 8 + [False] * 2)
     assert poses[poses.task == 0].contacts.max() == 2
     assert set(poses[poses.task == 8].contacts) == {0, 1}  # a profile: one contact or none
     assert list(events.columns[-3:]) == ["obstacle", "contact", "s"]
@@ -369,10 +400,13 @@ def test_a_scene_study_equals_vibrissa_scan_scene_friction_value_for_value(clien
                 assert got.obstacle == want.get("obstacle") and _none(got.s) == want.get("s")
             else:
                 assert (got.from_phase, got.to_phase) == (want["from_phase"], want["to_phase"])
-                assert _none(got.contact) is None and _none(got.s) is None and _none(got.obstacle) is None
-    # friction changes what the two pegs do; the one-peg scene without friction is the single-contact problem
+                assert (_none(got.contact) is None and _none(got.s) is None
+                        and _none(got.obstacle) is None)
+    # friction changes what the two pegs do; the one-peg scene without friction is the
+    # single-contact problem
     assert not poses[poses.task == 0].fx.equals(poses[poses.task == 2].fx)
-    assert set(events[events.task == 0].kind) <= {"touch", "release", "tip", "tangential", "slip", "stick", "snap"}
+    assert set(events[events.task == 0].kind) <= {"touch", "release", "tip", "tangential", "slip",
+                                                  "stick", "snap"}
 
 
 def _none(value):

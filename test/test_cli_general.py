@@ -28,8 +28,8 @@ def test_peg_scan_with_taper_and_negative_curvature(tmp_path, capsys):
     csv_path, ev_path = tmp_path / "scan.csv", tmp_path / "events.json"
     code, _, err = _run(
         ["scan", "--profile", "peg", "--param", "x=0", "--param", "y=0.6", "--param", "r=0.05",
-         "--taper", "0.0667", "--curvature=-1,0", "--from", "1", "--to", "-1", "--step", "0.02", "--back",
-         "--csv", str(csv_path), "--events", str(ev_path)],
+         "--taper", "0.0667", "--curvature=-1,0", "--from", "1", "--to", "-1", "--step", "0.02",
+         "--back", "--csv", str(csv_path), "--events", str(ev_path)],
         capsys,
     )
     assert code == 0, err
@@ -79,7 +79,8 @@ def test_poses_csv_drives_translation_and_whisking(tmp_path, capsys):
     )
     assert code == 0, err
     text = csv_path.read_text()
-    assert text.splitlines()[0] == "x,y,heading,phase,alpha,s1,tip_slope,f,fx,fy,m0,contact_x,contact_y"
+    assert (text.splitlines()[0]
+            == "x,y,heading,phase,alpha,s1,tip_slope,f,fx,fy,m0,contact_x,contact_y")
     rows = _rows(text)
     assert len(rows) == 61
     assert float(rows[-1]["heading"]) == pytest.approx(math.pi / 2 - 0.6)
@@ -91,19 +92,21 @@ def test_poses_csv_drives_translation_and_whisking(tmp_path, capsys):
 @pytest.mark.parametrize(
     "args, message",
     [
-        (["--profile", "parabola", "--param", "p0=0.3", "--taper", "0.5", "--solver", "exact"], "tapered or curved"),
+        (["--profile", "parabola", "--param", "p0=0.3", "--taper", "0.5", "--solver", "exact"],
+         "tapered or curved"),
         (["--profile", "peg", "--param", "x=0", "--param", "y=0.5", "--solver", "exact"], "peg"),
         (["--profile", "parabola", "--param", "p0=0.3", "--taper", "0"], "taper"),
         (["--profile", "parabola", "--param", "p0=0.3", "--taper", "1.2"], "taper"),
         (["--profile", "parabola", "--param", "p0=0.3", "--curvature", "1,2,3"], "K0"),
-        (["--profile", "parabola", "--param", "p0=0.3", "--model", "rigid", "--taper", "0.5"], "--model elastica"),
+        (["--profile", "parabola", "--param", "p0=0.3", "--model", "rigid", "--taper", "0.5"],
+         "--model elastica"),
         (["--profile", "peg", "--param", "x=0", "--param", "y=0.5", "--param", "r=-1"], "r"),
         (["--profile", "peg", "--param", "x=0"], "y"),
     ],
 )
 def test_bad_general_arguments_exit_2_with_one_line(args, message, tmp_path, capsys):
     code, _, err = _run(["scan"] + args + ["--from", "1", "--to", "-1", "--step", "0.5",
-                                            "--csv", str(tmp_path / "o.csv")], capsys)
+                                           "--csv", str(tmp_path / "o.csv")], capsys)
     assert code == 2
     assert len(err.strip().splitlines()) == 1
     assert message in err
@@ -112,16 +115,17 @@ def test_bad_general_arguments_exit_2_with_one_line(args, message, tmp_path, cap
 def test_poses_and_grid_are_exclusive(tmp_path, capsys):
     poses = tmp_path / "p.csv"
     poses.write_text("x,y,heading\n0,0,1.5\n")
-    code, _, err = _run(["scan", "--profile", "peg", "--param", "x=0", "--param", "y=0.5", "--poses", str(poses),
-                         "--from", "1", "--to", "0", "--step", "0.1", "--csv", str(tmp_path / "o.csv")], capsys)
+    code, _, err = _run(["scan", "--profile", "peg", "--param", "x=0", "--param", "y=0.5",
+                         "--poses", str(poses), "--from", "1", "--to", "0", "--step", "0.1",
+                         "--csv", str(tmp_path / "o.csv")], capsys)
     assert code == 2 and "not both" in err
     code, _, err = _run(["scan", "--profile", "peg", "--param", "x=0", "--param", "y=0.5",
                          "--csv", str(tmp_path / "o.csv")], capsys)
     assert code == 2 and "--poses" in err
     bad = tmp_path / "bad.csv"
     bad.write_text("x,heading\n0,1\n")
-    code, _, err = _run(["scan", "--profile", "peg", "--param", "x=0", "--param", "y=0.5", "--poses", str(bad),
-                         "--csv", str(tmp_path / "o.csv")], capsys)
+    code, _, err = _run(["scan", "--profile", "peg", "--param", "x=0", "--param", "y=0.5",
+                         "--poses", str(bad), "--csv", str(tmp_path / "o.csv")], capsys)
     assert code == 2 and "y" in err
 
 
@@ -133,8 +137,8 @@ def test_plot_of_a_whisking_scan_is_drawn_against_the_heading(tmp_path, capsys):
     png = tmp_path / "whisk.png"
     code, _, err = _run(
         ["scan", "--profile", "peg", "--param", "x=-0.3", "--param", "y=0.6", "--param", "r=0.04",
-         "--taper", "0.0667", "--curvature", "1,0.5", "--poses", str(poses), "--csv", str(tmp_path / "o.csv"),
-         "--plot", str(png)],
+         "--taper", "0.0667", "--curvature", "1,0.5", "--poses", str(poses), "--csv",
+         str(tmp_path / "o.csv"), "--plot", str(png)],
         capsys,
     )
     assert code == 0, err
@@ -145,15 +149,16 @@ def test_plot_runs_draws_a_peg_and_heading_axis():
     pytest.importorskip("matplotlib")
     from vibrissa_ros.core import FootPose, GeneralWhiskerModel, Peg, WhiskerShape
     from vibrissa_ros.core.scan import run_poses
-    from vibrissa_ros.plots import PlotRun, plot_runs
+    from vibrissa_ros.scan.plots import PlotRun, plot_runs
 
     peg = Peg(-0.3, 0.6, 0.04)
     poses = [FootPose(0.0, 0.0, math.pi / 2 - 0.3 + 0.03 * i) for i in range(41)]
     scan = run_poses(peg, poses, model=GeneralWhiskerModel(WhiskerShape(0.0667, 1.0, 0.5)))
-    fig = plot_runs([PlotRun("general", scan.states, scan.events, scan.event_steps)], peg, abscissa="heading")
+    fig = plot_runs([PlotRun("general", scan.states, scan.events, scan.event_steps)], peg,
+                    abscissa="heading")
     ax = fig.axes["m0"]
     assert ax.get_xlabel() == "foot heading [rad]"
-    lines = [l for l in ax.get_lines() if l.get_gid() == "general:m0:0"]
+    lines = [line for line in ax.get_lines() if line.get_gid() == "general:m0:0"]
     assert np.allclose(lines[0].get_xdata(), [p.heading for p in poses])
-    assert [l for l in fig.axes["sketch"].get_lines() if l.get_gid() == "obstacle"]
+    assert [line for line in fig.axes["sketch"].get_lines() if line.get_gid() == "obstacle"]
     fig.figure.clf()

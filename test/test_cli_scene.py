@@ -1,4 +1,4 @@
-"""`vibrissa scan --scene`: the scene contract (CSV + contacts column, events, --contacts, plot)."""
+"""`vibrissa scan --scene`: the scene contract (CSV, contacts column, events, --contacts, plot)."""
 
 import csv
 import json
@@ -45,7 +45,7 @@ def test_a_one_obstacle_scene_gives_the_profile_numbers(tmp_path, text, profile)
 
 def test_placed_profile_scene_equals_profile_with_the_same_placement(tmp_path):
     from vibrissa_ros.core.scan import run_scan
-    from vibrissa_ros.scene_file import load_scene
+    from vibrissa_ros.scan.scene_file import load_scene
 
     scene = load_scene(PARABOLA_SCENE)
     profile = scene.single_profile()
@@ -104,30 +104,38 @@ def test_bad_scenes_exit_2_with_one_line(tmp_path, text, needle):
 
 
 def test_friction_overrides_the_scene_coefficient_and_obstacles_keep_their_own(tmp_path):
-    """--friction MU is the scene file with ``friction: MU``, digit for digit; peg1's own 0.3 stays."""
+    """
+    --friction MU is the scene file with ``friction: MU``, digit for digit.
+
+    The scene's peg1 keeps its own 0.3.
+    """
     text = open("config/scene_two_pegs.yaml").read()
     assert "friction: 0.0\n" in text
     given = tmp_path / "given.yaml"
     given.write_text(text.replace("friction: 0.0\n", "friction: 0.2\n"))
     sweep = ["--from", "-0.1", "--to", "0.2", "--step", "0.02"]
     a, b, c = (tmp_path / n for n in ("a.csv", "b.csv", "c.csv"))
-    assert main(["scan", "--scene", "config/scene_two_pegs.yaml", "--friction", "0.2", *sweep, "--csv", str(a)]) == 0
+    assert main(["scan", "--scene", "config/scene_two_pegs.yaml", "--friction", "0.2", *sweep,
+                 "--csv", str(a)]) == 0
     assert main(["scan", "--scene", str(given), *sweep, "--csv", str(b)]) == 0
     assert main(["scan", "--scene", "config/scene_two_pegs.yaml", *sweep, "--csv", str(c)]) == 0
     assert _rows(a) == _rows(b) and _rows(a) != _rows(c)
-    scene = tmp_path / "own.yaml"  # every obstacle has its own coefficient: the override changes nothing
+    # every obstacle has its own coefficient: the override changes nothing
+    scene = tmp_path / "own.yaml"
     scene.write_text(text.replace("r: 0.04}", "r: 0.04, friction: 0.0}"))
     assert main(["scan", "--scene", str(scene), "--friction", "0.2", *sweep, "--csv", str(b)]) == 0
     assert _rows(b) == _rows(c)
 
 
 @pytest.mark.parametrize("args,needle", [
-    (["--profile", "parabola", "--param", "p0=0.3", "--friction", "0.1"], "--friction applies to --scene"),
+    (["--profile", "parabola", "--param", "p0=0.3", "--friction", "0.1"],
+     "--friction applies to --scene"),
     (["--scene", "config/scene_two_pegs.yaml", "--friction", "-0.1"], "'-0.1'"),
 ])
 def test_friction_is_refused_where_it_does_not_apply(tmp_path, capsys, args, needle):
     try:
-        code = main(["scan", *args, "--from", "0", "--to", "0.1", "--step", "0.1", "--csv", str(tmp_path / "o.csv")])
+        code = main(["scan", *args, "--from", "0", "--to", "0.1", "--step", "0.1", "--csv",
+                     str(tmp_path / "o.csv")])
     except SystemExit as exc:
         code = exc.code
     err = capsys.readouterr().err

@@ -5,13 +5,13 @@ import math
 import pytest
 
 from vibrissa_ros.core import FootPose, Parabola, QuasistaticTracker
-from vibrissa_ros.edge import BadInput, Units, planar_pose, sensor_reading, yaw_quaternion
+from vibrissa_ros.node.edge import BadInput, Units, planar_pose, sensor_reading, yaw_quaternion
 
 HALF_PI = math.pi / 2
 
 
 def test_worked_example_of_the_papers_set_up():
-    """yaw = +90 deg: force.x = fy EI/L^2, force.y = -fx EI/L^2, torque.z = m0 EI/L."""
+    """At yaw = +90 deg: force.x = fy EI/L^2, force.y = -fx EI/L^2, torque.z = m0 EI/L."""
     L, EI = 0.1, 5e-4
     units = Units.elastica(L, EI)
     tracker = QuasistaticTracker(Parabola(0.3), FootPose(2.0))
@@ -22,7 +22,8 @@ def test_worked_example_of_the_papers_set_up():
     assert r.force_base[1] == pytest.approx(-state.fx * EI / L**2, rel=1e-15)
     assert r.torque_z == pytest.approx(state.m0 * EI / L, rel=1e-15)
     assert r.force_world == pytest.approx((state.fx * EI / L**2, state.fy * EI / L**2), rel=1e-15)
-    assert r.contact_world == pytest.approx((state.contact[0] * L, state.contact[1] * L), rel=1e-15)
+    assert r.contact_world == pytest.approx((state.contact[0] * L, state.contact[1] * L),
+                                            rel=1e-15)
     assert r.s1 == pytest.approx(state.s1 * L, rel=1e-15)
     assert r.force_magnitude == pytest.approx(math.hypot(*r.force_base), rel=1e-14)
 
@@ -34,17 +35,26 @@ def test_rigid_units_use_the_spring_stiffness():
 
 @pytest.mark.parametrize("yaw", [0.0, 0.3, HALF_PI, 2.0, -2.9, math.pi])
 def test_base_frame_rotates_with_the_yaw(yaw):
-    """The base-frame force is the world force seen from axes turned by yaw (REP 103: x along the whisker)."""
+    """
+    The base-frame force is the world force seen from axes turned by yaw.
+
+    REP 103: x along the whisker.
+    """
     profile = Parabola(0.3).placed(0.0, 0.0, yaw - HALF_PI)
     c, s = math.cos(yaw - HALF_PI), math.sin(yaw - HALF_PI)
-    foot = lambda x: FootPose(c * x, s * x, yaw)  # noqa: E731
+
+    def foot(x):
+        return FootPose(c * x, s * x, yaw)
+
     state = QuasistaticTracker(profile, foot(2.0)).step(foot(0.3)).state
     r = sensor_reading(state, Units(1.0, 1.0, 1.0))
     along = math.cos(yaw) * state.fx + math.sin(yaw) * state.fy
     across = -math.sin(yaw) * state.fx + math.cos(yaw) * state.fy
     assert r.force_base == pytest.approx((along, across), abs=1e-14)
     # the same relative set-up gives the same base-frame reading at every yaw
-    ref = sensor_reading(QuasistaticTracker(Parabola(0.3), FootPose(2.0)).step(FootPose(0.3)).state, Units(1, 1, 1))
+    ref = sensor_reading(
+        QuasistaticTracker(Parabola(0.3), FootPose(2.0)).step(FootPose(0.3)).state,
+        Units(1, 1, 1))
     assert r.force_base == pytest.approx(ref.force_base, abs=1e-11)
     assert r.torque_z == pytest.approx(ref.torque_z, abs=1e-11)
 

@@ -6,8 +6,8 @@ import pytest
 from scipy.special import ellipkinc
 
 from vibrissa_ros.core import tip_loaded_elastica
-from vibrissa_ros.core.elastica import amplitude, family, family_centerline
-from vibrissa_ros.core.shooting import integrate
+from vibrissa_ros.core.exact.elastica import amplitude, family, family_centerline
+from vibrissa_ros.core.checks.shooting import integrate
 
 HALF_PI = math.pi / 2
 P0_LOWER = 0.45694658104446363  # 4 Gamma(3/4)^2 / Gamma(1/4)^2
@@ -31,7 +31,8 @@ def test_complete_integral_of_the_papers_modulus():
 
 @pytest.mark.parametrize(
     "load, w, u, rotation",
-    [(1, 0.30172, 0.05643, 0.46135), (2, 0.49346, 0.16064, None), (5, 0.71379, 0.38763, None), (10, 0.81061, 0.55500, None)],
+    [(1, 0.30172, 0.05643, 0.46135), (2, 0.49346, 0.16064, None), (5, 0.71379, 0.38763, None),
+     (10, 0.81061, 0.55500, None)],
 )
 def test_cantilever_under_perpendicular_tip_load(load, w, u, rotation):
     """Bisshopp & Drucker (1945), Mattiasson (1981): 5 published digits."""
@@ -40,7 +41,8 @@ def test_cantilever_under_perpendicular_tip_load(load, w, u, rotation):
     assert r.shortening == pytest.approx(u, abs=5e-6)
     if rotation is not None:
         assert HALF_PI - r.tip_slope == pytest.approx(rotation, abs=5e-6)
-    assert r.m0 == pytest.approx(-load * r.tip_y, rel=1e-12)  # moment of the tip force about the clamp
+    # moment of the tip force about the clamp
+    assert r.m0 == pytest.approx(-load * r.tip_y, rel=1e-12)
 
 
 @pytest.mark.parametrize("load, alpha", [(1.0, HALF_PI), (7.0, 1.0), (3.0, 2.4), (0.01, 0.3)])
@@ -51,7 +53,8 @@ def test_tip_loaded_elastica_against_direct_integration(load, alpha):
     assert kappa == pytest.approx(0.0, abs=1e-11)
 
 
-POINTS = [(0.3, 0.4), (-0.2, 0.9), (0.8, 0.05), (1.0, HALF_PI - 1.0), (0.5, 1e-6), (-0.6, 1.5), (0.0, HALF_PI)]
+POINTS = [(0.3, 0.4), (-0.2, 0.9), (0.8, 0.05), (1.0, HALF_PI - 1.0), (0.5, 1e-6), (-0.6, 1.5),
+          (0.0, HALF_PI)]
 
 
 @pytest.mark.parametrize("alpha, gamma", POINTS)
@@ -68,9 +71,10 @@ def test_family_partial_derivatives_match_finite_differences(alpha, gamma):
         assert getattr(fam, name + "_g") == pytest.approx(fd_g, abs=1e-7 * scale)
 
 
-@pytest.mark.parametrize("alpha, gamma", [(0.3, 0.4), (-0.2, 0.9), (0.8, 0.05), (1.0, HALF_PI - 1.0), (-0.6, 1.5)])
+@pytest.mark.parametrize("alpha, gamma",
+                         [(0.3, 0.4), (-0.2, 0.9), (0.8, 0.05), (1.0, HALF_PI - 1.0), (-0.6, 1.5)])
 def test_family_against_the_papers_integrals_in_high_precision(alpha, gamma):
-    """Paper eqs. (19)-(23) evaluated independently with mpmath (30 digits, tanh-sinh quadrature)."""
+    """Paper eqs. (19)-(23) evaluated independently with mpmath (30 digits, tanh-sinh)."""
     mp.mp.dps = 30
     a = mp.mpf(alpha)
     phi1 = mp.pi / 2 - mp.mpf(gamma)
@@ -79,7 +83,10 @@ def test_family_against_the_papers_integrals_in_high_precision(alpha, gamma):
     psi0 = mp.asin(mp.sin(a / 2) / k)
     sqrt_f = mp.ellipk(m) - mp.ellipf(psi0, m)  # eq. (21)
     f = sqrt_f**2
-    weight = lambda t: 1 / mp.sqrt(2 * f * (mp.sin(t - a) - mp.sin(phi1 - a)))  # 1/|kappa|, eq. (18)
+
+    def weight(t):  # 1/|kappa|, eq. (18)
+        return 1 / mp.sqrt(2 * f * (mp.sin(t - a) - mp.sin(phi1 - a)))
+
     x = mp.quad(lambda t: mp.cos(t) * weight(t), [phi1, mp.pi / 2])  # eq. (23)
     y = mp.quad(lambda t: mp.sin(t) * weight(t), [phi1, mp.pi / 2])
     fam = family(alpha, gamma)

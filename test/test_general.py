@@ -1,5 +1,8 @@
-"""The general (tapered, intrinsically curved) whisker: collocation solver against the closed forms,
-its Jacobians, and its convergence."""
+"""
+The general (tapered, intrinsically curved) whisker.
+
+The collocation solver against the closed forms, its Jacobians, and its convergence.
+"""
 
 import math
 
@@ -10,16 +13,20 @@ from vibrissa_ros.core import (
     Catenary,
     Circle,
     Ellipse,
+    FootPose,
     Parabola,
+    Peg,
     Phase,
     QuasistaticTracker,
     TwoCircles,
     run_scan,
     scan_grid,
 )
-from vibrissa_ros.core.errors import ParameterError
-from vibrissa_ros.core.general import GeneralWhiskerModel, WhiskerShape
-from vibrissa_ros.core.models import ElasticaModel
+from vibrissa_ros.core.checks.general_shooting import shoot_state
+from vibrissa_ros.core.errors import ModelAssumptionError, ParameterError
+from vibrissa_ros.core.scan import run_poses
+from vibrissa_ros.core.general.model import GeneralWhiskerModel, WhiskerShape
+from vibrissa_ros.core.exact.models import ElasticaModel
 
 FIELDS = ("alpha", "s1", "tip_slope", "f", "fx", "fy", "m0")
 
@@ -76,7 +83,8 @@ def test_numeric_equals_closed_forms_on_full_scans(profile):
 @pytest.mark.parametrize(
     "phase, z_exact",
     [(Phase.TIP, (0.3, 0.2)), (Phase.TIP, (0.8, 0.5)), (Phase.TIP, (0.2, 1.2)),
-     (Phase.TANGENTIAL, (0.3, 0.5)), (Phase.TANGENTIAL, (1.2, 0.9)), (Phase.TANGENTIAL, (0.1, 0.3))],
+     (Phase.TANGENTIAL, (0.3, 0.5)), (Phase.TANGENTIAL, (1.2, 0.9)),
+     (Phase.TANGENTIAL, (0.1, 0.3))],
 )
 def test_collocation_reproduces_the_elliptic_family(phase, z_exact):
     em, gm = ElasticaModel(), GeneralWhiskerModel()
@@ -101,7 +109,8 @@ def test_jacobian_matches_finite_differences(shape, phase, z):
         zp, zm = list(z), list(z)
         zp[j] += h
         zm[j] -= h
-        fd[:, j] = (np.array(gm.load_point(phase, zp)[:2]) - np.array(gm.load_point(phase, zm)[:2])) / (2 * h)
+        fd[:, j] = (np.array(gm.load_point(phase, zp)[:2])
+                    - np.array(gm.load_point(phase, zm)[:2])) / (2 * h)
     assert np.allclose(J, fd, atol=1e-7)
 
 
@@ -126,7 +135,8 @@ def test_mirrored_side_model_flips_the_curvature():
 
 
 @pytest.mark.parametrize(
-    "kwargs", [dict(taper=0.0), dict(taper=1.5), dict(taper=math.nan), dict(k0=30.0), dict(k1=math.inf)]
+    "kwargs", [dict(taper=0.0), dict(taper=1.5), dict(taper=math.nan), dict(k0=30.0),
+               dict(k1=math.inf)]
 )
 def test_bad_whisker_shape_is_a_parameter_error(kwargs):
     with pytest.raises(ParameterError):
@@ -134,7 +144,8 @@ def test_bad_whisker_shape_is_a_parameter_error(kwargs):
 
 
 def test_centerline_of_a_general_state_ends_at_the_contact():
-    tracker = QuasistaticTracker(Parabola(0.3), 2.0, model=GeneralWhiskerModel(WhiskerShape(0.5, 0.0, 0.0)))
+    tracker = QuasistaticTracker(Parabola(0.3), 2.0,
+                                 model=GeneralWhiskerModel(WhiskerShape(0.5, 0.0, 0.0)))
     state = tracker.step(0.0).state
     assert state.phase != Phase.FREE
     pts = state.centerline(201)
@@ -145,8 +156,6 @@ def test_centerline_of_a_general_state_ends_at_the_contact():
 
 
 # -- pegs -------------------------------------------------------------------------------------
-from vibrissa_ros.core import FootPose, Peg  # noqa: E402
-from vibrissa_ros.core.errors import ModelAssumptionError  # noqa: E402
 
 
 @pytest.mark.parametrize("p0, R", [(0.4, 0.9), (0.3, 1.5)])
@@ -222,8 +231,6 @@ def test_peg_parameters():
 
 
 # -- second, independent method: shooting (DOP853) on the 4th-order system --------------------
-from vibrissa_ros.core.general_shooting import shoot_state  # noqa: E402
-from vibrissa_ros.core.scan import run_poses  # noqa: E402
 
 
 def _assert_shooting_agrees(shape, peg, scan, every=1):
@@ -263,7 +270,7 @@ def test_shooting_agrees_on_a_whisking_whisker_in_tip_and_side_contact():
 
 # -- published mechanics ------------------------------------------------------------------------
 def _rotate_against_point(shape, d, push):
-    """A whisker whose foot turns clockwise (whisking) against a point peg at radial distance d."""
+    """Turn a whisker's foot clockwise (whisking) against a point peg at radial distance d."""
     tracker = QuasistaticTracker(Peg(0.0, d, 0.0), FootPose(0.0, 0.0, math.pi / 2 + 0.05),
                                  model=GeneralWhiskerModel(shape))
     before = tracker.step(FootPose(0.0, 0.0, math.pi / 2)).events  # the touch is at pi/2
@@ -274,8 +281,11 @@ def _rotate_against_point(shape, d, push):
 @pytest.mark.parametrize("taper", [1.0, 1 / 15, 0.3])
 @pytest.mark.parametrize("d", [0.3, 0.6, 0.9])
 def test_small_angle_rotational_stiffness_matches_linear_theory(taper, d):
-    """Solomon & Hartmann 2006: dM/dtheta -> 3 EI / d (cylinder); a cone gives
-    d^2 / int_0^d (d - s)^2 / B(s) ds (units EI_b)."""
+    """
+    Solomon & Hartmann 2006: dM/dtheta -> 3 EI / d (cylinder).
+
+    A cone gives d^2 / int_0^d (d - s)^2 / B(s) ds (units EI_b).
+    """
     shape = WhiskerShape(taper)
     dtheta = 1e-5
     touch, result = _rotate_against_point(shape, d, dtheta)
@@ -289,8 +299,11 @@ def test_small_angle_rotational_stiffness_matches_linear_theory(taper, d):
 
 @pytest.mark.parametrize("d", [0.3, 0.5, 0.7])
 def test_tapered_whiskers_slip_off_a_pole_cylindrical_ones_do_not(d):
-    """Hires et al. 2013: pushed against a pole, a conical whisker slips off at a critical angle,
-    a cylindrical one does not within plausible angles (here: 60 degrees)."""
+    """
+    Hires et al. 2013: pushed against a pole, a conical whisker slips off at a critical angle.
+
+    A cylindrical one does not within plausible angles (here: 60 degrees).
+    """
     push = math.radians(60.0)
     _, cone = _rotate_against_point(WhiskerShape(1 / 15), d, push)
     snaps = [e for e in cone.events if e.kind == "snap"]

@@ -16,7 +16,7 @@ from vibrissa_ros.core import (
     run_scan,
     scan_grid,
 )
-from vibrissa_ros.core.inverse import covered_intervals, estimate_contact, reconstruct
+from vibrissa_ros.core.exact.inverse import covered_intervals, estimate_contact, reconstruct
 
 
 def random_profiles(seed, n):
@@ -33,7 +33,8 @@ def random_profiles(seed, n):
         elif kind == 2:
             prof = Circle(p0, rng.uniform(1.05 - p0, 3.0) + 0.05)
         elif kind == 3:
-            prof = TwoCircles(p0, rng.uniform(1.05 - p0, 2.5) + 0.05, rng.uniform(1.05 - p0, 2.5) + 0.05)
+            prof = TwoCircles(p0, rng.uniform(1.05 - p0, 2.5) + 0.05,
+                              rng.uniform(1.05 - p0, 2.5) + 0.05)
         else:
             prof = Ellipse(p0, rng.uniform(0.5, 2.5), rng.uniform(1.05 - p0, 2.0) + 0.05)
         out.append(prof.placed(rng.uniform(-0.2, 0.2), 0.0, rng.uniform(-0.15, 0.15)))
@@ -81,7 +82,11 @@ def test_readings_without_a_single_frictionless_contact_give_none():
 
 
 def test_noisy_readings_still_trace_the_profile():
-    """sigma = 1% of the scan's peak |f| and |m0| (the closing note's numbers come from bench/bench_inverse.py)."""
+    """
+    Noise of sigma = 1% of the scan's peak |f| and |m0|.
+
+    The closing note's numbers come from bench/bench_inverse.py.
+    """
     prof = Parabola(0.3)
     result = run_scan(prof, scan_grid(2.0, -2.0, 0.005))
     rng = np.random.default_rng(7)
@@ -94,7 +99,8 @@ def test_noisy_readings_still_trace_the_profile():
     gaps = []
     for e in estimates:
         a = prof.alpha_at_x(e.contact[0])
-        gaps.append(abs(e.contact[1] - prof.eta(a)) * math.cos(a))  # distance to the profile, to first order
+        # distance to the profile, to first order
+        gaps.append(abs(e.contact[1] - prof.eta(a)) * math.cos(a))
     assert np.median(gaps) < 0.02
     assert set(int(e.phase) for e in estimates) == {1, 2}
 

@@ -1,13 +1,17 @@
-"""The inverse problem for the general whisker: the contact point from the foot pose and base wrench
-alone, on random pegs, profiles and whiskers (noise-free: within 1e-8 L)."""
+"""
+The inverse problem for the general whisker: the contact point from foot pose and wrench alone.
+
+On random pegs, profiles and whiskers (noise-free: within 1e-8 L).
+"""
 
 import math
 
 import numpy as np
 import pytest
 
-from vibrissa_ros.core import Catenary, FootPose, GeneralWhiskerModel, Parabola, Peg, Phase, WhiskerShape
-from vibrissa_ros.core.inverse_general import estimate_contact_general
+from vibrissa_ros.core import (Catenary, FootPose, GeneralWhiskerModel, Parabola, Peg, Phase,
+                               WhiskerShape)
+from vibrissa_ros.core.general.inverse import estimate_contact_general
 from vibrissa_ros.core.scan import run_poses
 
 
@@ -41,7 +45,8 @@ def test_random_pegs_and_whiskers(seed):
     assert checked >= 3
 
 
-@pytest.mark.parametrize("profile", [Parabola(0.35, 1.3), Catenary(0.45, 0.7)], ids=lambda p: p.describe())
+@pytest.mark.parametrize("profile", [Parabola(0.35, 1.3), Catenary(0.45, 0.7)],
+                         ids=lambda p: p.describe())
 def test_tapered_whisker_against_convex_profiles_in_both_phases(profile):
     shape = WhiskerShape(0.5)
     poses = [FootPose(2.0 - 0.02 * i, 0.0) for i in range(200)]

@@ -1,5 +1,8 @@
-"""The log tools on a log recorded by whisker_node and checked in (no DDS): info, resim, export,
-plot, reconstruct, repair."""
+"""
+The log tools on a log recorded by whisker_node and checked in (no DDS).
+
+info, resim, export, plot, reconstruct, repair.
+"""
 
 import csv
 import shutil
@@ -9,10 +12,10 @@ import pytest
 
 from vibrissa_ros.cli import main
 from vibrissa_ros.core import run_scan
-from vibrissa_ros.edge import header_ns
-from vibrissa_ros.log_tools import configurations, decode, export_rows, log_info, resimulate
-from vibrissa_ros.mcap_log import LogError, read_log, repair
-from vibrissa_ros.node_config import build_config
+from vibrissa_ros.node.edge import header_ns
+from vibrissa_ros.logs.tools import configurations, decode, export_rows, log_info, resimulate
+from vibrissa_ros.logs.mcap_log import LogError, read_log, repair
+from vibrissa_ros.node.config import build_config
 
 LOG = Path(__file__).parent / "data" / "catenary_sweep.mcap"  # made by data/make_sweep_log.py
 N_POSES = 81

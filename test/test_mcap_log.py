@@ -1,4 +1,4 @@
-"""The MCAP layout, written and read back by two independent readers (values compared, never bytes)."""
+"""The MCAP layout, written and read back by two independent readers (values, never bytes)."""
 
 import math
 import os
@@ -15,7 +15,7 @@ from rosbags.rosbag2 import Reader as RosbagsReader
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from std_msgs.msg import Float64, String
 
-from vibrissa_ros.mcap_log import (
+from vibrissa_ros.logs.mcap_log import (
     LogError,
     LogWriter,
     TopicSpec,
@@ -46,7 +46,8 @@ def _messages(n=50):
         wrench = WrenchStamped()
         wrench.header = pose.header
         wrench.header.frame_id = "whisker_base"
-        wrench.wrench.force.x, wrench.wrench.force.y, wrench.wrench.torque.z = -0.3 * i, 0.01 * i, -1e-3 * i
+        wrench.wrench.force.x, wrench.wrench.force.y = -0.3 * i, 0.01 * i
+        wrench.wrench.torque.z = -1e-3 * i
         path = PathMsg()
         path.header.frame_id = "world"
         for k in range(5):
@@ -54,13 +55,15 @@ def _messages(n=50):
             p.pose.position.x, p.pose.position.y = 0.01 * k, 0.02 * k * i
             path.poses.append(p)
         out += [("/w/foot_pose", pose), ("/w/wrench", wrench), ("/w/centerline", path),
-                ("/w/force", Float64(data=1.5 * i)), ("/w/events", String(data=f'{{"kind": "touch", "i": {i}}}'))]
+                ("/w/force", Float64(data=1.5 * i)),
+                ("/w/events", String(data=f'{{"kind": "touch", "i": {i}}}'))]
     return out
 
 
 def _write(path, msgs, finish=True, flush_period=0.5):
     log = LogWriter(str(path), flush_period=flush_period)
-    ids = {t: log.channel(TopicSpec(t, ty, transient_local=t.endswith("events"))) for t, ty in TYPES.items()}
+    ids = {t: log.channel(TopicSpec(t, ty, transient_local=t.endswith("events")))
+           for t, ty in TYPES.items()}
     log.metadata("vibrissa_ros.configuration", {"whisker.length": "0.1"})
     for i, (topic, msg) in enumerate(msgs):
         log.write(ids[topic], serialize_message(msg), 1_000_000_000 + i * 1000)
@@ -70,13 +73,15 @@ def _write(path, msgs, finish=True, flush_period=0.5):
 
 
 def _fields(msg):
-    """Comparable values of our test messages, from either reader's decoded objects."""
+    """Return comparable values of our test messages, from either reader's decoded objects."""
     if hasattr(msg, "wrench"):
-        return (msg.header.stamp.sec, msg.header.frame_id, msg.wrench.force.x, msg.wrench.force.y, msg.wrench.torque.z)
+        return (msg.header.stamp.sec, msg.header.frame_id, msg.wrench.force.x, msg.wrench.force.y,
+                msg.wrench.torque.z)
     if hasattr(msg, "poses"):
         return tuple((p.pose.position.x, p.pose.position.y) for p in msg.poses)
     if hasattr(msg, "pose"):
-        return (msg.header.stamp.sec, msg.header.stamp.nanosec, msg.pose.position.x, msg.pose.orientation.z)
+        return (msg.header.stamp.sec, msg.header.stamp.nanosec, msg.pose.position.x,
+                msg.pose.orientation.z)
     return (msg.data,)
 
 
@@ -89,20 +94,25 @@ def test_layout_is_rosbag2s(tmp_path):
         summary = reader.get_summary()
     assert header.profile == "ros2"
     assert {s.encoding for s in summary.schemas.values()} == {"ros2msg"}
-    assert sorted(s.name for s in summary.schemas.values()) == sorted(set(TYPES.values()))  # one per type
+    # one per type
+    assert sorted(s.name for s in summary.schemas.values()) == sorted(set(TYPES.values()))
     for channel in summary.channels.values():
         assert channel.message_encoding == "cdr"
         assert set(channel.metadata) == {"offered_qos_profiles", "topic_type_hash"}
         assert channel.metadata["topic_type_hash"].startswith("RIHS01_")
-        assert channel.metadata["offered_qos_profiles"].startswith("- history: keep_last\n  depth: ")
+        assert channel.metadata["offered_qos_profiles"].startswith(
+            "- history: keep_last\n  depth: ")
     assert {c.compression for c in summary.chunk_indexes} == {"zstd"}
-    schema = next(s for s in summary.schemas.values() if s.name == "nav_msgs/msg/Path").data.decode()
+    schema = next(s for s in summary.schemas.values()
+                  if s.name == "nav_msgs/msg/Path").data.decode()
     blocks = schema.split("=" * 80 + "\n")
-    assert blocks[0].startswith("# An array of poses") or "geometry_msgs/PoseStamped[] poses" in blocks[0]
+    assert blocks[0].startswith("# An array of poses") or ("geometry_msgs/PoseStamped[] "
+                                                           "poses") in blocks[0]
     names = [b.split("\n", 1)[0] for b in blocks[1:]]
     assert names[0].startswith("MSG: ")
-    assert set(names) == {"MSG: geometry_msgs/PoseStamped", "MSG: geometry_msgs/Pose", "MSG: geometry_msgs/Point",
-                          "MSG: geometry_msgs/Quaternion", "MSG: std_msgs/Header", "MSG: builtin_interfaces/Time"}
+    assert set(names) == {"MSG: geometry_msgs/PoseStamped", "MSG: geometry_msgs/Pose",
+                          "MSG: geometry_msgs/Point", "MSG: geometry_msgs/Quaternion",
+                          "MSG: std_msgs/Header", "MSG: builtin_interfaces/Time"}
 
 
 def test_two_independent_readers_decode_every_value(tmp_path):
@@ -111,7 +121,8 @@ def test_two_independent_readers_decode_every_value(tmp_path):
     _write(path, msgs)
     # mcap-ros2-support: decodes from the embedded schema text
     with open(path, "rb") as stream:
-        decoded = [(c.topic, m) for _, c, _, m in make_reader(stream, decoder_factories=[DecoderFactory()])
+        decoded = [(c.topic, m)
+                   for _, c, _, m in make_reader(stream, decoder_factories=[DecoderFactory()])
                    .iter_decoded_messages(log_time_order=True)]
     assert [t for t, _ in decoded] == [t for t, _ in msgs]
     for (_, want), (_, got) in zip(msgs, decoded):
@@ -132,8 +143,10 @@ def test_definitions_and_hashes_come_from_the_installed_packages():
     text = message_definition("geometry_msgs/msg/WrenchStamped")
     assert text.startswith("# A wrench with reference coordinate frame and timestamp")
     assert text.count("=" * 80) == 4  # Wrench, Vector3, Header, Time
-    assert type_hash("std_msgs/msg/Float64").startswith("RIHS01_") and len(type_hash("std_msgs/msg/Float64")) == 71
-    assert "reliability: reliable" in qos_yaml() and "durability: transient_local" in qos_yaml(transient_local=True)
+    assert (type_hash("std_msgs/msg/Float64").startswith("RIHS01_")
+            and len(type_hash("std_msgs/msg/Float64")) == 71)
+    assert ("reliability: reliable" in qos_yaml()
+            and "durability: transient_local" in qos_yaml(transient_local=True))
     with pytest.raises(LogError, match="not installed"):
         message_definition("no_such_msgs/msg/Thing")
 
@@ -162,7 +175,8 @@ def test_unfinished_log_is_repaired_keeping_every_flushed_chunk(tmp_path):
     _, channels, metadata, messages = read_log(str(fixed))
     assert len(messages) == 200 and metadata[0].metadata == {"whisker.length": "0.1"}
     with open(fixed, "rb") as stream:
-        decoded = [m for _, _, _, m in make_reader(stream, decoder_factories=[DecoderFactory()]).iter_decoded_messages()]
+        decoded = [m for _, _, _, m in make_reader(stream, decoder_factories=[DecoderFactory()])
+                   .iter_decoded_messages()]
     assert [_fields(m) for m in decoded] == [_fields(m) for _, m in msgs[:200]]
     # a cut in the middle of a chunk loses that chunk only
     data = killed.read_bytes()

@@ -11,8 +11,8 @@ from rclpy.serialization import deserialize_message, serialize_message
 from visualization_msgs.msg import Marker
 
 from vibrissa_ros.core import FootPose, Parabola, QuasistaticTracker
-from vibrissa_ros.edge import EventRecord, decode_event, header_ns, stamp_parts
-from vibrissa_ros.node_config import build_config
+from vibrissa_ros.node.edge import EventRecord, decode_event, header_ns, stamp_parts
+from vibrissa_ros.node.config import build_config
 from vibrissa_ros.ros import messages as m
 
 
@@ -102,8 +102,10 @@ def test_contour_marker_colours_points_by_phase():
     [
         (None, 0, "", "", DiagnosticStatus.OK, "not placed"),
         (2, 0, "", "", DiagnosticStatus.OK, "phase 2"),
-        (1, 3, "not_finite: nan", "", DiagnosticStatus.WARN, "3 pose(s) dropped; last: not_finite"),
-        (1, 3, "not_finite: nan", "No space left", DiagnosticStatus.ERROR, "not recording: No space"),
+        (1, 3, "not_finite: nan", "", DiagnosticStatus.WARN,
+         "3 pose(s) dropped; last: not_finite"),
+        (1, 3, "not_finite: nan", "No space left", DiagnosticStatus.ERROR,
+         "not recording: No space"),
     ],
 )
 def test_whisker_status_levels(phase, dropped, last, record_error, level, words):

@@ -1,4 +1,4 @@
-"""The rigid one-link model (paper §3) against its closed forms, and side by side with the elastica."""
+"""The rigid one-link model (paper §3) against its closed forms, and beside the elastica."""
 
 import math
 
@@ -15,7 +15,7 @@ from vibrissa_ros.core import (
     run_scan,
     scan_grid,
 )
-from vibrissa_ros.core.models import RigidModel, make_model
+from vibrissa_ros.core.exact.models import RigidModel, make_model
 
 HALF_PI = math.pi / 2
 PROFILES = [Parabola(0.3), Parabola(0.6), Catenary(0.5, 0.6), TwoCircles(0.4, 0.8, 1.6)]
@@ -49,12 +49,14 @@ def test_rigid_states_satisfy_the_papers_closed_forms(profile):
             assert st.f == pytest.approx((HALF_PI - phi) * math.sin(a) / eta, rel=1e-11)
         else:  # mode 2
             assert math.sin(a) < eta + 1e-12
-            # tan(phi) = eta / sqrt(1 - eta^2) with phi in (0, pi/2]: checked in its well-conditioned form
+            # tan(phi) = eta / sqrt(1 - eta^2) with phi in (0, pi/2]: checked in its
+            # well-conditioned form
             assert math.sin(phi) == pytest.approx(eta, abs=1e-13)
             assert math.cos(phi) == pytest.approx(math.sqrt(1 - eta * eta), abs=1e-12)
             assert phi >= a - 1e-12
             expected = (HALF_PI - phi) / (math.sqrt(1 - eta**2) * math.cos(a) + eta * math.sin(a))
-            # f ~ 1/cos(phi - alpha) is ill-conditioned near the fold: both sides agree to ~1e-14 in angle
+            # f ~ 1/cos(phi - alpha) is ill-conditioned near the fold: both sides agree to ~1e-14
+            # in angle
             assert st.f == pytest.approx(expected, rel=1e-14 / math.cos(phi - a) ** 2)
         # the straight rod stays outside the obstacle
         for x, y in st.centerline(101):
@@ -66,13 +68,18 @@ def test_rigid_states_satisfy_the_papers_closed_forms(profile):
 def _roots(g, lo, hi, n=4000):
     xs = np.linspace(lo, hi, n)
     vals = [g(x) for x in xs]
-    return [brentq(g, xs[i], xs[i + 1], xtol=1e-15) for i in range(n - 1) if vals[i] * vals[i + 1] < 0]
+    return [brentq(g, xs[i], xs[i + 1], xtol=1e-15) for i in range(n - 1)
+            if vals[i] * vals[i + 1] < 0]
 
 
 @pytest.mark.parametrize("p0", [0.3, 0.6])
 def test_rigid_parabola_scan_events_at_their_closed_form_positions(p0):
-    """Fig. 3.1: touch at eta = 1, mode changes where sin(alpha) = eta(alpha), snap where the rod is
-    orthogonal to the profile, cos(alpha) = eta(alpha) on the left flank."""
+    """
+    Fig. 3.1: the events of a rigid scan of a parabola where the closed forms put them.
+
+    Touch at eta = 1, mode changes where sin(alpha) = eta(alpha), snap where the rod is orthogonal
+    to the profile, cos(alpha) = eta(alpha) on the left flank.
+    """
     prof = Parabola(p0)
     a_touch = prof.alpha_at_height(1.0, +1)
     modes = _roots(lambda a: math.sin(a) - prof.eta(a), 0.0, 1.5)
@@ -91,7 +98,8 @@ def test_rigid_parabola_scan_events_at_their_closed_form_positions(p0):
 
 def test_rigid_output_never_reaches_the_singular_point():
     prof = Parabola(0.3)
-    snap = [e for e in run_scan(prof, scan_grid(2.0, -2.0, 0.01), model="rigid").events if e.kind == "snap"][0]
+    snap = [e for e in run_scan(prof, scan_grid(2.0, -2.0, 0.01), model="rigid").events
+            if e.kind == "snap"][0]
     tracker = QuasistaticTracker(prof, 2.0, model="rigid")
     for d in (1e-3, 1e-6, 1e-9, 1e-12):
         st = tracker.step(snap.x0 + d).state
@@ -120,7 +128,8 @@ def test_rigid_reversal_releases_where_it_touched_and_big_step_equals_small_step
 def test_spring_stiffness_expresses_the_rigid_model_in_elastica_units():
     prof = Parabola(0.3)
     unit = run_scan(prof, scan_grid(1.5, -1.0, 0.1), model="rigid").states
-    three = run_scan(prof, scan_grid(1.5, -1.0, 0.1), model=make_model("rigid", stiffness=3.0)).states
+    three = run_scan(prof, scan_grid(1.5, -1.0, 0.1),
+                     model=make_model("rigid", stiffness=3.0)).states
     for a, b in zip(unit, three):
         assert b.f == pytest.approx(3 * a.f, rel=1e-14)
         assert b.m0 == pytest.approx(3 * a.m0, rel=1e-14)

@@ -11,11 +11,11 @@ import math
 import numpy as np
 import pytest
 
-from vibrissa_ros.core.boundary import CircleArc
-from vibrissa_ros.core.general import GeneralWhiskerModel, WhiskerShape
+from vibrissa_ros.core.scenes.boundary import CircleArc
+from vibrissa_ros.core.general.model import GeneralWhiskerModel, WhiskerShape
 from vibrissa_ros.core.profiles import Peg
-from vibrissa_ros.core.scene_tracker import SceneTracker
-from vibrissa_ros.core.tracker import QuasistaticTracker
+from vibrissa_ros.core.scenes.tracker import SceneTracker
+from vibrissa_ros.core.exact.tracker import QuasistaticTracker
 
 
 class _Disk:
@@ -141,7 +141,7 @@ def test_friction_stays_in_its_cone_and_dissipates():
 
 
 def _whisk_events(taper, mu):
-    """A whisker whisking (foot fixed, heading 100 -> -10 deg) into a pole, with friction."""
+    """Whisk a whisker (foot fixed, heading 100 -> -10 deg) into a pole, with friction."""
     from vibrissa_ros.core.state import FootPose
 
     tracker = SceneTracker([_Disk(0.25, 0.45, 0.02)], FootPose(0.0, 0.0, math.radians(100)),

@@ -5,12 +5,13 @@ import math
 import pytest
 
 from vibrissa_ros.core import ParameterError, PlacedProfile
-from vibrissa_ros.node_config import PARAMETERS, SPECS, build_config
+from vibrissa_ros.node.config import PARAMETERS, SPECS, build_config
 
 CONTRACT = [
-    "whisker.length", "whisker.bending_stiffness", "model", "rigid.spring_stiffness", "obstacle.type",
-    "obstacle.k", "obstacle.c", "obstacle.radius", "obstacle.radius_left", "obstacle.radius_right",
-    "obstacle.a", "obstacle.b", "obstacle.apex_x", "obstacle.apex_y", "world_frame", "base_frame",
+    "whisker.length", "whisker.bending_stiffness", "model", "rigid.spring_stiffness",
+    "obstacle.type", "obstacle.k", "obstacle.c", "obstacle.radius", "obstacle.radius_left",
+    "obstacle.radius_right", "obstacle.a", "obstacle.b", "obstacle.apex_x", "obstacle.apex_y",
+    "world_frame", "base_frame",
 ]
 
 
@@ -27,7 +28,8 @@ def test_contract_names_are_declared_with_units_and_descriptions():
 def test_defaults_build_the_papers_parabola_in_whisker_units():
     cfg = build_config({})
     assert cfg.units.length == 0.1
-    assert cfg.units.force == pytest.approx(5e-4 / 0.01) and cfg.units.moment == pytest.approx(5e-3)
+    assert (cfg.units.force == pytest.approx(5e-4 / 0.01)
+            and cfg.units.moment == pytest.approx(5e-3))
     assert cfg.profile.params == {"p0": pytest.approx(0.3), "k": pytest.approx(1.0)}
     assert cfg.model.name == "elastica"
 
@@ -37,16 +39,19 @@ def test_defaults_build_the_papers_parabola_in_whisker_units():
     [
         ("catenary", {"obstacle.c": 0.06}, {"c": 0.6}),
         ("circle", {"obstacle.radius": 0.2}, {"R": 2.0}),
-        ("two_circles", {"obstacle.radius_left": 0.08, "obstacle.radius_right": 0.16}, {"R_left": 0.8, "R_right": 1.6}),
+        ("two_circles", {"obstacle.radius_left": 0.08, "obstacle.radius_right": 0.16},
+         {"R_left": 0.8, "R_right": 1.6}),
         ("ellipse", {"obstacle.a": 0.14, "obstacle.b": 0.09}, {"a": 1.4, "b": 0.9}),
     ],
 )
 def test_shapes_are_converted_to_whisker_lengths_and_placed_at_the_apex(kind, extra, core):
-    cfg = build_config({"obstacle.type": kind, "obstacle.apex_x": 0.25, "obstacle.apex_y": 0.5, **extra})
+    cfg = build_config({"obstacle.type": kind, "obstacle.apex_x": 0.25, "obstacle.apex_y": 0.5,
+                        **extra})
     assert isinstance(cfg.profile, PlacedProfile)
     for key, value in core.items():
         assert cfg.profile.params[key] == pytest.approx(value)
-    assert cfg.profile.point(0.0) == pytest.approx((2.5, 5.0))  # apex, in L, even far from the foot line
+    # apex, in L, even far from the foot line
+    assert cfg.profile.point(0.0) == pytest.approx((2.5, 5.0))
 
 
 def test_rigid_model_uses_the_spring_stiffness():
@@ -83,15 +88,17 @@ def test_every_parameter_has_a_default_of_its_type():
 
 
 RAT = {"whisker.length": 0.03, "whisker.youngs_modulus": 3.3e9, "whisker.base_radius": 5e-5,
-       "whisker.taper": 1.0 / 15.0, "whisker.curvature_k0": 1.0 / 0.06, "whisker.curvature_k1": -100.0,
-       "obstacle.type": "peg", "obstacle.peg_x": 0.003, "obstacle.peg_y": 0.015, "obstacle.peg_radius": 3e-4}
+       "whisker.taper": 1.0 / 15.0, "whisker.curvature_k0": 1.0 / 0.06,
+       "whisker.curvature_k1": -100.0, "obstacle.type": "peg", "obstacle.peg_x": 0.003,
+       "obstacle.peg_y": 0.015, "obstacle.peg_radius": 3e-4}
 
 
 def test_whisker_shape_peg_and_youngs_modulus_build_the_general_model_in_whisker_units():
     cfg = build_config(RAT)
     assert cfg.model.name == "general"
     shape = cfg.model.shape
-    assert (shape.taper, shape.k0, shape.k1) == pytest.approx((1 / 15, 0.5, -100.0 * 0.03**2), rel=1e-15)
+    assert (shape.taper, shape.k0, shape.k1) == pytest.approx((1 / 15, 0.5, -100.0 * 0.03**2),
+                                                              rel=1e-15)
     ei = 3.3e9 * math.pi * 5e-5**4 / 4
     assert cfg.units.moment == pytest.approx(ei / 0.03, rel=1e-15)
     assert cfg.units.force == pytest.approx(ei / 0.03**2, rel=1e-15)
@@ -102,12 +109,15 @@ def test_whisker_shape_peg_and_youngs_modulus_build_the_general_model_in_whisker
 
 
 def test_the_model_is_picked_like_scan_solver_auto():
-    assert build_config({}).model.name == "elastica"  # the paper's whisker against a convex profile
+    # the paper's whisker against a convex profile
+    assert build_config({}).model.name == "elastica"
     assert build_config({"whisker.taper": 0.5}).model.name == "general"
     assert build_config({"whisker.curvature_k1": 1.0}).model.name == "general"
-    assert build_config({"obstacle.type": "peg"}).model.name == "general"  # a peg: the general solver
+    # a peg: the general solver
+    assert build_config({"obstacle.type": "peg"}).model.name == "general"
     ei = 2e9 * math.pi * 1e-4**4 / 4
-    same = build_config({"whisker.youngs_modulus": 2e9, "whisker.base_radius": 1e-4, "whisker.bending_stiffness": ei})
+    same = build_config({"whisker.youngs_modulus": 2e9, "whisker.base_radius": 1e-4,
+                         "whisker.bending_stiffness": ei})
     assert same.units.moment * 0.1 == pytest.approx(ei, rel=1e-12)
 
 
@@ -119,7 +129,8 @@ def test_the_model_is_picked_like_scan_solver_auto():
         ({"whisker.curvature_k0": 300.0}, ["whisker.curvature_k0", "<= 20"]),
         ({"whisker.youngs_modulus": -1.0}, ["whisker.youngs_modulus", "in [0.0, "]),
         ({"whisker.youngs_modulus": 3e9}, ["whisker.base_radius", "> 0"]),
-        ({"whisker.youngs_modulus": 3e9, "whisker.base_radius": 1e-4, "whisker.bending_stiffness": 1e-3},
+        ({"whisker.youngs_modulus": 3e9, "whisker.base_radius": 1e-4,
+          "whisker.bending_stiffness": 1e-3},
          ["disagrees", "not both"]),
         ({"obstacle.type": "peg", "obstacle.peg_radius": -1e-3}, ["obstacle.peg_radius", ">= 0"]),
         ({"model": "rigid", "whisker.taper": 0.5}, ["rigid", "taper"]),

@@ -40,7 +40,11 @@ def test_scripts_install_where_ros2_run_looks():
     assert (ROOT / "resource" / "vibrissa_ros").exists()
 
 
-@pytest.mark.parametrize("path", sorted((ROOT / "vibrissa_ros" / "core").glob("*.py")), ids=lambda p: p.name)
+CORE = ROOT / "vibrissa_ros" / "core"
+
+
+@pytest.mark.parametrize("path", sorted(CORE.rglob("*.py")),
+                         ids=lambda p: str(p.relative_to(CORE)))
 def test_the_core_imports_nothing_from_ros(path):
     tree = ast.parse(path.read_text())
     names = set()
@@ -49,7 +53,8 @@ def test_the_core_imports_nothing_from_ros(path):
             names.update(a.name.split(".")[0] for a in node.names)
         elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
             names.add(node.module.split(".")[0])
-    assert not names & {"rclpy", "rosidl_runtime_py", "geometry_msgs", "std_msgs", "mcap", "matplotlib"}
+    assert not names & {"rclpy", "rosidl_runtime_py", "geometry_msgs", "std_msgs", "mcap",
+                        "matplotlib"}
 
 
 PACKAGE = ROOT / "vibrissa_ros"
@@ -74,18 +79,67 @@ def test_rclpy_is_imported_only_in_the_ros_subpackage(path):
     assert not _imports(path) & ROS_ONLY
 
 
+def _modules_imported(path):
+    """Every module ``path`` imports, relative imports resolved to absolute names."""
+    parts = list(path.relative_to(ROOT).with_suffix("").parts)
+    package = parts[:-1]  # an __init__ imports relative to its own package, as a module does
+    names = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Import):
+            names.update(a.name for a in node.names)
+        elif isinstance(node, ast.ImportFrom):
+            base = package[:len(package) - (node.level - 1)] if node.level else []
+            module = ".".join(base + ([node.module] if node.module else []))
+            names.add(module)
+            names.update(f"{module}.{a.name}" for a in node.names)
+    return names
+
+
+CHECKS = "vibrissa_ros.core.checks"
+
+
+@pytest.mark.parametrize("path", sorted(p for p in PACKAGE.rglob("*.py")
+                                        if "checks" not in p.relative_to(PACKAGE).parts),
+                         ids=lambda p: str(p.relative_to(PACKAGE)))
+def test_no_product_module_imports_an_independent_check(path):
+    """core/checks holds second solvers for tests and benchmarks: no product path uses them."""
+    used = {m for m in _modules_imported(path) if m == CHECKS or m.startswith(CHECKS + ".")}
+    assert not used, f"{path.relative_to(ROOT)} imports {sorted(used)}"
+
+
+def test_the_import_resolver_sees_a_check_import():
+    """The test above would catch a product module that imports a check, relatively or not."""
+    module = ROOT / "vibrissa_ros" / "core" / "general" / "inverse.py"
+    names = _modules_imported(module)
+    assert "vibrissa_ros.core.general.model.WhiskerShape" in names
+    assert "vibrissa_ros.core.exact.inverse" in names
+    checks = _modules_imported(ROOT / "vibrissa_ros" / "core" / "checks" / "general_shooting.py")
+    assert "vibrissa_ros.core.general.inverse.loaded_whisker_rhs" in checks
+
+
+def test_the_core_keeps_its_public_names():
+    """The core's public API did not move with its modules: every name of __all__ imports."""
+    import vibrissa_ros.core as core
+
+    assert {"QuasistaticTracker", "GeneralWhiskerModel", "ElasticaModel", "Parabola", "FootPose",
+            "run_scan", "tip_loaded_elastica", "VibrissaError"} <= set(core.__all__)
+    for name in core.__all__:
+        assert getattr(core, name) is not None, name
+
+
 def test_the_ros_free_adapters_import_without_ros():
     """CLI, scan I/O, MCAP, plots, reconstruction, log tools: importable with rclpy missing."""
     import subprocess
     import sys
 
     code = ("import sys; sys.modules['rclpy'] = None\n"
-            "import vibrissa_ros.cli, vibrissa_ros.scan_io, vibrissa_ros.mcap_log, vibrissa_ros.plots,"
-            " vibrissa_ros.reconstruction, vibrissa_ros.log_tools, vibrissa_ros.edge,"
-            " vibrissa_ros.pipeline, vibrissa_ros.node_config\n"
+            "import vibrissa_ros.cli, vibrissa_ros.scan.scan_io, vibrissa_ros.logs.mcap_log, "
+            "vibrissa_ros.scan.plots, vibrissa_ros.node.reconstruction, vibrissa_ros.logs.tools, "
+            "vibrissa_ros.node.edge, vibrissa_ros.node.pipeline, vibrissa_ros.node.config\n"
             "assert vibrissa_ros.cli.main(['scan', '--profile', 'parabola', '--param', 'p0=0.3',"
             " '--from', '2', '--to', '1.9', '--step', '0.1', '--csv', '-']) == 0\n")
-    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          timeout=120)
     assert proc.returncode == 0, proc.stderr
 
 
@@ -123,7 +177,7 @@ def test_launch_files_name_only_what_exists(path):
 
     import yaml
 
-    from vibrissa_ros.node_config import CONTOUR_SPECS, SPECS
+    from vibrissa_ros.node.config import CONTOUR_SPECS, SPECS
 
     specs = {"whisker_node": SPECS, "contour_node": CONTOUR_SPECS}
     root = ET.parse(path).getroot()

@@ -5,9 +5,9 @@ import math
 import pytest
 
 from vibrissa_ros.core import ConvergenceError, InvalidPoseError, ModelAssumptionError, run_scan
-from vibrissa_ros.edge import BadInput, sensor_reading, yaw_quaternion
-from vibrissa_ros.node_config import build_config
-from vibrissa_ros.pipeline import DROP_REASONS, PosePipeline, PoseStats, drop_reason
+from vibrissa_ros.node.edge import BadInput, sensor_reading, yaw_quaternion
+from vibrissa_ros.node.config import build_config
+from vibrissa_ros.node.pipeline import DROP_REASONS, PosePipeline, PoseStats, drop_reason
 
 HALF_PI = math.pi / 2
 CATENARY = {"obstacle.type": "catenary", "obstacle.c": 0.06, "obstacle.apex_y": 0.05}
@@ -43,7 +43,7 @@ def test_a_sweep_through_the_pipeline_equals_the_core_scan():
     ],
 )
 def test_bad_poses_are_dropped_with_their_reason_and_the_state_is_kept(frame, stamp, position,
-                                                                        quaternion, reason):
+                                                                       quaternion, reason):
     pipe = _pipeline()
     pipe.handle("world", 5, (0.15, 0.0, 0.0), Q)
     before = pipe.state

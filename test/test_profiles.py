@@ -80,7 +80,8 @@ def test_placement_is_a_rigid_motion():
     c, s = math.cos(theta), math.sin(theta)
     for a in ALPHAS:
         x, y = base.point(a)
-        assert placed.point(a + theta) == pytest.approx((0.5 + c * x - s * y, -0.2 + s * x + c * y), rel=1e-14, abs=1e-14)
+        assert placed.point(a + theta) == pytest.approx(
+            (0.5 + c * x - s * y, -0.2 + s * x + c * y), rel=1e-14, abs=1e-14)
         assert placed.radius_of_curvature(a + theta) == pytest.approx(base.radius_of_curvature(a))
     twice = placed.placed(0.1, 0.3, -0.1)
     once = base.placed(*_compose((0.5, -0.2, theta), (0.1, 0.3, -0.1)))

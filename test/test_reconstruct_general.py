@@ -8,13 +8,15 @@ import numpy as np
 import pytest
 
 from vibrissa_ros.cli import main
-from vibrissa_ros.node_config import build_config, build_contour_config
-from vibrissa_ros.pipeline import PosePipeline
-from vibrissa_ros.reconstruction import estimate_from_wrench
+from vibrissa_ros.node.config import build_config, build_contour_config
+from vibrissa_ros.node.pipeline import PosePipeline
+from vibrissa_ros.node.reconstruction import estimate_from_wrench
 
 RAT = {"whisker.length": 0.03, "whisker.youngs_modulus": 3.3e9, "whisker.base_radius": 5e-5,
-       "whisker.taper": 1.0 / 15.0, "whisker.curvature_k0": 1.0 / 0.06, "whisker.curvature_k1": -100.0}
-PEG = {"obstacle.type": "peg", "obstacle.peg_x": 0.0, "obstacle.peg_y": 0.015, "obstacle.peg_radius": 2.5e-4}
+       "whisker.taper": 1.0 / 15.0, "whisker.curvature_k0": 1.0 / 0.06,
+       "whisker.curvature_k1": -100.0}
+PEG = {"obstacle.type": "peg", "obstacle.peg_x": 0.0, "obstacle.peg_y": 0.015,
+       "obstacle.peg_radius": 2.5e-4}
 
 
 def _run(args, capsys):
@@ -37,7 +39,8 @@ def test_contour_config_takes_the_whisker_parameters_and_its_estimate_finds_the_
     for i, x in enumerate(np.linspace(0.008, -0.01, 60)):
         state, _ = pipeline.handle("world", i, (float(x), 0.0, 0.0), q)
         reading, (fx, fy, tz) = pipeline.reading(state)
-        est = estimate_from_wrench(float(x), 0.0, math.pi / 2, fx, fy, tz, contour.units, 0.0, contour.shape)
+        est = estimate_from_wrench(float(x), 0.0, math.pi / 2, fx, fy, tz, contour.units, 0.0,
+                                   contour.shape)
         if reading.contact_world is None:
             continue
         found += 1
@@ -51,8 +54,8 @@ def test_reconstruct_takes_taper_and_curvature_for_a_scan_csv(tmp_path, capsys):
     scan = tmp_path / "scan.csv"
     code, _, err = _run(
         ["scan", "--profile", "peg", "--param", "x=0", "--param", "y=0.6", "--param", "r=0.05",
-         "--taper", "0.0667", "--curvature=-1,0.5", "--from", "0.6", "--to", "-0.6", "--step", "0.02",
-         "--csv", str(scan)], capsys)
+         "--taper", "0.0667", "--curvature=-1,0.5", "--from", "0.6", "--to", "-0.6", "--step",
+         "0.02", "--csv", str(scan)], capsys)
     assert code == 0, err
     out = tmp_path / "rec.csv"
     code, _, err = _run(["reconstruct", str(scan), "--csv", str(out), "--taper", "0.0667",

@@ -1,4 +1,4 @@
-"""The recorder without a node or DDS: channels from the endpoints, failures reported, data kept."""
+"""The recorder without a node or DDS: channels from endpoints, failures reported, data kept."""
 
 import os
 import threading
@@ -11,16 +11,18 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from std_msgs.msg import Float64
 from visualization_msgs.msg import Marker
 
-from vibrissa_ros.mcap_log import LogWriter, read_log
-from vibrissa_ros.node_config import build_config
+from vibrissa_ros.logs.mcap_log import LogWriter, read_log
+from vibrissa_ros.node.config import build_config
 from vibrissa_ros.ros.messages import pose_stamped
 from vibrissa_ros.ros.recorder import Recorder
 
 ENDPOINTS = {
-    "foot_pose": SimpleNamespace(topic_name="/w/foot_pose", msg_type=PoseStamped, qos_profile=QoSProfile(
-        history=HistoryPolicy.KEEP_ALL, depth=1000, reliability=ReliabilityPolicy.RELIABLE)),
-    "wrench": SimpleNamespace(topic_name="/w/wrench", msg_type=WrenchStamped, qos_profile=QoSProfile(
-        depth=1000, reliability=ReliabilityPolicy.RELIABLE)),
+    "foot_pose": SimpleNamespace(
+        topic_name="/w/foot_pose", msg_type=PoseStamped, qos_profile=QoSProfile(
+            history=HistoryPolicy.KEEP_ALL, depth=1000, reliability=ReliabilityPolicy.RELIABLE)),
+    "wrench": SimpleNamespace(
+        topic_name="/w/wrench", msg_type=WrenchStamped, qos_profile=QoSProfile(
+            depth=1000, reliability=ReliabilityPolicy.RELIABLE)),
     "force": SimpleNamespace(topic_name="/w/force", msg_type=Float64, qos_profile=QoSProfile(
         depth=7, reliability=ReliabilityPolicy.BEST_EFFORT)),
     "obstacle": SimpleNamespace(topic_name="/w/obstacle", msg_type=Marker, qos_profile=QoSProfile(
@@ -61,7 +63,8 @@ def test_channels_take_topic_type_and_qos_from_the_endpoints(tmp_path):
     assert "history: keep_last" in qos["/w/wrench"] and "reliability: reliable" in qos["/w/wrench"]
     assert "reliability: best_effort" in qos["/w/force"] and "depth: 7" in qos["/w/force"]
     assert "durability: transient_local" in qos["/w/obstacle"] and "depth: 1" in qos["/w/obstacle"]
-    assert [m.type_name for m in messages[:2]] == ["geometry_msgs/msg/PoseStamped", "std_msgs/msg/Float64"]
+    assert [m.type_name for m in messages[:2]] == ["geometry_msgs/msg/PoseStamped",
+                                                   "std_msgs/msg/Float64"]
     assert metadata[0].metadata["node"] == '"/w"'
 
 

@@ -1,5 +1,7 @@
-"""Property-based tests of the tracker: whatever the profile and the foot's path, every step returns
-a valid state or raises a VibrissaError, in a bounded number of evaluations.
+"""
+Property-based tests of the tracker: every step returns a valid state or raises a VibrissaError.
+
+Whatever the profile and the foot's path, and in a bounded number of evaluations.
 
 Hypothesis draws profiles of every family over their whole allowed range (extreme ratios included),
 rigid placements, both models and foot paths with big jumps, rotations, reversals and far poses.
@@ -30,7 +32,7 @@ from vibrissa_ros.core import (
     VibrissaError,
 )
 from vibrissa_ros.core.profiles import PlacedProfile
-from vibrissa_ros.core.tracker import MAX_POSE_MAGNITUDE
+from vibrissa_ros.core.exact.tracker import MAX_POSE_MAGNITUDE
 
 HALF_PI = 0.5 * math.pi
 BUDGET = TrackerOptions().max_evaluations
@@ -66,7 +68,8 @@ def profiles(draw):
     else:
         prof = Ellipse(p0, draw(log_sizes), reach + draw(log_sizes))
     if draw(st.booleans()):
-        prof = prof.placed(draw(st.floats(-1, 1)), draw(st.floats(-0.5, 0.5)), draw(st.floats(-0.6, 0.6)))
+        prof = prof.placed(draw(st.floats(-1, 1)), draw(st.floats(-0.5, 0.5)),
+                           draw(st.floats(-0.6, 0.6)))
     return prof
 
 
@@ -97,7 +100,8 @@ def _gap(profile, x, y):
     if isinstance(profile, PlacedProfile):
         c, s = math.cos(profile.rotation), math.sin(profile.rotation)
         base = profile.base
-        u, v = c * (x - profile.x) + s * (y - profile.y), -s * (x - profile.x) + c * (y - profile.y)
+        u, v = (c * (x - profile.x) + s * (y - profile.y),
+                -s * (x - profile.x) + c * (y - profile.y))
     try:
         a = base.alpha_at_x(u)
     except VibrissaError:
@@ -106,8 +110,9 @@ def _gap(profile, x, y):
 
 
 def check_state(profile, state):
-    """The invariants every returned state satisfies."""
-    values = [state.tip_slope, state.f, state.fx, state.fy, state.m0, *state.tip, *state.pose.__dict__.values()]
+    """Check the invariants every returned state satisfies."""
+    values = [state.tip_slope, state.f, state.fx, state.fy, state.m0, *state.tip,
+              *state.pose.__dict__.values()]
     assert all(math.isfinite(v) for v in values)
     line = state.centerline(65)
     assert np.all(np.isfinite(line))
@@ -117,7 +122,8 @@ def check_state(profile, state):
     assert state.f > 0.0
     # |f| consistency and the force along the obstacle's outward normal
     assert math.hypot(state.fx, state.fy) == pytest.approx(state.f, rel=1e-12)
-    assert state.fx == pytest.approx(state.f * math.sin(state.alpha), rel=1e-12, abs=1e-12 * state.f)
+    assert state.fx == pytest.approx(state.f * math.sin(state.alpha), rel=1e-12,
+                                     abs=1e-12 * state.f)
     # moment balance: m0 is the moment of the contact force about the foot
     rx, ry = state.contact[0] - state.pose.x, state.contact[1] - state.pose.y
     assert state.m0 == pytest.approx(rx * state.fy - ry * state.fx, abs=1e-9 * max(1.0, state.f))
@@ -157,13 +163,16 @@ def run_path(profile, model, start, path):
 
 
 @PROPERTY_SETTINGS
-@given(profiles(), st.sampled_from(["elastica", "elastica", "rigid"]), st.lists(moves(False), min_size=1, max_size=10))
-def test_translating_foot_every_step_returns_a_valid_state_or_a_vibrissa_error(profile, model, path):
+@given(profiles(), st.sampled_from(["elastica", "elastica", "rigid"]),
+       st.lists(moves(False), min_size=1, max_size=10))
+def test_translating_foot_every_step_returns_a_valid_state_or_a_vibrissa_error(profile, model,
+                                                                               path):
     run_path(profile, model, FootPose(5.0, 0.0, HALF_PI), path)
 
 
 @PROPERTY_SETTINGS
-@given(profiles(), st.sampled_from(["elastica", "rigid"]), st.lists(moves(True), min_size=1, max_size=10))
+@given(profiles(), st.sampled_from(["elastica", "rigid"]),
+       st.lists(moves(True), min_size=1, max_size=10))
 def test_turning_foot_every_step_returns_a_valid_state_or_a_vibrissa_error(profile, model, path):
     run_path(profile, model, FootPose(5.0, 0.0, HALF_PI), path)
 
@@ -176,7 +185,8 @@ def test_turning_foot_every_step_returns_a_valid_state_or_a_vibrissa_error(profi
     st.floats(-0.3, 0.3),
     st.integers(8, 40),
 )
-def test_one_big_step_equals_many_small_steps_when_no_event_is_skipped(profile, x_to, y_to, turn, n):
+def test_one_big_step_equals_many_small_steps_when_no_event_is_skipped(profile, x_to, y_to, turn,
+                                                                       n):
     start = FootPose(5.0, 0.0, HALF_PI)
     try:
         big = QuasistaticTracker(profile, start)
@@ -193,7 +203,8 @@ def test_one_big_step_equals_many_small_steps_when_no_event_is_skipped(profile, 
         small_events = []
         for k in range(1, n + 1):
             u = k / n
-            pose = FootPose(near.x + u * (target.x - near.x), near.y + u * (target.y - near.y), HALF_PI + u * turn)
+            pose = FootPose(near.x + u * (target.x - near.x), near.y + u * (target.y - near.y),
+                            HALF_PI + u * turn)
             small_events += [e.kind for e in small.step(pose).events]
     except VibrissaError:
         assume(False)
@@ -212,12 +223,16 @@ def test_worst_step_cost_stays_far_below_the_budget():
     assert 0 < WORST["evaluations"] <= STEP_WORK_BOUND < BUDGET
 
 
-# -- regressions: examples random paths once found -------------------------------------------------
+# -- regressions: examples random paths once found
+# -------------------------------------------------
 
 
 def test_release_then_immediate_retouch_does_not_loop():
-    """Catenary p0 0.5, c 0.6: a release followed by a re-touch at the same path parameter used to
-    loop for ever (random walk from foot (2, 0), seed 1 of the first fuzzing)."""
+    """
+    Catenary p0 0.5, c 0.6: a release, then a re-touch at the same path parameter, ends.
+
+    It used to loop for ever (random walk from foot (2, 0), seed 1 of the first fuzzing).
+    """
     tracker = QuasistaticTracker(Catenary(0.5, 0.6), FootPose(2.0, 0.0, HALF_PI))
     for pose in [(1.8, -0.01), (0.9, -0.02), (-0.0059972017395627485, -0.027105203550680662)]:
         tracker.step(FootPose(*pose, HALF_PI))
@@ -237,19 +252,34 @@ def test_far_poses_on_a_narrow_catenary_are_refused_or_computed_never_overflow()
 
 
 def test_big_jump_past_the_obstacle_from_far_away_is_followed_quickly():
-    """A branch met at the end of a 1e5-long jump: tau starts at 0 where the branch begins."""
+    """
+    A branch met at the end of a 1e5-long jump: tau starts at 0 where the branch begins.
+
+    The branch ends where the foot is driven into the obstacle; the target itself is free, so the
+    whisker is re-placed there (recovery), or the step refused with recovery off.
+    """
     prof = Ellipse(0.13244234727160747, 2.9598206473745603, 24.184930555189123)
-    tracker = QuasistaticTracker(prof, FootPose(-1e5, 0.0, HALF_PI))
+    target = FootPose(2.946808431550931, 0.4099353833511268, HALF_PI)
+    strict = QuasistaticTracker(prof, FootPose(-1e5, 0.0, HALF_PI),
+                                options=TrackerOptions(recover=False))
     with pytest.raises(ModelAssumptionError, match="slid down to the whisker's foot"):
-        tracker.step(FootPose(2.946808431550931, 0.4099353833511268, HALF_PI))
-    assert tracker.state.phase == Phase.FREE and tracker.state.pose.x == -1e5
+        strict.step(target)
+    assert strict.state.phase == Phase.FREE and strict.state.pose.x == -1e5
+    tracker = QuasistaticTracker(prof, FootPose(-1e5, 0.0, HALF_PI))
+    result = tracker.step(target)
+    assert [e.kind for e in result.events] == ["reset"]
+    assert "slid down to the whisker's foot" in result.events[0].reason
+    assert result.state == QuasistaticTracker(prof, target).state
 
 
 def test_tangential_contact_unloading_at_a_vertical_tangent_is_a_release():
-    """A foot above the paper's line slides the whisker's side off a circle's equator: f -> 0 as the
-    contact runs to the point where the profile turns parallel to the whisker (it used to crawl
-    there for ever in lam = 1/sqrt(f)). The release is where the straight whisker's line passes
-    through that point: foot x = R."""
+    """
+    A foot above the paper's line slides the whisker's side off a circle's equator: a release.
+
+    f -> 0 as the contact runs to the point where the profile turns parallel to the whisker (it
+    used to crawl there for ever in lam = 1/sqrt(f)). The release is where the straight whisker's
+    line passes through that point: foot x = R.
+    """
     R = 0.5076581111637105
     tracker = QuasistaticTracker(Circle(0.5434297785547605, R), FootPose(1.2, 0.0, HALF_PI))
     tracker.step(FootPose(0.144, 0.0, HALF_PI))
@@ -285,13 +315,22 @@ def test_numerical_exceptions_become_convergence_errors(monkeypatch):
 
 
 def test_a_step_that_exceeds_its_budget_raises_and_keeps_the_state():
-    tracker = QuasistaticTracker(Parabola(0.3), FootPose(2.0, 0.0, HALF_PI), options=TrackerOptions(max_evaluations=50))
+    options = TrackerOptions(max_evaluations=50, recover=False)
+    tracker = QuasistaticTracker(Parabola(0.3), FootPose(2.0, 0.0, HALF_PI), options=options)
     with pytest.raises(ConvergenceError, match="more than 50 evaluations"):
         tracker.step(FootPose(-2.0, 0.0, HALF_PI))
     assert tracker.state.pose.x == 2.0
+    # with recovery (the default) the free target re-places the whisker, the refusal is the reason
+    tracker = QuasistaticTracker(Parabola(0.3), FootPose(2.0, 0.0, HALF_PI),
+                                 options=TrackerOptions(max_evaluations=50))
+    result = tracker.step(FootPose(-2.0, 0.0, HALF_PI))
+    assert [e.kind for e in result.events] == ["reset"]
+    assert "more than 50 evaluations" in result.events[0].reason
+    assert tracker.state.pose.x == -2.0 and tracker.state.phase == Phase.FREE
 
 
-@pytest.mark.parametrize("make", [lambda v: Catenary(0.3, v), lambda v: Circle(0.3, v), lambda v: Ellipse(0.3, 1.0, v)])
+@pytest.mark.parametrize("make", [lambda v: Catenary(0.3, v), lambda v: Circle(0.3, v),
+                                  lambda v: Ellipse(0.3, 1.0, v)])
 @pytest.mark.parametrize("size", [1e-300, 1e-7, 1e7, 1e300])
 def test_degenerate_profile_sizes_are_refused_with_the_allowed_range(make, size):
     """A catenary with c = 1e-300 is a wall of zero width: refused up front, with the range."""
@@ -306,12 +345,17 @@ def test_the_height_of_a_narrow_catenary_far_out_is_infinite_not_an_overflow():
 
 
 def test_a_whisker_released_exactly_at_a_pose_does_not_touch_again_when_it_moves_away():
-    """A tapered whisker (rho 0.25) snaps onto the far flank of Parabola(0.35, 1.3) and releases at
-    x0 = -1 exactly, a grid point; the next step used to see the tip on the profile as a new touch
-    and crawl for minutes. A free tip on the profile that moves out of it is not a touch."""
-    from vibrissa_ros.core.general import GeneralWhiskerModel, WhiskerShape
+    """
+    A free tip on the profile that moves out of it is not a touch.
 
-    tracker = QuasistaticTracker(Parabola(0.35, 1.3), 2.0, model=GeneralWhiskerModel(WhiskerShape(0.25, 0.0, 0.0)))
+    A tapered whisker (rho 0.25) snaps onto the far flank of Parabola(0.35, 1.3) and releases at
+    x0 = -1 exactly, a grid point; the next step used to see the tip on the profile as a new touch
+    and crawl for minutes.
+    """
+    from vibrissa_ros.core.general.model import GeneralWhiskerModel, WhiskerShape
+
+    tracker = QuasistaticTracker(Parabola(0.35, 1.3), 2.0,
+                                 model=GeneralWhiskerModel(WhiskerShape(0.25, 0.0, 0.0)))
     kinds = []
     for i in range(1, 161):
         result = tracker.step(2.0 - 0.02 * i)

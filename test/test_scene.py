@@ -9,14 +9,14 @@ from scipy.integrate import quad
 from scipy.interpolate import CubicSpline
 from scipy.optimize import minimize_scalar
 
-from vibrissa_ros.core.boundary import CircleArc, GraphArc, ProfileArc, RayArc, SegmentArc
+from vibrissa_ros.core.scenes.boundary import CircleArc, GraphArc, ProfileArc, RayArc, SegmentArc
 from vibrissa_ros.core.errors import InvalidPoseError, ParameterError
 from vibrissa_ros.core.profiles import Peg, TwoCircles, make_profile
-from vibrissa_ros.core.scene import (
+from vibrissa_ros.core.scenes.scene import (
     CurveObstacle, PegObstacle, PolygonObstacle, ProfileObstacle, Scene, clip_polygon,
     clip_polyline,
 )
-from vibrissa_ros.scene_file import dump_scene, load_scene
+from vibrissa_ros.scan.scene_file import dump_scene, load_scene
 
 L_SHAPE = [[0.0, 0.0], [1.0, 0.0], [1.0, 0.4], [0.4, 0.4], [0.4, 1.0], [0.0, 1.0]]
 OBSTACLES = {
@@ -339,7 +339,8 @@ def test_metres_are_converted_to_whisker_lengths():
 obstacles:
   - {type: peg, x: 0.0, y: 0.0225, r: 0.0015}
   - {type: polygon, vertices: [[0.015, 0.03], [0.025, 0.03], [0.025, 0.04]]}
-  - {type: parabola, p0: 0.015, k: 40.0, placement: {x: 0.05, y: 0.0, rotation: -1.5707963267948966}}
+  - {type: parabola, p0: 0.015, k: 40.0,
+     placement: {x: 0.05, y: 0.0, rotation: -1.5707963267948966}}
   - {type: circle, p0: 0.005, R: 0.01, placement: {x: -0.05, y: 0.0, rotation: 3.14159}}
 """
     scene = load_scene(metres, length_scale=length)

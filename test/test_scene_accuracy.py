@@ -2,8 +2,8 @@
 The collocation solver and scene tracker against the independent shooting method (issue 13).
 
 Required: for two pegs and for a non-convex curve, the two methods agree to <= 1e-9, and events
-to <= 1e-9 in the pose parameter. The shooting method (``core/scene_shooting.py``) shares nothing
-with the collocation but the geometry of ``boundary.py``; its golden values are in
+to <= 1e-9 in the pose parameter. The shooting method (``core/checks/scene_shooting.py``) shares
+nothing with the collocation but the geometry of ``boundary.py``; its golden values are in
 ``test/data/scene_golden.json``.
 """
 
@@ -14,10 +14,10 @@ import os
 import numpy as np
 import pytest
 
-from vibrissa_ros.core.boundary import CircleArc, GraphArc
-from vibrissa_ros.core.general import WhiskerShape
-from vibrissa_ros.core.multicontact import ContactMode, MultiContactSolver
-from vibrissa_ros.core.scene_shooting import (
+from vibrissa_ros.core.scenes.boundary import CircleArc, GraphArc
+from vibrissa_ros.core.general.model import WhiskerShape
+from vibrissa_ros.core.scenes.multicontact import ContactMode, MultiContactSolver
+from vibrissa_ros.core.checks.scene_shooting import (
     ContactSpec,
     PosePath,
     arc_length_coordinate,
@@ -26,9 +26,9 @@ from vibrissa_ros.core.scene_shooting import (
     solve_scene_equilibrium,
     touch_gap,
 )
-from vibrissa_ros.core.scene_tracker import SceneTracker
+from vibrissa_ros.core.scenes.tracker import SceneTracker
 from vibrissa_ros.core.state import FootPose
-from vibrissa_ros.scene_file import load_scene
+from vibrissa_ros.scan.scene_file import load_scene
 
 HERE = os.path.dirname(__file__)
 GOLDEN = os.path.join(HERE, "data", "scene_golden.json")
@@ -63,8 +63,8 @@ def test_collocation_reproduces_the_shooting_golden_values(case):
             modes.append(ContactMode("tip", feature))
             params.append([c["u"] + 1e-3, c["N"] * (1 - 1e-3)])
     # slopes: the unloaded whisker as a rough start
-    breaks, guess = [], []
-    from vibrissa_ros.core.multicontact import _Segment
+    guess = []
+    from vibrissa_ros.core.scenes.multicontact import _Segment
 
     a = 0.0
     for m, p in zip(modes, params):
@@ -85,7 +85,7 @@ def test_collocation_reproduces_the_shooting_golden_values(case):
 
 
 def _spec(mode, contact, jiggle=1e-4):
-    """The shooting method's description of one of the tracker's contacts (guesses jiggled)."""
+    """Describe one of the tracker's contacts for the shooting method (guesses jiggled)."""
     anchor = 0.0
     if mode.stick:
         u_a, s_a = mode.anchor

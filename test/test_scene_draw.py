@@ -6,9 +6,9 @@ from builtin_interfaces.msg import Time
 from rclpy.serialization import deserialize_message, serialize_message
 from visualization_msgs.msg import Marker, MarkerArray
 
-from vibrissa_ros.plots import draw_scene, plt
+from vibrissa_ros.scan.plots import draw_scene, plt
 from vibrissa_ros.ros.messages import scene_markers
-from vibrissa_ros.scene_file import load_scene
+from vibrissa_ros.scan.scene_file import load_scene
 
 SCENE = """
 obstacles:

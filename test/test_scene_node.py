@@ -1,9 +1,10 @@
-"""Scenes in whisker_node without DDS: parameters, the pipeline, ~/contacts, ~/obstacles, events."""
+"""Scenes in whisker_node without DDS: parameters, pipeline, ~/contacts, ~/obstacles, events."""
 
 import os
 
 os.environ.setdefault("ROS_PYTHON_CHECK_FIELDS", "1")  # before the message modules are imported
 
+# E402 below: the imports must follow that setting
 import json  # noqa: E402
 import math  # noqa: E402
 from pathlib import Path  # noqa: E402
@@ -15,15 +16,15 @@ from sensor_msgs.msg import PointCloud2, PointField  # noqa: E402
 from visualization_msgs.msg import Marker  # noqa: E402
 
 from vibrissa_ros.core import FootPose, ParameterError, QuasistaticTracker  # noqa: E402
-from vibrissa_ros.core.scene_tracker import SceneTracker  # noqa: E402
-from vibrissa_ros.edge import (  # noqa: E402
+from vibrissa_ros.core.scenes.tracker import SceneTracker  # noqa: E402
+from vibrissa_ros.node.edge import (  # noqa: E402
     ContactRecord, contact_records, decode_event, encode_event, event_record, planar_pose,
     sensor_reading,
 )
-from vibrissa_ros.node_config import SCENE_TEXT, build_config  # noqa: E402
-from vibrissa_ros.pipeline import PosePipeline  # noqa: E402
+from vibrissa_ros.node.config import SCENE_TEXT, build_config  # noqa: E402
+from vibrissa_ros.node.pipeline import PosePipeline  # noqa: E402
 from vibrissa_ros.ros import messages as m  # noqa: E402
-from vibrissa_ros.scene_file import load_scene  # noqa: E402
+from vibrissa_ros.scan.scene_file import load_scene  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENE_M = ROOT / "config" / "scene_two_pegs_m.yaml"
@@ -82,7 +83,7 @@ def test_contacts_cloud_decodes_to_the_values_it_was_built_from(check_fields):
     for i, c in enumerate(contacts):
         base = i * cloud.point_step
         row = {name: np.frombuffer(raw, dtype={PointField.FLOAT64: "<f8", PointField.UINT8: "u1",
-                                                PointField.UINT32: "<u4"}[kind],
+                                               PointField.UINT32: "<u4"}[kind],
                                    count=1, offset=base + off)[0]
                for name, (off, kind, _) in fields.items()}
         assert float(row["z"]) == 0.0
@@ -140,8 +141,8 @@ def test_the_scene_file_is_read_in_metres_with_its_friction():
     assert cfg.scene == load_scene(SCENE_M, length_scale=0.03)
     assert cfg.scene[0].x == 0.0 and cfg.scene[0].y == pytest.approx(0.4, rel=1e-15)
     assert cfg.friction == (0.0, 0.3)
-    assert cfg.units.length == 0.03 and cfg.units.moment * 0.03 == pytest.approx(
-        3.3e9 * math.pi * 5e-5**4 / 4, rel=1e-15)
+    assert (cfg.units.length == 0.03
+            and cfg.units.moment * 0.03 == pytest.approx(3.3e9 * math.pi * 5e-5**4 / 4, rel=1e-15))
     assert "scene of 2 obstacle(s)" in cfg.describe() and "scene tracker" in cfg.describe()
     record = cfg.record_values
     assert record[SCENE_TEXT] == SCENE_M.read_text()
@@ -228,8 +229,8 @@ def test_the_pipeline_steps_the_scene_tracker_exactly():
         else:
             result = tracker.step(pose)
             want, want_events = result.state, result.events
-        assert state.contacts == want.contacts and (state.fx, state.fy, state.m0) == (
-            want.fx, want.fy, want.m0)
+        assert (state.contacts == want.contacts
+                and (state.fx, state.fy, state.m0) == (want.fx, want.fy, want.m0))
         assert events == want_events
         kinds += [e.kind for e in events]
         most = max(most, len(state.contacts))
@@ -238,8 +239,8 @@ def test_the_pipeline_steps_the_scene_tracker_exactly():
         assert reading.torque_z == state.m0 * cfg.units.moment
         if state.contacts:  # the single-contact topics describe the contact nearest the foot
             near = state.contacts[0]
-            assert reading.s1 == near.s * 0.03 and reading.contact_world == (
-                near.x * 0.03, near.y * 0.03)
+            assert (reading.s1 == near.s * 0.03
+                    and reading.contact_world == (near.x * 0.03, near.y * 0.03))
     assert most == 2 and kinds.count("touch") == 2 and "release" in kinds
 
 

@@ -1,4 +1,5 @@
-"""The scene shooting solver: several contacts with friction, checked against independent answers.
+"""
+The scene shooting solver: several contacts with friction, checked against independent answers.
 
 One contact must equal the exact single-contact models; several contacts are checked by physics
 that the solver does not impose (global equilibrium, the moment along the whisker, Maxwell-Betti
@@ -23,8 +24,8 @@ from vibrissa_ros.core import (
     QuasistaticTracker,
     WhiskerShape,
 )
-from vibrissa_ros.core.boundary import CircleArc, GraphArc, ProfileArc, SegmentArc, Vertex
-from vibrissa_ros.core.scene_shooting import (
+from vibrissa_ros.core.scenes.boundary import CircleArc, GraphArc, ProfileArc, SegmentArc, Vertex
+from vibrissa_ros.core.checks.scene_shooting import (
     arc_end_margin,
     ContactSpec,
     PosePath,
@@ -289,7 +290,9 @@ def test_sticking_tip_holds_q_until_it_slips():
         assert c.friction == "stick"
         assert c.q == pytest.approx(c0.q, abs=1e-12)
         assert c.x == pytest.approx(c0.x, abs=1e-12)  # the tip is held
-        assert abs(c.T) <= mu * c.N * (1.0 + 1e-12)
+        # the last time is the located slip onset, where |T| = mu N to the shooting's accuracy
+        # (rtol 1e-13 per integration; the event's own solve and this one differ by ~1e-12)
+        assert abs(c.T) <= mu * c.N * (1.0 + 1e-10)
     c = ev.equilibrium.contacts[0]
     assert abs(c.T) == pytest.approx(mu * c.N, abs=1e-12)
     # beyond the event the tip slips; friction opposes the slip: T = -slip_sign mu N

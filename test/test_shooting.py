@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from vibrissa_ros.core import Catenary, Parabola, TwoCircles, run_scan
-from vibrissa_ros.core.shooting import ShootingScan
+from vibrissa_ros.core.checks.shooting import ShootingScan
 
 CASES = [Parabola(0.3), Parabola(0.6), Catenary(0.5, 0.6), TwoCircles(0.4, 0.8, 1.6)]
 

@@ -50,7 +50,9 @@ def test_reference_scan_every_row(reference_scan):
         assert state.phase == int(row["phase"]), row["x0"]
         for name in REF_COLUMNS + ("contact_x", "contact_y", "tip_x", "tip_y"):
             ref = row[name]
-            value = _state_value(state, name) if state.phase or name.startswith("tip") or name in ("f", "fx", "fy", "m0", "tip_slope") else None
+            value = (_state_value(state, name)
+                     if state.phase or name.startswith("tip")
+                     or name in ("f", "fx", "fy", "m0", "tip_slope") else None)
             if math.isnan(ref):
                 assert value is None
                 continue
@@ -67,7 +69,8 @@ def test_reference_events(reference_scan):
     result = run_scan(Parabola(0.3), scan_grid(2.0, -2.0, 0.01))
     kinds = [(e.kind, int(e.from_phase), int(e.to_phase)) for e in result.events]
     assert kinds == [("touch", 0, 2), ("phase", 2, 1), ("phase", 1, 2), ("snap", 2, 0)]
-    assert [name for name, _, _ in ref_events] == ["first_touch", "tip_to_tangential", "tangential_to_tip", "snap_off"]
+    assert [name for name, _, _ in ref_events] == ["first_touch", "tip_to_tangential",
+                                                   "tangential_to_tip", "snap_off"]
     for event, (_, x0, alpha) in zip(result.events, ref_events):
         assert event.x0 == pytest.approx(x0, abs=1e-10)
         assert event.alpha == pytest.approx(alpha, abs=1e-9)
@@ -80,7 +83,8 @@ def test_phase_one_ends_at_alpha_zero_exactly_for_the_papers_p0_lower():
     assert ends[0].alpha == pytest.approx(0.0, abs=1e-9)
     # and alpha1 > 0 (< 0) for p0 above (below) p0_lower (paper §2.1)
     for p0, sign in ((0.44, -1), (0.47, +1)):
-        ev = [e for e in run_scan(Parabola(p0), scan_grid(2.0, -2.0, 0.01)).events if e.kind == "phase"]
+        ev = [e for e in run_scan(Parabola(p0), scan_grid(2.0, -2.0, 0.01)).events
+              if e.kind == "phase"]
         assert np.sign(ev[-1].alpha) == sign
 
 
@@ -118,7 +122,8 @@ def test_reversing_the_foot_retraces_the_branch_and_releases_at_first_touch():
         assert res.state.phase == ref.phase
         assert res.state.m0 == pytest.approx(ref.m0, abs=1e-11)
         assert res.state.f == pytest.approx(ref.f, abs=1e-11)
-    assert [(e.kind, e.to_phase) for e in events] == [("phase", Phase.TIP), ("release", Phase.FREE)]
+    assert [(e.kind, e.to_phase) for e in events] == [("phase", Phase.TIP),
+                                                      ("release", Phase.FREE)]
     release = events[-1]
     touch_x = Parabola(0.3).xi(Parabola(0.3).alpha_at_height(1.0, +1))
     assert release.x0 == pytest.approx(touch_x, abs=1e-10)
@@ -150,7 +155,8 @@ def test_back_and_forth_sweep_shows_hysteresis_mirrored_for_a_symmetric_profile(
     assert loop_area > 1.0
 
 
-PROFILES = [Parabola(0.3), Parabola(0.6), Catenary(0.5, 0.6), TwoCircles(0.4, 0.8, 1.6), Circle(0.35, 0.9), Ellipse(0.3, 1.4, 0.9)]
+PROFILES = [Parabola(0.3), Parabola(0.6), Catenary(0.5, 0.6), TwoCircles(0.4, 0.8, 1.6),
+            Circle(0.35, 0.9), Ellipse(0.3, 1.4, 0.9)]
 
 
 @pytest.mark.parametrize("profile", PROFILES, ids=lambda p: p.describe())
@@ -190,7 +196,8 @@ def test_invariants_on_every_state_of_a_sweep(profile):
         else:
             assert 0 < st.s1 < 1
             # the free part lies along the profile's tangent (direction alpha, or alpha + pi)
-            assert math.remainder(st.tip_slope - st.alpha, math.pi) == pytest.approx(0.0, abs=1e-15)
+            assert math.remainder(st.tip_slope - st.alpha, math.pi) == pytest.approx(0.0,
+                                                                                     abs=1e-15)
 
 
 def _move(pose, g):
@@ -217,7 +224,8 @@ def test_rigid_motion_of_the_whole_set_up_changes_nothing_but_the_frame():
         if sa.phase:
             assert sb.alpha == pytest.approx(sa.alpha + g[2], abs=1e-11)
             assert sb.fx == pytest.approx(c * sa.fx - s * sa.fy, abs=1e-10)
-            moved_contact = (g[0] + c * sa.contact[0] - s * sa.contact[1], g[1] + s * sa.contact[0] + c * sa.contact[1])
+            moved_contact = (g[0] + c * sa.contact[0] - s * sa.contact[1], g[1] + s * sa.contact[0]
+                             + c * sa.contact[1])
             assert sb.contact == pytest.approx(moved_contact, abs=1e-10)
         assert sb.tip_slope == pytest.approx(sa.tip_slope + g[2], abs=1e-11)
 
@@ -227,7 +235,8 @@ def test_motion_in_y_and_heading_follows_the_same_branch_by_any_path():
     direct = QuasistaticTracker(profile, FootPose(1.6, 0.0))
     direct.step(FootPose(0.8, 0.06, HALF_PI + 0.05))
     around = QuasistaticTracker(profile, FootPose(1.6, 0.0))
-    for pose in (FootPose(1.6, 0.06), FootPose(1.6, 0.06, HALF_PI + 0.05), FootPose(0.8, 0.06, HALF_PI + 0.05)):
+    for pose in (FootPose(1.6, 0.06), FootPose(1.6, 0.06, HALF_PI + 0.05),
+                 FootPose(0.8, 0.06, HALF_PI + 0.05)):
         around.step(pose)
     assert direct.state.phase == around.state.phase == Phase.TIP
     for name in ("alpha", "f", "m0", "tip_slope"):
@@ -269,17 +278,22 @@ def test_bad_poses_are_rejected_and_the_state_is_kept():
 
 def test_free_state_reports_zero_force_and_no_contact():
     st = QuasistaticTracker(Parabola(0.3), 2.0).state
-    assert (st.phase, st.f, st.fx, st.fy, st.m0, st.alpha, st.s1, st.contact) == (0, 0, 0, 0, 0, None, None, None)
+    assert (st.phase, st.f, st.fx, st.fy, st.m0, st.alpha, st.s1, st.contact) == (0, 0, 0, 0, 0,
+                                                                                  None, None, None)
     assert st.tip == pytest.approx((2.0, 1.0))
     assert st.tip_slope == HALF_PI
 
 
 def test_settling_on_the_other_flank_after_a_snap():
-    """No sweep we know folds where a straight whisker would cut the obstacle, so the mechanism that
+    """
+    After a snap, the whisker settles on the other flank.
+
+    No sweep we know folds where a straight whisker would cut the obstacle, so the mechanism that
     would then settle the whisker on the other flank is exercised directly: from x0 = 0 under the
     apex (straight whisker inside), travelling left, it must find the branch that a whisker coming
-    back from the left is on."""
-    from vibrissa_ros.core.tracker import _Path
+    back from the left is on.
+    """
+    from vibrissa_ros.core.exact.tracker import _Path
 
     profile = Parabola(0.3)
     tracker = QuasistaticTracker(profile, 2.0)

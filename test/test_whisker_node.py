@@ -11,8 +11,8 @@ from rcl_interfaces.srv import SetParameters
 from ros_harness import ROOT, Probe, pose_msg, stamp_of, start_installed_node, stop, write_params
 
 from vibrissa_ros.core import QuasistaticTracker
-from vibrissa_ros.edge import planar_pose, sensor_reading
-from vibrissa_ros.node_config import build_config
+from vibrissa_ros.node.edge import planar_pose, sensor_reading
+from vibrissa_ros.node.config import build_config
 
 HALF_PI = math.pi / 2
 CATENARY = {
@@ -29,7 +29,7 @@ CATENARY = {
 
 
 def _expected(values, msgs):
-    """The core's answers for the same poses, converted exactly as the node converts them."""
+    """Compute the core's answers for the same poses, converted exactly as the node does."""
     cfg = build_config(values)
     tracker, out = None, []
     for m in msgs:
@@ -48,7 +48,7 @@ def _expected(values, msgs):
 
 @pytest.fixture
 def node(installed, ros_env, rcl_context, tmp_path, request):
-    """Start whisker_node with the parameters of the test's ``params`` marker (default: catenary)."""
+    """Start whisker_node with the parameters of the test's ``params`` marker (or catenary)."""
     marker = request.node.get_closest_marker("params")
     values = dict(marker.args[0]) if marker else dict(getattr(request, "param", CATENARY))
     params = write_params(tmp_path / "params.yaml", values)
@@ -68,20 +68,23 @@ def test_installed_node_comes_up_and_answers(node):
     probe.handshake(pose_msg(0.2, 0.0, HALF_PI, 1))
     wrench = probe.step(pose_msg(0.19, 0.0, HALF_PI, 2))
     assert wrench.header.frame_id == "whisker_base"
-    assert (wrench.wrench.force.x, wrench.wrench.force.y, wrench.wrench.torque.z) == (0.0, 0.0, 0.0)
+    assert (wrench.wrench.force.x, wrench.wrench.force.y, wrench.wrench.torque.z) == (0.0, 0.0,
+                                                                                      0.0)
     probe.spin_until(lambda: probe.got["obstacle"], 5.0)
     marker = probe.got["obstacle"][-1]
     assert marker.header.frame_id == "world" and len(marker.points) > 100
     apex = min(marker.points, key=lambda p: p.y)
     assert (apex.x, apex.y) == pytest.approx((0.0, 0.05), abs=1e-4)
-    assert int(probe.diagnostics_value("poses_processed")) >= 2  # the handshake's repeats and the step
+    # the handshake's repeats and the step
+    assert int(probe.diagnostics_value("poses_processed")) >= 2
     assert probe.diagnostics_value("phase") == "0"
     assert proc.poll() is None
 
 
 def test_sweep_outputs_equal_the_core_in_si_and_the_base_frame(node):
     proc, probe, values = node
-    xs = list(np.round(np.arange(0.15, -0.15, -0.0025), 10)) + list(np.round(np.arange(-0.15, 0.1501, 0.0025), 10))
+    xs = list(np.round(np.arange(0.15, -0.15, -0.0025), 10)) + list(
+        np.round(np.arange(-0.15, 0.1501, 0.0025), 10))
     msgs = [pose_msg(x, 0.0, HALF_PI, 1_000_000_000 + i * 1_000_000) for i, x in enumerate(xs)]
     probe.handshake(msgs[0])
     wrenches = [probe.step(m, centerline=True) for m in msgs[1:]]
@@ -100,16 +103,20 @@ def test_sweep_outputs_equal_the_core_in_si_and_the_base_frame(node):
     assert [p.data for p in probe.got["phase"]] == [r.phase for _, r, _ in expected]
     for msg, (_, r, _) in zip(probe.got["contact_force"], expected):
         assert msg.header.frame_id == "world"
-        assert _close(msg.vector.x, r.force_world[0], force_scale) and _close(msg.vector.y, r.force_world[1], force_scale)
+        assert _close(msg.vector.x, r.force_world[0], force_scale) and _close(msg.vector.y,
+                                                                              r.force_world[1],
+                                                                              force_scale)
     mags = [m.data for m in probe.got["contact_force_magnitude"]]
-    assert len(mags) == n and all(_close(a, r.force_magnitude, force_scale) for a, (_, r, _) in zip(mags, expected))
+    assert len(mags) == n and all(_close(a, r.force_magnitude, force_scale)
+                                  for a, (_, r, _) in zip(mags, expected))
     contacts = [(r.contact_world, r.s1) for _, r, _ in expected if r.contact_world is not None]
     assert len(probe.got["contact_point"]) == len(contacts) == len(probe.got["arc_length"])
     for msg, s1_msg, (c, s1) in zip(probe.got["contact_point"], probe.got["arc_length"], contacts):
         assert _close(msg.point.x, c[0], 0.1) and _close(msg.point.y, c[1], 0.1)
         assert _close(s1_msg.data, s1, 0.1)
     events = [json.loads(e.data) for e in probe.got["events"]]
-    want = [(e.kind, int(e.from_phase), int(e.to_phase), e.pose.x * 0.1) for _, _, evs in expected for e in evs]
+    want = [(e.kind, int(e.from_phase), int(e.to_phase), e.pose.x * 0.1) for _, _, evs in expected
+            for e in evs]
     assert [(e["kind"], e["from_phase"], e["to_phase"]) for e in events] == [w[:3] for w in want]
     assert [e["kind"] for e in events].count("snap") == 2  # hysteresis: one snap each way
     for got, w in zip(events, want):
@@ -118,8 +125,10 @@ def test_sweep_outputs_equal_the_core_in_si_and_the_base_frame(node):
         assert stamp_of(path) == stamp_of(m) and path.header.frame_id == "world"
         first, last = path.poses[0].pose.position, path.poses[-1].pose.position
         assert (first.x, first.y) == pytest.approx((m.pose.position.x, 0.0), abs=1e-15)
-        assert (last.x, last.y) == pytest.approx((state.tip[0] * 0.1, state.tip[1] * 0.1), abs=1e-13)
-    numbers = [v for w in wrenches for v in (w.wrench.force.x, w.wrench.force.y, w.wrench.torque.z)]
+        assert (last.x, last.y) == pytest.approx((state.tip[0] * 0.1, state.tip[1] * 0.1),
+                                                 abs=1e-13)
+    numbers = [v for w in wrenches for v in (w.wrench.force.x, w.wrench.force.y,
+                                             w.wrench.torque.z)]
     assert all(math.isfinite(v) for v in numbers)
 
 
@@ -153,10 +162,13 @@ def test_bad_inputs_are_dropped_counted_and_the_state_is_kept(node, rcl_context)
     expected = _expected(values, [pose_msg(0.15, 0.0, HALF_PI, 1_000)] + good + [after])[-1][1]
     assert _close(wrench.wrench.torque.z, expected.torque_z, 5e-3)
     assert proc.poll() is None
-    # a reset by a runtime change, then a first pose that puts the straight whisker inside the obstacle
+    # a reset by a runtime change, then a first pose that puts the straight whisker inside the
+    # obstacle
     client = probe.node.create_client(SetParameters, "/whisker_node/set_parameters")
     assert client.wait_for_service(timeout_sec=10.0)
-    change = Parameter(name="obstacle.apex_y", value=ParameterValue(type=ParameterType.PARAMETER_DOUBLE, double_value=0.045))
+    change = Parameter(name="obstacle.apex_y",
+                       value=ParameterValue(type=ParameterType.PARAMETER_DOUBLE,
+                                            double_value=0.045))
     future = client.call_async(SetParameters.Request(parameters=[change]))
     probe.spin_until(future.done, 10.0)
     assert future.result().results[0].successful
@@ -175,7 +187,8 @@ def test_runtime_parameter_changes_are_validated_with_a_reason(node):
     assert client.wait_for_service(timeout_sec=10.0)
 
     def set_(name, kind, **value):
-        req = SetParameters.Request(parameters=[Parameter(name=name, value=ParameterValue(type=kind, **value))])
+        req = SetParameters.Request(
+            parameters=[Parameter(name=name, value=ParameterValue(type=kind, **value))])
         future = client.call_async(req)
         probe.spin_until(future.done, 10.0)
         return future.result().results[0]
@@ -185,7 +198,8 @@ def test_runtime_parameter_changes_are_validated_with_a_reason(node):
     bad = set_("obstacle.type", ParameterType.PARAMETER_STRING, string_value="cone")
     assert not bad.successful and "allowed" in bad.reason and "parabola" in bad.reason
     bad = set_("world_frame", ParameterType.PARAMETER_STRING, string_value="map")
-    assert not bad.successful and "read-only" in bad.reason.lower().replace("read only", "read-only")
+    assert not bad.successful and "read-only" in bad.reason.lower().replace("read only",
+                                                                            "read-only")
     probe.got["obstacle"].clear()
     good = set_("obstacle.type", ParameterType.PARAMETER_STRING, string_value="parabola")
     assert good.successful
@@ -212,7 +226,8 @@ def test_clean_exit_on_signals(installed, ros_env, tmp_path, sig, rcl_context):
     assert "Traceback" not in out
 
 
-@pytest.mark.parametrize("config", ["default", "catenary", "two_circles", "parabola_rigid", "rat_pole"])
+@pytest.mark.parametrize("config", ["default", "catenary", "two_circles", "parabola_rigid",
+                                    "rat_pole"])
 def test_shipped_parameter_files_start_the_node(installed, ros_env, rcl_context, config):
     params = ROOT / "config" / f"{config}.yaml"
     proc = start_installed_node(installed, params, ros_env, namespace=f"/{config}")
@@ -226,14 +241,19 @@ def test_shipped_parameter_files_start_the_node(installed, ros_env, rcl_context,
         assert stop(proc) == 0
 
 
-def test_two_whiskers_run_side_by_side_in_their_own_namespaces(installed, ros_env, rcl_context, tmp_path):
+def test_two_whiskers_run_side_by_side_in_their_own_namespaces(installed, ros_env, rcl_context,
+                                                               tmp_path):
     left = dict(CATENARY)
-    right = dict(CATENARY, **{"obstacle.type": "parabola", "obstacle.k": 10.0, "obstacle.apex_y": 0.03})
+    right = dict(CATENARY, **{"obstacle.type": "parabola", "obstacle.k": 10.0,
+                              "obstacle.apex_y": 0.03})
     procs = [
-        start_installed_node(installed, write_params(tmp_path / "l.yaml", left), ros_env, namespace="/left"),
-        start_installed_node(installed, write_params(tmp_path / "r.yaml", right), ros_env, namespace="/right"),
+        start_installed_node(installed, write_params(tmp_path / "l.yaml", left), ros_env,
+                             namespace="/left"),
+        start_installed_node(installed, write_params(tmp_path / "r.yaml", right), ros_env,
+                             namespace="/right"),
     ]
-    probes = [Probe(rcl_context, "/left/whisker_node", "probe_l"), Probe(rcl_context, "/right/whisker_node", "probe_r")]
+    probes = [Probe(rcl_context, "/left/whisker_node", "probe_l"),
+              Probe(rcl_context, "/right/whisker_node", "probe_r")]
     try:
         msgs = [pose_msg(x, 0.0, HALF_PI, 10 + i) for i, x in enumerate((0.2, 0.1, 0.05, 0.0))]
         for probe in probes:
@@ -243,7 +263,8 @@ def test_two_whiskers_run_side_by_side_in_their_own_namespaces(installed, ros_en
             want = _expected(values, msgs)[1:]
             for w, (_, r, _) in zip(got, want):
                 assert _close(w.wrench.torque.z, r.torque_z, 5e-3)
-        assert probes[0].got["wrench"][-1].wrench.torque.z != probes[1].got["wrench"][-1].wrench.torque.z
+        assert (probes[0].got["wrench"][-1].wrench.torque.z
+                != probes[1].got["wrench"][-1].wrench.torque.z)
     finally:
         for probe in probes:
             probe.destroy()
@@ -266,14 +287,17 @@ def test_vibrissa_sweep_drives_the_node_and_records_si_rows(node):
     poses = [(float(x), 0.0, HALF_PI) for x in np.round(np.arange(0.12, -0.12, -0.004), 10)]
     rows = run_sweep(poses, node="/whisker_node", timeout=10.0)
     assert len(rows) == len(poses)
-    expected = _expected(values, [pose_msg(x, y, yaw, i + 1) for i, (x, y, yaw) in enumerate(poses)])
+    expected = _expected(values,
+                         [pose_msg(x, y, yaw, i + 1) for i, (x, y, yaw) in enumerate(poses)])
     assert [r.phase for r in rows] == [r.phase for _, r, _ in expected]
     for row, (_, r, _) in zip(rows, expected):
         assert _close(row.torque_z, r.torque_z, 5e-3)
-        assert _close(row.force_x, r.force_base[0], 5e-2) and _close(row.contact_force, r.force_magnitude, 5e-2)
+        assert _close(row.force_x, r.force_base[0], 5e-2) and _close(row.contact_force,
+                                                                     r.force_magnitude, 5e-2)
         assert (row.contact_x is None) == (r.contact_world is None)
         if r.contact_world is not None:
-            assert _close(row.contact_x, r.contact_world[0], 0.1) and _close(row.arc_length, r.s1, 0.1)
+            assert _close(row.contact_x, r.contact_world[0], 0.1) and _close(row.arc_length, r.s1,
+                                                                             0.1)
 
 
 def test_vibrissa_sweep_command_launches_the_node(tmp_path, ros_env):
@@ -284,13 +308,14 @@ def test_vibrissa_sweep_command_launches_the_node(tmp_path, ros_env):
     out = tmp_path / "sweep.csv"
     exe = Path(sys.executable).with_name("vibrissa")
     proc = subprocess.run(
-        [str(exe), "sweep", "--launch", str(ROOT / "config" / "default.yaml"), "--from", "0.2", "--to", "-0.2",
-         "--step", "0.01", "--back", "--csv", str(out)],
+        [str(exe), "sweep", "--launch", str(ROOT / "config" / "default.yaml"), "--from", "0.2",
+         "--to", "-0.2", "--step", "0.01", "--back", "--csv", str(out)],
         env=ros_env, capture_output=True, text=True, timeout=180,
     )
     assert proc.returncode == 0, proc.stderr
     lines = out.read_text().splitlines()
-    assert lines[0] == "x,y,yaw,phase,force_x,force_y,torque_z,contact_force,contact_x,contact_y,arc_length"
+    assert lines[0] == ("x,y,yaw,phase,force_x,force_y,torque_z,contact_force,contact_x,contact_y,"
+                        "arc_length")
     assert len(lines) == 1 + 81
     phases = [int(line.split(",")[3]) for line in lines[1:]]
     assert set(phases) == {0, 1, 2}
@@ -320,12 +345,17 @@ def _rat_pole_poses():
     poses = [(x, 0.0, HALF_PI) for x in xs]
     poses += [(0.004, 0.0, HALF_PI + a) for a in np.linspace(0.0, 0.6, 61)]
     poses += [(0.004, 0.0, HALF_PI + a) for a in np.linspace(0.6, -0.3, 91)[1:]]
-    return [pose_msg(float(x), y, float(h), 1_000_000_000 + i * 1_000_000) for i, (x, y, h) in enumerate(poses)]
+    return [pose_msg(float(x), y, float(h), 1_000_000_000 + i * 1_000_000)
+            for i, (x, y, h) in enumerate(poses)]
 
 
 @pytest.mark.parametrize("node", [RAT_POLE], indirect=True)
 def test_tapered_curved_whisker_past_a_peg_equals_the_general_core(node):
-    """Issue 12: the node's general model (taper, curvature, peg, E and r) == the core, SI, base frame."""
+    """
+    Issue 12: the node's general model (taper, curvature, peg, E and r) == the core.
+
+    In SI units, in the base frame.
+    """
     proc, probe, values = node
     assert build_config(values).model.name == "general"
     msgs = _rat_pole_poses()

@@ -15,10 +15,10 @@ from rcl_interfaces.srv import SetParameters
 from ros_harness import ROOT, Probe, pose_msg, stamp_of, start_installed_node, stop, write_params
 from visualization_msgs.msg import Marker
 
-from vibrissa_ros.core.scene_tracker import SceneTracker
-from vibrissa_ros.edge import contact_records, planar_pose, sensor_reading
-from vibrissa_ros.log_tools import log_info, resimulate
-from vibrissa_ros.node_config import build_config
+from vibrissa_ros.core.scenes.tracker import SceneTracker
+from vibrissa_ros.node.edge import contact_records, planar_pose, sensor_reading
+from vibrissa_ros.logs.tools import log_info, resimulate
+from vibrissa_ros.node.config import build_config
 from vibrissa_ros.ros.messages import decode_contacts
 
 HALF_PI = math.pi / 2
@@ -38,7 +38,7 @@ def _flatten(tree, prefix=""):
 
 
 def _shipped_values():
-    """The shipped parameter file's values, its package:// scene named by its source path."""
+    """Read the shipped parameter file's values, its package:// scene named by its source path."""
     values = _flatten(yaml.safe_load(SHIPPED.read_text())["/**"]["ros__parameters"])
     assert values["obstacle.scene_file"] == "package://vibrissa_ros/config/scene_two_pegs_m.yaml"
     return dict(values, **{"obstacle.scene_file": str(SCENE_M)})
@@ -52,7 +52,7 @@ def _poses():
 
 
 def _expected(values, msgs):
-    """The scene tracker's answers for the same poses, converted as the node converts them."""
+    """Compute the scene tracker's answers for the same poses, converted as the node does."""
     cfg = build_config(values)
     assert cfg.multi_contact
     tracker, out = None, []
@@ -153,7 +153,7 @@ def test_shipped_two_peg_scene_equals_the_scene_tracker(installed, ros_env, rcl_
 
 
 def test_a_bad_scene_file_is_refused_at_startup_and_at_runtime(installed, ros_env, rcl_context,
-                                                              tmp_path):
+                                                               tmp_path):
     bad = tmp_path / "overlap.yaml"
     bad.write_text("obstacles:\n  - {type: peg, x: 0.0, y: 0.012, r: 0.001}\n"
                    "  - {type: peg, x: 0.0005, y: 0.012, r: 0.001}\n")
@@ -210,7 +210,8 @@ def test_a_recorded_scene_run_is_reproduced_by_resim(installed, ros_env, rcl_con
     info = log_info(str(log))
     for topic in ("contacts", "obstacles", "obstacle", "events", "wrench"):
         assert f"/scene/whisker_node/{topic}" in info.topics, topic
-    assert info.topics["/scene/whisker_node/obstacles"] == ("visualization_msgs/msg/MarkerArray", 1)
+    assert info.topics["/scene/whisker_node/obstacles"] == ("visualization_msgs/msg/MarkerArray",
+                                                            1)
     assert info.configurations[0][1]["obstacle.scene_text"] == SCENE_M.read_text()
     assert [e["kind"] for e in info.events].count("touch") == 2
     sim = resimulate(str(log))

@@ -10,12 +10,12 @@ import sys
 from typing import Dict, List, Optional
 
 from .core.errors import VibrissaError
-from .core.models import MODELS, make_model
+from .core.exact.models import MODELS, make_model
 from .core.profiles import PROFILE_PARAMETERS, make_profile
-from .core.general import WhiskerShape
+from .core.general.model import WhiskerShape
 from .core.scan import run_poses, run_scan, scan_grid, whisk_poses
-from .parameters import ParameterSpec
-from .scan_io import read_poses_csv, write_events_json, write_scan_csv
+from .node.parameters import ParameterSpec
+from .scan.scan_io import read_poses_csv, write_events_json, write_scan_csv
 
 
 class _Parser(argparse.ArgumentParser):
@@ -154,7 +154,8 @@ def build_parser() -> argparse.ArgumentParser:
         type=_taper,
         default=None,
         metavar="RHO",
-        help="tip radius / base radius in (0, 1] (default 1): bending stiffness (1-(1-RHO)s)^4 EI_b",
+        help="tip radius / base radius in (0, 1] (default 1): bending stiffness "
+        "(1-(1-RHO)s)^4 EI_b",
     )
     scan.add_argument(
         "--curvature",
@@ -198,9 +199,9 @@ def build_parser() -> argparse.ArgumentParser:
         "--whisk",
         type=_foot,
         metavar="X,Y",
-        help="whisk instead of sliding: the foot fixed at (X, Y), the heading sweeping from --from "
-        "to --to by --step degrees (counter-clockwise from +x; 90 = the paper's set-up), and back "
-        "with --back; written as --poses is (columns x,y,heading, heading in rad). Write "
+        help="whisk instead of sliding: the foot fixed at (X, Y), the heading sweeping from "
+        "--from to --to by --step degrees (counter-clockwise from +x; 90 = the paper's set-up), "
+        "and back with --back; written as --poses is (columns x,y,heading, heading in rad). Write "
         "--whisk=-1.5,0 for a negative X",
     )
     scan.add_argument(
@@ -369,10 +370,11 @@ def build_parser() -> argparse.ArgumentParser:
     rec.set_defaults(func=_cmd_reconstruct)
     batch = sub.add_parser(
         "batch",
-        help="run a study (a grid and/or random sample of scans) on Dask and write a Parquet dataset",
-        description="Run every task of a study (one task = one scan, as 'vibrissa scan' computes it) on an "
-        "embedded Dask cluster or an existing one, and write the results as a Parquet dataset in DIR. "
-        "Running the same command again computes only the tasks that are missing.",
+        help="run a study (a grid and/or random sample of scans) on Dask and write a Parquet "
+        "dataset",
+        description="Run every task of a study (one task = one scan, as 'vibrissa scan' computes "
+        "it) on an embedded Dask cluster or an existing one, and write the results as a Parquet "
+        "dataset in DIR. Running the same command again computes only the tasks that are missing.",
     )
     batch.add_argument("study", help="the study file (YAML; see config/study_small.yaml)")
     batch.add_argument(
@@ -401,9 +403,9 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _cmd_batch(args) -> int:
     try:
-        from .batch import run_study
-        from .dataset import DatasetError
-        from .study import load_study
+        from .studies.batch import run_study
+        from .studies.dataset import DatasetError
+        from .studies.study import load_study
     except ImportError as exc:
         print(
             f"vibrissa batch: error: needs Dask, pyarrow, tqdm and PyYAML ({exc}); pip install "
@@ -413,8 +415,8 @@ def _cmd_batch(args) -> int:
         return 2
     if args.workers is not None and args.scheduler:
         print(
-            "vibrissa batch: error: --workers sizes the embedded cluster; with --scheduler the cluster's "
-            "own workers run the study",
+            "vibrissa batch: error: --workers sizes the embedded cluster; with --scheduler the "
+            "cluster's own workers run the study",
             file=sys.stderr,
         )
         return 2
@@ -439,8 +441,8 @@ def _cmd_batch(args) -> int:
         return 2
     except KeyboardInterrupt:
         print(
-            "vibrissa batch: interrupted; the tasks written are kept: run the same command again to "
-            "compute the rest",
+            "vibrissa batch: interrupted; the tasks written are kept: run the same command again "
+            "to compute the rest",
             file=sys.stderr,
         )
         return 130
@@ -449,23 +451,24 @@ def _cmd_batch(args) -> int:
         return 1
     if report.computed == 0 and not report.errors:
         print(
-            f"vibrissa batch: all {report.tasks} tasks of {args.study} are already in {args.out}; nothing to do",
+            f"vibrissa batch: all {report.tasks} tasks of {args.study} are already in "
+            f"{args.out}; nothing to do",
             file=sys.stderr,
         )
         return 0
     rate = report.computed / report.seconds if report.seconds > 0 else 0.0
     print(
         f"vibrissa batch: {report.computed} tasks computed ({report.failed} failed, reasons in "
-        f"{args.out}/failures), {report.already_done} were already done; {report.workers} workers, "
-        f"{report.seconds:.1f} s ({rate:.2f} tasks/s) -> {args.out}",
+        f"{args.out}/failures), {report.already_done} were already done; "
+        f"{report.workers} workers, {report.seconds:.1f} s ({rate:.2f} tasks/s) -> {args.out}",
         file=sys.stderr,
     )
     if report.errors:
         for index, message in report.errors[:5]:
             print(f"vibrissa batch: error: task {index} not computed: {message}", file=sys.stderr)
         print(
-            f"vibrissa batch: {len(report.errors)} tasks not computed; run the same command again to retry "
-            "them",
+            f"vibrissa batch: {len(report.errors)} tasks not computed; run the same command again "
+            "to retry them",
             file=sys.stderr,
         )
         return 1
@@ -488,7 +491,7 @@ def rigid_output_path(path: str) -> str:
 
 
 def _scan_path(args):
-    """The foot positions (x0 grid) or poses (--poses, --whisk) of a scan."""
+    """Return the foot positions (x0 grid) or poses (--poses, --whisk) of a scan."""
     sweep = (args.x_from, args.x_to, args.step)
     if args.poses is not None:
         if args.whisk is not None:
@@ -506,8 +509,8 @@ def _scan_path(args):
 
 
 def _elastica_model(args, profile):
-    """The exact elastica or the general solver, by --solver, --taper and --curvature."""
-    from .scene_scan import elastica_model
+    """Choose the exact elastica or the general solver, by --solver, --taper and --curvature."""
+    from .scan.scene_scan import elastica_model
 
     k0, k1 = args.curvature or (0.0, 0.0)
     shape = WhiskerShape(1.0 if args.taper is None else args.taper, k0, k1)
@@ -524,7 +527,7 @@ def _cmd_scan(args) -> int:
             raise VibrissaError("--contacts applies to --scene")
         if args.friction is not None:
             raise VibrissaError("--friction applies to --scene (a profile alone is frictionless)")
-        from .study import place_obstacle
+        from .studies.study import place_obstacle
 
         profile = place_obstacle(make_profile(args.profile, _params(args.param)), *args.place)
         grid, poses = _scan_path(args)
@@ -582,7 +585,7 @@ def _cmd_scan(args) -> int:
                 write_events_json(result.events, stream, by_pose)
     if args.plot:
         try:
-            from .plots import PlotRun, plot_runs
+            from .scan.plots import PlotRun, plot_runs
         except ImportError as exc:
             print(
                 f"vibrissa scan: error: --plot needs matplotlib ({exc}); pip install '.[plots]'",
@@ -605,8 +608,8 @@ def _cmd_scan(args) -> int:
 
 def _cmd_scan_scene(args) -> int:
     """``vibrissa scan --scene``: several obstacles, several contacts, friction."""
-    from .scene_file import load_scene
-    from .scene_scan import plan_scene_scan
+    from .scan.scene_file import load_scene
+    from .scan.scene_scan import plan_scene_scan
 
     try:
         if args.profile is not None or args.param or args.place != (0.0, 0.0, 0.0):
@@ -630,7 +633,7 @@ def _cmd_scan_scene(args) -> int:
     except VibrissaError as exc:
         print(f"vibrissa scan: error: {exc}", file=sys.stderr)
         return 2 if isinstance(exc, ValueError) else 1
-    from .scan_io import write_contacts_jsonl, write_scene_events_json
+    from .scan.scan_io import write_contacts_jsonl, write_scene_events_json
 
     if args.csv == "-":
         write_scan_csv(states, sys.stdout, by_pose, contacts=True)
@@ -645,7 +648,7 @@ def _cmd_scan_scene(args) -> int:
             write_contacts_jsonl(states, stream, by_pose)
     if args.plot:
         try:
-            from .plots import plot_scene_scan
+            from .scan.plots import plot_scene_scan
         except ImportError as exc:
             print(f"vibrissa scan: error: --plot needs matplotlib ({exc}); pip install '.[plots]'",
                   file=sys.stderr)
@@ -737,7 +740,7 @@ def _log_tool(verb: str, action) -> int:
 
 def _cmd_info(args) -> int:
     def run():
-        from .log_tools import log_info
+        from .logs.tools import log_info
 
         info = log_info(args.log)
         print(f"log:       {args.log}")
@@ -784,7 +787,7 @@ def _cmd_replay(args) -> int:
 
 def _cmd_resim(args) -> int:
     def run():
-        from .log_tools import resimulate
+        from .logs.tools import resimulate
 
         sim = resimulate(args.log)
         print(
@@ -808,8 +811,8 @@ def _cmd_resim(args) -> int:
 
 def _cmd_export(args) -> int:
     def run():
-        from .log_tools import export_rows
-        from .scan_io import CONTACTS_COLUMN, CSV_COLUMNS, state_row
+        from .logs.tools import export_rows
+        from .scan.scan_io import CONTACTS_COLUMN, CSV_COLUMNS, state_row
 
         rows, sim = export_rows(args.log)
         # a run of the scene tracker: its number of contacts too, as `vibrissa scan --scene`
@@ -838,7 +841,7 @@ def _cmd_export(args) -> int:
 
 def _cmd_repair(args) -> int:
     def run():
-        from .mcap_log import repair
+        from .logs.mcap_log import repair
 
         kept = repair(args.log, args.output)
         print(f"vibrissa repair: {kept} messages kept -> {args.output}", file=sys.stderr)
@@ -849,7 +852,7 @@ def _cmd_repair(args) -> int:
 
 def _cmd_plot(args) -> int:
     try:
-        from .plots import PlotRun, plot_runs, si_units
+        from .scan.plots import PlotRun, plot_runs, si_units
     except ImportError as exc:
         print(
             f"vibrissa plot: error: needs matplotlib ({exc}); pip install '.[plots]'",
@@ -860,9 +863,9 @@ def _cmd_plot(args) -> int:
     if args.input.endswith(".mcap"):
 
         def run():
-            from .log_tools import configurations, export_rows
-            from .mcap_log import read_log
-            from .node_config import build_config
+            from .logs.tools import configurations, export_rows
+            from .logs.mcap_log import read_log
+            from .node.config import build_config
 
             rows, sim = export_rows(args.input)
             values = configurations(read_log(args.input)[2])[0][1]
@@ -921,7 +924,7 @@ def _cmd_plot(args) -> int:
 
 def _cmd_reconstruct(args) -> int:
     def run():
-        from .reconstruction import plot, reconstruct_input, write_csv
+        from .node.reconstruction import plot, reconstruct_input, write_csv
 
         if not os.path.isfile(args.input):
             raise FileNotFoundError(2, "no such file", args.input)

@@ -1,4 +1,5 @@
-"""Writes test/data/scene_golden.json: golden two-contact scenes from the shooting solver.
+"""
+Writes test/data/scene_golden.json: golden two-contact scenes from the shooting solver.
 
 Run ``python test/data/make_scene_golden.py`` (a few seconds). Each scene is reached by
 continuation exactly as test_scene_shooting.py does it (the first touch located on the foot's
@@ -17,12 +18,12 @@ from pathlib import Path
 import numpy as np
 
 HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE.parent))
+sys.path.insert(0, str(HERE.parent))  # test/: the imports below must follow it (E402)
 import test_scene_shooting as scenes  # noqa: E402
 
 from vibrissa_ros.core import FootPose  # noqa: E402
-from vibrissa_ros.core.boundary import CircleArc  # noqa: E402
-from vibrissa_ros.core.scene_shooting import (  # noqa: E402
+from vibrissa_ros.core.scenes.boundary import CircleArc  # noqa: E402
+from vibrissa_ros.core.checks.scene_shooting import (  # noqa: E402
     PosePath,
     follow_path,
     solve_scene_equilibrium,
@@ -31,15 +32,15 @@ from vibrissa_ros.core.scene_shooting import (  # noqa: E402
 NOTE = (
     "Golden equilibria of a whisker (WhiskerShape taper, k0, k1; length 1, base stiffness 1) "
     "clamped at 'pose' (x, y, heading) and touched at two points, frictionless. Computed by "
-    "vibrissa_ros.core.scene_shooting (DOP853 shooting, rtol 1e-13, Newton residual <= 1e-13) "
-    "after continuation from a one-contact state (test/data/make_scene_golden.py). Per contact: "
-    "kind, feature (circle: centre cx, cy and radius r; curve: a natural-spline graph through "
-    "'points' with the obstacle on 'side'), arc length s on the whisker, arc parameter u "
-    "(circle: the tangent angle phi, the point (cx + r sin u, cy - r cos u); curve 'below': "
-    "u = -x), the contact point x, y, the force of the obstacle on the whisker fx, fy, its "
-    "normal and tangential components N, T. 'base': the total force fx, fy and the base moment "
-    "m0 (counter-clockwise positive). 'agreement': the largest difference of these numbers "
-    "against the same solve at rtol 1e-11."
+    "vibrissa_ros.core.checks.scene_shooting (DOP853 shooting, rtol 1e-13, Newton "
+    "residual <= 1e-13) after continuation from a one-contact state "
+    "(test/data/make_scene_golden.py). Per contact: kind, feature (circle: centre cx, cy and "
+    "radius r; curve: a natural-spline graph through 'points' with the obstacle on 'side'), arc "
+    "length s on the whisker, arc parameter u (circle: the tangent angle phi, the point (cx + r "
+    "sin u, cy - r cos u); curve 'below': u = -x), the contact point x, y, the force of the "
+    "obstacle on the whisker fx, fy, its normal and tangential components N, T. 'base': the total "
+    "force fx, fy and the base moment m0 (counter-clockwise positive). 'agreement': the largest "
+    "difference of these numbers against the same solve at rtol 1e-11."
 )
 
 

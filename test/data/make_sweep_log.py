@@ -1,4 +1,5 @@
-"""Writes test/data/catenary_sweep.mcap: a short run of whisker_node, recorded by the node itself.
+"""
+Writes test/data/catenary_sweep.mcap: a short run of whisker_node, recorded by the node itself.
 
 The log the offline tests (info, resim, export, plot, reconstruct) read without DDS. Run it again
 only when the log layout changes: ``python test/data/make_sweep_log.py``. The run: the catenary of
@@ -18,7 +19,7 @@ import rclpy
 from domain_coordinator import domain_id
 
 HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE.parent))
+sys.path.insert(0, str(HERE.parent))  # the test helpers: the import below must follow (E402)
 from ros_harness import Probe, pose_msg, ros_env, stop, write_params  # noqa: E402
 
 PARAMS = {

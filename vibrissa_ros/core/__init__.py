@@ -4,7 +4,7 @@ The mechanics core of vibrissa_ros: no ROS import anywhere below this package.
 Dimensionless units of the paper: length L (whisker length), force EI/L^2, moment EI/L.
 """
 
-from .elastica import TipLoadedElastica, tip_loaded_elastica
+from .exact.elastica import TipLoadedElastica, tip_loaded_elastica
 from .errors import (
     ConvergenceError,
     InvalidPoseError,
@@ -12,8 +12,8 @@ from .errors import (
     ParameterError,
     VibrissaError,
 )
-from .general import GeneralWhiskerModel, WhiskerShape
-from .models import ElasticaModel, make_model
+from .general.model import GeneralWhiskerModel, WhiskerShape
+from .exact.models import ElasticaModel, make_model
 from .profiles import (
     PROFILE_PARAMETERS,
     PROFILES,
@@ -29,7 +29,7 @@ from .profiles import (
 )
 from .scan import ScanResult, run_poses, run_scan, scan_grid, whisk_poses
 from .state import Event, FootPose, Phase, StepResult, WhiskerState
-from .tracker import QuasistaticTracker, TrackerOptions
+from .exact.tracker import QuasistaticTracker, TrackerOptions
 
 __all__ = [
     "Catenary",

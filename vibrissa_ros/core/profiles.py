@@ -177,7 +177,25 @@ def _reaches_height_one(profile: str, what: str, height: float, scan: bool = Tru
 
 @dataclass(frozen=True)
 class Parabola(ConvexProfile):
-    """y = p0 + k x^2 / 2; xi = tan(a)/k, eta = p0 + tan(a)^2/(2k) (the paper's example, k = 1)."""
+    """
+    y = p0 + k x^2 / 2; xi = tan(a)/k, eta = p0 + tan(a)^2/(2k) (the paper's example, k = 1).
+
+    Parameters
+    ----------
+    p0 : float
+        The apex height over the foot's line [L]; in (0, 1) with ``scan_checks``.
+    k : float, optional
+        The curvature at the apex [1/L]; 1/k within [1e-6, 1e6].
+    scan_checks : bool, optional
+        Enforce the paper's scan set-up (p0 in (0, 1), the profile reaching height 1 on both
+        sides); without it only the shape is validated (see :func:`make_profile`).
+
+    Raises
+    ------
+    ParameterError
+        When a parameter is out of its range.
+
+    """
 
     p0: float
     k: float = 1.0
@@ -209,7 +227,25 @@ class Parabola(ConvexProfile):
 
 @dataclass(frozen=True)
 class Catenary(ConvexProfile):
-    """y = p0 + c (cosh(x/c) - 1); xi = c asinh(tan a), eta = p0 + c (sec a - 1)."""
+    """
+    y = p0 + c (cosh(x/c) - 1); xi = c asinh(tan a), eta = p0 + c (sec a - 1).
+
+    Parameters
+    ----------
+    p0 : float
+        The apex height over the foot's line [L]; in (0, 1) with ``scan_checks``.
+    c : float
+        The catenary's parameter, its radius of curvature at the apex [L]; within [1e-6, 1e6].
+    scan_checks : bool, optional
+        Enforce the paper's scan set-up (p0 in (0, 1), the profile reaching height 1 on both
+        sides); without it only the shape is validated (see :func:`make_profile`).
+
+    Raises
+    ------
+    ParameterError
+        When a parameter is out of its range.
+
+    """
 
     p0: float
     c: float
@@ -246,7 +282,25 @@ class Catenary(ConvexProfile):
 
 @dataclass(frozen=True)
 class Circle(ConvexProfile):
-    """Lower arc of the circle of radius R centred at (0, p0 + R): (R sin a, p0 + R(1 - cos a))."""
+    """
+    Lower arc of the circle of radius R centred at (0, p0 + R): (R sin a, p0 + R(1 - cos a)).
+
+    Parameters
+    ----------
+    p0 : float
+        The apex height over the foot's line [L]; in (0, 1) with ``scan_checks``.
+    R : float
+        The radius [L]; within [1e-6, 1e6], and p0 + R > 1 with ``scan_checks``.
+    scan_checks : bool, optional
+        Enforce the paper's scan set-up (p0 in (0, 1), the profile reaching height 1 on both
+        sides); without it only the shape is validated (see :func:`make_profile`).
+
+    Raises
+    ------
+    ParameterError
+        When a parameter is out of its range.
+
+    """
 
     p0: float
     R: float
@@ -280,6 +334,23 @@ class TwoCircles(ConvexProfile):
     Two circular arcs tangent to y = p0 at x = 0 (the paper's asymmetric example, Fig. 2.4).
 
     The left arc (radius R_left) for x < 0, the right arc (radius R_right) for x >= 0.
+
+    Parameters
+    ----------
+    p0 : float
+        The apex height over the foot's line [L]; in (0, 1) with ``scan_checks``.
+    R_left, R_right : float
+        The radii of the left and the right arc [L]; within [1e-6, 1e6], and p0 + R > 1 with
+        ``scan_checks``.
+    scan_checks : bool, optional
+        Enforce the paper's scan set-up (p0 in (0, 1), the profile reaching height 1 on both
+        sides); without it only the shape is validated (see :func:`make_profile`).
+
+    Raises
+    ------
+    ParameterError
+        When a parameter is out of its range.
+
     """
 
     p0: float
@@ -320,6 +391,23 @@ class Ellipse(ConvexProfile):
 
     The point of outward normal (sin a, -cos a) is (a^2 sin, p0 + b - b^2 cos) / D with
     D = sqrt(a^2 sin^2 + b^2 cos^2); rho = (a b)^2 / D^3.
+
+    Parameters
+    ----------
+    p0 : float
+        The apex height over the foot's line [L]; in (0, 1) with ``scan_checks``.
+    a, b : float
+        The semi-axes along x and along y [L]; within [1e-6, 1e6], and p0 + b > 1 with
+        ``scan_checks``.
+    scan_checks : bool, optional
+        Enforce the paper's scan set-up (p0 in (0, 1), the profile reaching height 1 on both
+        sides); without it only the shape is validated (see :func:`make_profile`).
+
+    Raises
+    ------
+    ParameterError
+        When a parameter is out of its range.
+
     """
 
     p0: float
@@ -364,6 +452,21 @@ class PlacedProfile(ConvexProfile):
 
     It is rotated by ``rotation`` about its own origin, then translated by (x, y). The slope of
     every point shifts by ``rotation``.
+
+    Parameters
+    ----------
+    base : ConvexProfile
+        The profile moved.
+    x, y : float, optional
+        The translation [L].
+    rotation : float, optional
+        The rotation about the base profile's origin [rad], counter-clockwise.
+
+    Raises
+    ------
+    ParameterError
+        When x, y or rotation is not finite.
+
     """
 
     base: ConvexProfile
@@ -427,6 +530,22 @@ class Peg(ConvexProfile):
     Every slope occurs on a disk: the point of outward normal (sin a, -cos a) is
     (x + r sin a, y - r cos a), rho = r; a whisker may touch it anywhere, side first or tip first.
     A point (r = 0) takes side contact only: a tip that reaches it slips off (a snap).
+
+    Parameters
+    ----------
+    x, y : float
+        The centre [L].
+    r : float, optional
+        The radius [L], >= 0; 0 is a point.
+    scan_checks : bool, optional
+        Accepted like every profile's (:func:`make_profile` passes it); a peg has no apex
+        height or reach to check.
+
+    Raises
+    ------
+    ParameterError
+        When x, y or r is not finite, or r < 0.
+
     """
 
     x: float
@@ -499,10 +618,31 @@ def make_profile(name: str, params: Mapping[str, float],
     """
     Build a profile from its contract name and parameters, with errors that say what is allowed.
 
-    ``scan_checks`` enforces the paper's scan set-up (p0 in (0, 1), the profile reaching height 1
-    on both sides, relative to a foot on the x-axis); without it only the shape is validated and
-    p0 is simply the apex height (used where the foot moves freely in the plane, e.g. the ROS
-    node).
+    Parameters
+    ----------
+    name : str
+        The contract name: ``parabola``, ``catenary``, ``circle``, ``two_circles``, ``ellipse`` or
+        ``peg``.
+    params : mapping of str to float
+        The profile's parameters by their contract names; a parameter the paper gives a default
+        for (the parabola's k = 1, the peg's r = 0) may be left out.
+    scan_checks : bool, optional
+        Enforce the paper's scan set-up (p0 in (0, 1), the profile reaching height 1 on both
+        sides, relative to a foot on the x-axis); without it only the shape is validated and p0
+        is simply the apex height (used where the foot moves freely in the plane, e.g. the ROS
+        node).
+
+    Returns
+    -------
+    ConvexProfile
+        The profile, an instance of the class of that name.
+
+    Raises
+    ------
+    ParameterError
+        For an unknown profile name, an unknown or missing parameter, or a parameter out of its
+        range; the message says what is allowed.
+
     """
     if name not in PROFILES:
         raise ParameterError(f"unknown profile {name!r}; allowed: {', '.join(PROFILES)}")

@@ -11,7 +11,7 @@ import numpy as np
 from .errors import ParameterError
 from .profiles import ConvexProfile
 from .state import Event, FootPose, WhiskerState
-from .tracker import QuasistaticTracker
+from .exact.tracker import QuasistaticTracker
 
 
 @dataclass(frozen=True)
@@ -19,7 +19,17 @@ class ScanResult:
     """
     States in scan order (one per grid point) and the events crossed between them.
 
-    ``event_steps[k]`` is the index of the state whose step crossed ``events[k]``.
+    The parameters are the dataclass's fields, kept as attributes of the same names.
+
+    Parameters
+    ----------
+    states : tuple of WhiskerState
+        The states in scan order, one per grid point.
+    events : tuple of Event
+        The events crossed between them, in order.
+    event_steps : tuple of int, optional
+        ``event_steps[k]`` is the index of the state whose step crossed ``events[k]``.
+
     """
 
     states: Tuple[WhiskerState, ...]
@@ -32,7 +42,28 @@ def scan_grid(x_from: float, x_to: float, step: float, back: bool = False) -> np
     Foot positions from ``x_from`` to ``x_to`` inclusive, spaced by ``step`` (> 0).
 
     Points are computed as x_from +- i*step (no accumulated rounding); ``x_to`` ends the grid even
-    when the span is not a multiple of the step. ``back`` appends the way back to ``x_from``.
+    when the span is not a multiple of the step.
+
+    Parameters
+    ----------
+    x_from, x_to : float
+        The grid's first and last point (either may be the larger).
+    step : float
+        The spacing, > 0.
+    back : bool, optional
+        Append the way back to ``x_from``.
+
+    Returns
+    -------
+    numpy.ndarray
+        The grid, shape (n,).
+
+    Raises
+    ------
+    ParameterError
+        When a bound or the step is not finite, the step is not > 0, or the grid would have more
+        than 50,000,000 points.
+
     """
     for name, value in (("from", x_from), ("to", x_to), ("step", step)):
         if not math.isfinite(value):
@@ -65,6 +96,28 @@ def whisk_poses(
     are the grid of :func:`scan_grid` from ``from_deg`` to ``to_deg`` inclusive, spaced by
     ``step_deg`` (> 0), and back when ``back`` (a protraction and its retraction); each is turned
     into radians by :func:`math.radians`.
+
+    Parameters
+    ----------
+    x, y : float
+        The foot's fixed position [L].
+    from_deg, to_deg : float
+        The first and last heading [deg].
+    step_deg : float
+        The heading spacing [deg], > 0.
+    back : bool, optional
+        Append the way back (the retraction).
+
+    Returns
+    -------
+    tuple of FootPose
+        The poses in whisking order, headings in radians.
+
+    Raises
+    ------
+    ParameterError
+        When x or y is not finite, or the heading grid is invalid (see :func:`scan_grid`).
+
     """
     for name, value in (("x", x), ("y", y)):
         if not math.isfinite(value):
@@ -86,7 +139,24 @@ def _follow(tracker, targets) -> ScanResult:
 
 
 def run_scan(profile: ConvexProfile, grid, model="elastica") -> ScanResult:
-    """Place the whisker at the first grid point (straight, free) and step through the grid."""
+    """
+    Place the whisker at the first grid point (straight, free) and step through the grid.
+
+    Parameters
+    ----------
+    profile : ConvexProfile
+        The obstacle.
+    grid : array_like of float
+        The paper's foot positions x0 [L] (foot at (x0, 0), heading pi/2), in scan order.
+    model : str or model instance, optional
+        ``"elastica"`` (paper §2) or ``"rigid"`` (paper §3), or a model object.
+
+    Returns
+    -------
+    ScanResult
+        One state per grid point and the events crossed.
+
+    """
     grid = np.asarray(grid, dtype=float)
     tracker = QuasistaticTracker(profile, float(grid[0]), model=model)
     return _follow(tracker, (float(x0) for x0 in grid[1:]))
@@ -97,6 +167,26 @@ def run_poses(profile: ConvexProfile, poses, model="elastica") -> ScanResult:
     Place the whisker at the first foot pose (unloaded, free) and step through the poses in order.
 
     Each is a quasistatic step along the straight path in (x, y, heading) from the previous one.
+
+    Parameters
+    ----------
+    profile : ConvexProfile
+        The obstacle.
+    poses : iterable of FootPose
+        The foot poses, in order.
+    model : str or model instance, optional
+        ``"elastica"`` (paper §2) or ``"rigid"`` (paper §3), or a model object.
+
+    Returns
+    -------
+    ScanResult
+        One state per pose and the events crossed.
+
+    Raises
+    ------
+    ParameterError
+        When there are no poses.
+
     """
     poses = list(poses)
     if not poses:
@@ -108,12 +198,13 @@ def run_scene(obstacles, poses, shape=None, friction=None) -> ScanResult:
     """
     Scan a scene with the multi-contact tracker: the whisker placed at the first pose (unloaded).
 
-    ``obstacles``: scene obstacles (``core/scene.py``), ``friction`` their Coulomb coefficients,
-    ``shape`` the whisker; ``poses``: foot poses or the paper's x0 values. (A scene of one convex
-    profile or peg without friction is the single-contact problem: ``scene_scan.py`` hands that to
-    :func:`run_scan`, whose numbers the scene tracker reproduces to ~1e-10.)
+    ``obstacles``: scene obstacles (``core/scenes/scene.py``), ``friction`` their Coulomb
+    coefficients, ``shape`` the whisker; ``poses``: foot poses or the paper's x0 values. (A scene
+    of one convex profile or peg without friction is the single-contact problem:
+    ``scan/scene_scan.py`` hands that to :func:`run_scan`, whose numbers the scene tracker
+    reproduces to ~1e-10.)
     """
-    from .scene_tracker import SceneTracker
+    from .scenes.tracker import SceneTracker
 
     poses = [p if isinstance(p, FootPose) else FootPose(float(p)) for p in poses]
     if not poses:

@@ -19,6 +19,18 @@ import numpy as np
 from .errors import InvalidPoseError
 
 HALF_PI = 0.5 * math.pi
+TWO_PI = 2.0 * math.pi
+
+
+def wrap_heading(heading: float) -> float:
+    """
+    Return ``heading`` [rad] as the trackers carry and report it: in (-pi, pi].
+
+    A heading and the same heading plus whole turns are one whisker; the trackers keep the
+    representative in (-pi, pi] so that nothing downstream depends on how often the foot turned.
+    """
+    wrapped = math.remainder(heading, TWO_PI)
+    return math.pi if wrapped == -math.pi else wrapped
 
 
 class Phase(IntEnum):
@@ -35,7 +47,23 @@ class FootPose:
     Planar pose of the whisker's base.
 
     Position (x, y) [L] and heading [rad] of the undeformed whisker, counter-clockwise from +x.
-    The paper's scan is ``FootPose(x0, 0.0, pi/2)``.
+    The paper's scan is ``FootPose(x0, 0.0, pi/2)``. The parameters are the dataclass's fields,
+    kept as attributes of the same names.
+
+    Parameters
+    ----------
+    x : float
+        The base's x [L].
+    y : float, optional
+        The base's y [L].
+    heading : float, optional
+        The undeformed whisker's heading [rad], counter-clockwise from +x; pi/2: along +y.
+
+    Raises
+    ------
+    InvalidPoseError
+        When a value is not a number or not finite.
+
     """
 
     x: float
@@ -75,8 +103,25 @@ class Event:
     Something that happened during a step, located by root finding on the equilibrium branch.
 
     ``kind`` is ``touch`` (first contact), ``phase`` (tangential <-> tip), ``snap`` (the branch
-    folds: criterion (c) of paper §2.2, the whisker jumps) or ``release`` (the contact force
-    returns to zero and the whisker leaves the obstacle smoothly).
+    folds: criterion (c) of paper §2.2, the whisker jumps), ``release`` (the contact force
+    returns to zero and the whisker leaves the obstacle smoothly) or ``reset`` (the step could not
+    be followed and the whisker was placed unloaded at the new pose, or it was reset on request;
+    README "Recovery: when a step cannot be followed"). The parameters are the dataclass's
+    fields, kept as attributes of the same names.
+
+    Parameters
+    ----------
+    kind : {'touch', 'phase', 'snap', 'release', 'reset'}
+        What happened (above).
+    from_phase, to_phase : Phase
+        The phase before and after the event.
+    pose : FootPose
+        The foot pose where it happened.
+    alpha : float or None, optional
+        The profile's slope at the contact [rad] (world frame), where there is one.
+    reason : str, optional
+        Why a ``reset`` happened (empty for the other kinds; not compared).
+
     """
 
     kind: str
@@ -84,6 +129,7 @@ class Event:
     to_phase: Phase
     pose: FootPose
     alpha: Optional[float] = None
+    reason: str = field(default="", compare=False)
 
     @property
     def x0(self) -> float:
@@ -95,17 +141,22 @@ class WhiskerState:
     """
     One quasistatic equilibrium of the whisker (all quantities dimensionless, world frame).
 
-    Attributes
+    Units: length L, force EI/L^2, moment EI/L (the rigid model: c/L and c). The parameters are
+    the dataclass's fields, kept as attributes of the same names.
+
+    Parameters
     ----------
     phase : Phase
+        The contact phase: free, tangential contact (s1 < 1) or tip contact.
     pose : FootPose
+        The foot pose.
     side : int
         +1 when bent clockwise (contact on the obstacle's flank to the right of the whisker,
         kappa <= 0), -1 when bent counter-clockwise, 0 when free.
     alpha : float or None
         Profile slope at the contact point [rad] (world frame).
     s1 : float or None
-        Arc length of the contact point on the whisker (1 in phase 2).
+        Arc length of the contact point on the whisker [L] (1 in phase 2).
     tip_slope : float
         phi(1), the whisker's slope at its tip [rad] (world frame).
     f : float
@@ -115,10 +166,14 @@ class WhiskerState:
     m0 : float
         Bending moment at the base, kappa(0) = moment of the contact force about the foot,
         counter-clockwise positive (negative when bent clockwise).
-    contact : (float, float) or None
+    contact : tuple of float or None
         Contact point (xi(alpha), eta(alpha)) (world frame).
-    tip : (float, float)
-        Position of the whisker's tip (world frame).
+    tip : tuple of float
+        Position (x, y) of the whisker's tip (world frame).
+    shape : tuple of float, optional
+        Internal description of the shape for centerline sampling (contact-frame variables).
+    model : object, optional
+        The model that computed this state (it samples the centerline); None for a free whisker.
 
     """
 
@@ -168,8 +223,20 @@ class StepResult:
     """
     What a tracker step returns: the new state and the events crossed, in order.
 
-    ``substeps`` counts continuation steps, ``evaluations`` the model and profile evaluations the
-    step used (bounded by ``TrackerOptions.max_evaluations``).
+    The parameters are the dataclass's fields, kept as attributes of the same names.
+
+    Parameters
+    ----------
+    state : WhiskerState
+        The new state.
+    events : tuple of Event
+        The events crossed, in order.
+    substeps : int, optional
+        The number of continuation steps.
+    evaluations : int, optional
+        The model and profile evaluations the step used (bounded by
+        ``TrackerOptions.max_evaluations``).
+
     """
 
     state: WhiskerState

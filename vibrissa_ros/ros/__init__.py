@@ -10,5 +10,5 @@ The ROS 2 side of vibrissa_ros: everything that imports rclpy lives in this subp
 * :mod:`.run`: the entry-point pattern of every node.
 
 Conversions (stamps, quaternions, frames, units, event payloads) are in
-:mod:`vibrissa_ros.edge`, the mechanics in :mod:`vibrissa_ros.core`; neither imports ROS.
+:mod:`vibrissa_ros.node.edge`, the mechanics in :mod:`vibrissa_ros.core`; neither imports ROS.
 """

@@ -24,9 +24,9 @@ from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from visualization_msgs.msg import Marker
 
 from ..core.errors import VibrissaError
-from ..edge import BadInput, header_ns, pose_of
-from ..node_config import CONTOUR_PARAMETERS, ContourConfig, build_contour_config
-from ..reconstruction import estimate_from_wrench
+from ..node.edge import BadInput, header_ns, pose_of
+from ..node.config import CONTOUR_PARAMETERS, ContourConfig, build_contour_config
+from ..node.reconstruction import estimate_from_wrench
 from . import messages as m
 from .params import NodeParameters
 from .run import run_node

@@ -1,7 +1,7 @@
 """
 Every message the nodes publish, built by pure functions (no node, no DDS: unit-testable).
 
-Numbers come in SI and in the frame named (conversions are :mod:`vibrissa_ros.edge`'s); each
+Numbers come in SI and in the frame named (conversions are :mod:`vibrissa_ros.node.edge`'s); each
 builder converts to ``float`` explicitly, as ROS_PYTHON_CHECK_FIELDS requires.
 """
 
@@ -20,7 +20,7 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from ..core.errors import VibrissaError
 from ..core.profiles import Peg
-from ..edge import ContactRecord, EventRecord, encode_event, set_stamp, yaw_quaternion
+from ..node.edge import ContactRecord, EventRecord, encode_event, set_stamp, yaw_quaternion
 
 OBSTACLE_COLOR = (0.85, 0.35, 0.1, 1.0)
 PHASE_COLORS = {1: (0.12, 0.47, 0.71), 2: (0.84, 0.15, 0.16)}

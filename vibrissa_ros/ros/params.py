@@ -1,7 +1,7 @@
 """
 The shared parameter machinery in ROS: descriptors with ranges, validation with reasons.
 
-Both nodes declare their :class:`~vibrissa_ros.parameters.ParameterSpec` tuple through
+Both nodes declare their :class:`~vibrissa_ros.node.parameters.ParameterSpec` tuple through
 :class:`NodeParameters`: every parameter gets a description (with its unit), its range and
 read-only flag as a ROS descriptor; the whole set is validated by the node's ``build`` function at
 start-up (an invalid file raises :class:`ParameterError`) and on every runtime change (a rejected
@@ -22,7 +22,7 @@ from rclpy.exceptions import InvalidParameterValueException
 from rclpy.node import Node
 
 from ..core.errors import ParameterError
-from ..parameters import ParameterSpec
+from ..node.parameters import ParameterSpec
 
 Config = TypeVar("Config")
 _INT64 = (-(2**63), 2**63 - 1)

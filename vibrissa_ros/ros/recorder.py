@@ -17,13 +17,14 @@ from __future__ import annotations
 import json
 import queue
 import threading
+from collections import Counter
 from typing import Callable, Dict, Mapping, Optional
 
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, ReliabilityPolicy
 from rclpy.serialization import serialize_message
 
 from .. import __version__
-from ..mcap_log import CONFIGURATION_METADATA, LogError, LogWriter, TopicSpec
+from ..logs.mcap_log import CONFIGURATION_METADATA, RESET_METADATA, LogError, LogWriter, TopicSpec
 
 
 def configuration_record(values: Mapping[str, object], node_name: str, log_time: int,
@@ -76,6 +77,7 @@ class Recorder:
         self._writer = writer if writer is not None else LogWriter(path)
         self._queue: "queue.SimpleQueue" = queue.SimpleQueue()
         self._queued = 0
+        self._counts: Counter = Counter()  # messages handed over, by endpoint key
         self._lock = threading.Lock()
         try:
             self._channels = {key: self._writer.channel(topic_spec(endpoint))
@@ -133,11 +135,27 @@ class Recorder:
             self._queue.put(("meta", CONFIGURATION_METADATA,
                              configuration_record(values, self._node_name, log_time, resets)))
 
+    def reset(self, log_time: int, pose_key: str = "foot_pose") -> None:
+        """
+        Record a ``~/reset`` request.
+
+        It holds before the next message of ``pose_key``: the record counts those recorded
+        before it (``poses_before``), so a re-simulation applies it exactly there, whatever the
+        clock did.
+        """
+        if self.error is None:
+            self._queue.put(("meta", RESET_METADATA, {
+                "log_time": json.dumps(int(log_time)),
+                "poses_before": json.dumps(int(self._counts[pose_key])),
+                "node": json.dumps(self._node_name),
+            }))
+
     def write(self, key: str, msg, log_time: int) -> None:
         """Queue a message of the endpoint ``key`` (serialized now: ``msg`` may be reused)."""
         if self.error is None:
             self._queue.put((self._channels[key], serialize_message(msg), log_time))
             self._queued += 1
+            self._counts[key] += 1
 
     def close(self) -> None:
         """

@@ -17,7 +17,7 @@ import rclpy
 from rclpy.duration import Duration
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-from ..mcap_log import LogError, read_log
+from ..logs.mcap_log import LogError, read_log
 from .serialization import message_class
 
 ACK_SECONDS_PER_MESSAGE = 0.005  # how long the final acknowledgement may take, per message

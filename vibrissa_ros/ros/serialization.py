@@ -14,5 +14,5 @@ def message_class(type_name: str):
 
 
 def decode(message):
-    """Return the message object of a :class:`~vibrissa_ros.mcap_log.LogMessage`."""
+    """Return the message object of a :class:`~vibrissa_ros.logs.mcap_log.LogMessage`."""
     return deserialize_message(message.data, message_class(message.type_name))

@@ -28,7 +28,7 @@ from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import Float64, UInt8
 from tqdm import tqdm
 
-from ..edge import NS_PER_S, header_ns
+from ..node.edge import NS_PER_S, header_ns
 from .messages import pose_stamped
 
 SWEEP_COLUMNS = (

@@ -4,12 +4,13 @@ ROS 2 virtual whisker: foot poses in, the follicle sensor's wrench and the conta
 In: ``~/foot_pose`` (geometry_msgs/PoseStamped in ``world_frame``). Out: ``~/wrench`` (base frame),
 ``~/phase``, ``~/contact_force``, ``~/contact_force_magnitude``, ``~/contact_point``,
 ``~/arc_length``, ``~/contacts``, ``~/events``, ``~/centerline``, ``~/obstacle`` and
-``~/obstacles`` (latched) and ``/diagnostics``;
+``~/obstacles`` (latched) and ``/diagnostics``. Service: ``~/reset`` (std_srvs/Trigger: the next
+pose places the whisker unloaded, README "Recovery: when a step cannot be followed");
 the README's topic table says what each carries. Every message with a header carries the stamp
 of the pose that produced it; the wrench and events are always published, the other per-pose
 topics only while somebody subscribes (or the node records). This module only wires: checks and
-steps are :mod:`vibrissa_ros.pipeline`'s, conversions :mod:`vibrissa_ros.edge`'s, messages
-:mod:`.messages`', recording :mod:`.recorder`'s and queueing :mod:`.backlog`'s.
+steps are :mod:`vibrissa_ros.node.pipeline`'s, conversions :mod:`vibrissa_ros.node.edge`'s,
+messages :mod:`.messages`', recording :mod:`.recorder`'s and queueing :mod:`.backlog`'s.
 """
 
 from __future__ import annotations
@@ -21,11 +22,12 @@ from typing import Dict, Optional
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseStamped, WrenchStamped
 from rclpy.node import Node
+from std_srvs.srv import Trigger
 
-from ..edge import contact_records, event_record, header_ns
-from ..mcap_log import LogError
-from ..node_config import PARAMETERS, WhiskerConfig, build_config
-from ..pipeline import PosePipeline, PoseStats, drop_reason
+from ..node.edge import contact_records, event_record, header_ns
+from ..logs.mcap_log import LogError
+from ..node.config import PARAMETERS, WhiskerConfig, build_config
+from ..node.pipeline import PosePipeline, PoseStats, drop_reason
 from . import messages as m
 from .backlog import PoseBacklog
 from .params import NodeParameters
@@ -59,6 +61,7 @@ class WhiskerNode(Node):
         self._sub = self.create_subscription(PoseStamped, "~/foot_pose", self._on_pose, POSES)
         self._backlog = PoseBacklog(self._sub)
         self._more = self.create_guard_condition(self._work)
+        self.create_service(Trigger, "~/reset", self._on_reset)
         period = float(self.config.values["diagnostics.period"])
         self.create_timer(period, self._publish_diagnostics)
         self.create_timer(0.25, self._watch_recording)
@@ -141,6 +144,17 @@ class WhiskerNode(Node):
         return super().destroy_node()
 
     # -- input ----------------------------------------------------------------------------------
+    def _on_reset(self, request: Trigger.Request, response: Trigger.Response):
+        """``~/reset``: forget the whisker; the next accepted pose places it unloaded."""
+        if self._recorder is not None:
+            self._recorder.reset(self._now_ns())
+        self._pipeline.request_reset()
+        response.success = True
+        response.message = ("the whisker is reset: the next foot pose places it unloaded (a pose "
+                            "where it would cut an obstacle is dropped until one is free)")
+        self.get_logger().info(f"~/reset: {response.message}")
+        return response
+
     def _on_pose(self, msg: PoseStamped) -> None:
         if self._backlog:  # older poses are still waiting: this one goes behind them (and
             self._backlog.append(msg)  # before those still in DDS, which are newer)
@@ -222,7 +236,11 @@ class WhiskerNode(Node):
             record = event_record(event, cfg.units)
             msg = m.event_msg(record)
             self._send("events", msg, now)
-            self.get_logger().info(f"event: {msg.data}")
+            if event.kind == "reset":
+                self.get_logger().warning(f"event: {msg.data}: the whisker was placed unloaded "
+                                          f"at the pose ({event.reason})")
+            else:
+                self.get_logger().info(f"event: {msg.data}")
         max_rate = cfg.values["centerline.max_rate"]
         tick = time.monotonic()
         if max_rate <= 0.0 or tick - self._last_centerline >= 1.0 / max_rate:

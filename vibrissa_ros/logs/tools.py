@@ -1,0 +1,333 @@
+"""
+Tools on recorded runs: info, resim, export (the ``vibrissa`` verbs of the same names).
+
+Decoding uses rclpy's serialization with the installed message classes (imported when a log is
+read, from :mod:`vibrissa_ros.ros.serialization`); the logs themselves carry their full schemas,
+so other tools (Foxglove, rosbags, mcap-ros2-support) need none of this. ``vibrissa replay`` is
+:mod:`vibrissa_ros.ros.replay`.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections import Counter, defaultdict
+from dataclasses import dataclass, field
+from typing import Dict, List, Tuple
+
+from ..core.errors import VibrissaError
+from ..core.state import WhiskerState
+from ..node.edge import contact_records, decode_event, encode_event, event_record, header_ns
+from .mcap_log import CONFIGURATION_METADATA, RESET_METADATA, LogError, LogMessage, read_log
+from ..node.config import build_config
+from ..node.pipeline import PosePipeline, drop_reason
+
+
+def decode(message: LogMessage):
+    """Return the message object of a logged message (needs ROS 2's message packages)."""
+    from ..ros.serialization import decode as decode_cdr
+
+    return decode_cdr(message)
+
+
+def configurations(metadata) -> List[Tuple[int, Dict[str, object]]]:
+    """
+    Return (log_time, parameter values) of every configuration record, in time order.
+
+    The values carry ``node`` and ``resets`` besides the parameters.
+    """
+    out = []
+    for record in metadata:
+        if record.name == CONFIGURATION_METADATA:
+            values = {k: json.loads(v) for k, v in record.metadata.items()}
+            out.append((int(values.pop("log_time", 0)), values))
+    if not out:
+        raise LogError("the log has no recorded configuration (was it written by whisker_node?)")
+    return sorted(out, key=lambda item: item[0])
+
+
+def reset_requests(metadata) -> List[Tuple[int, int]]:
+    """
+    Return every ``~/reset`` request: (foot poses recorded before it, its log time).
+
+    Sorted; empty for logs without requests (and logs made before the node had ``~/reset``).
+    """
+    return sorted((int(json.loads(record.metadata["poses_before"])),
+                   int(json.loads(record.metadata["log_time"])))
+                  for record in metadata if record.name == RESET_METADATA)
+
+
+# -- info --------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class LogInfo:
+    topics: Dict[str, Tuple[str, int]]  # topic -> (type, count)
+    start_ns: int
+    end_ns: int
+    configurations: List[Tuple[int, Dict[str, object]]]
+    phases: Dict[int, int]
+    events: List[dict]  # the fields of each ~/events payload
+
+    @property
+    def duration(self) -> float:
+        return (self.end_ns - self.start_ns) / 1e9
+
+
+def log_info(path: str) -> LogInfo:
+    """
+    Summarize a recorded log: what ``vibrissa info`` prints.
+
+    Parameters
+    ----------
+    path : str
+        The MCAP file.
+
+    Returns
+    -------
+    LogInfo
+        Topics, types, counts, duration, the recorded configurations, phases and events.
+
+    """
+    _, channels, metadata, messages = read_log(path)
+    counts = Counter(m.topic for m in messages)
+    types = {
+        c.topic: next((m.type_name for m in messages if m.topic == c.topic), "")
+        for c in channels.values()
+    }
+    phases: Counter = Counter()
+    events = []
+    for m in messages:
+        if m.topic.endswith("/phase"):
+            phases[decode(m).data] += 1
+        elif m.topic.endswith("/events"):
+            # the payload's fields (a scene's event has no phases, a profile's no obstacle)
+            events.append(json.loads(encode_event(decode_event(decode(m).data))))
+    times = [m.log_time for m in messages] or [0]
+    return LogInfo(
+        topics={t: (types.get(t, ""), counts.get(t, 0)) for t in sorted(types)},
+        start_ns=min(times),
+        end_ns=max(times),
+        configurations=configurations(metadata),
+        phases=dict(sorted(phases.items())),
+        events=events,
+    )
+
+
+# -- resim / export ---------------------------------------------------------------------------
+@dataclass
+class Resimulation:
+    """The recorded poses run again through the node's pipeline, next to the recorded outputs."""
+
+    states: List[Tuple[int, WhiskerState]] = field(
+        default_factory=list
+    )  # (stamp, state) per accepted pose
+    events: list = field(default_factory=list)  # the events crossed, in order
+    event_steps: List[int] = field(
+        default_factory=list
+    )  # index into states of the step that crossed each
+    dropped: Counter = field(default_factory=Counter)
+    deviations: Dict[str, float] = field(
+        default_factory=dict
+    )  # field -> largest relative deviation
+    compared: Counter = field(default_factory=Counter)
+    mismatches: List[str] = field(default_factory=list)
+
+    def worst(self) -> float:
+        return max(self.deviations.values(), default=0.0)
+
+
+def _relative(a: float, b: float) -> float:
+    if a == b:
+        return 0.0
+    if not (math.isfinite(a) and math.isfinite(b)):
+        return math.inf
+    return abs(a - b) / max(abs(a), abs(b))
+
+
+#: the compared values of one contact of ``~/contacts`` (one point of its cloud)
+CONTACT_VALUES = ("x", "y", "fx", "fy", "s", "kind", "state", "obstacle")
+#: the compared values of one event of ``~/events`` (None where an event kind has none)
+EVENT_VALUES = ("kind", "from_phase", "to_phase", "x", "y", "obstacle", "contact", "s")
+
+
+def _contact_values(contact) -> tuple:
+    return tuple(getattr(contact, name) for name in CONTACT_VALUES)
+
+
+def _event_values(record) -> tuple:
+    return tuple(getattr(record, name) for name in EVENT_VALUES)
+
+
+def decode_contacts(cloud):
+    """Return the contacts of a logged ``~/contacts`` cloud (needs ROS 2's message packages)."""
+    from ..ros.messages import decode_contacts as decode_cloud
+
+    return decode_cloud(cloud)
+
+
+def resimulate(path: str) -> Resimulation:
+    """
+    Re-run every recorded foot pose with the recorded configuration(s), compare each field.
+
+    Parameters
+    ----------
+    path : str or path-like
+        A finished log written by the whisker node (see :func:`~.mcap_log.read_log`).
+
+    Returns
+    -------
+    Resimulation
+        The states computed again, next to the recorded outputs: the largest relative deviation
+        per field, the number compared, the mismatches.
+
+    Raises
+    ------
+    LogError
+        When the log cannot be read or has no recorded configuration.
+
+    """
+    _, channels, metadata, messages = read_log(path)
+    configs = configurations(metadata)
+    node = configs[0][1].get("node", "/whisker_node")
+    prefix = f"{node}/"
+    # logs made before the node had ~/contacts: nothing of it to compare
+    has_contacts = any(c.topic == f"{prefix}contacts" for c in channels.values())
+    recorded: Dict[str, list] = defaultdict(list)
+    poses = []
+    for m in messages:
+        if not m.topic.startswith(prefix):
+            continue
+        key = m.topic[len(prefix):]
+        if key == "foot_pose":
+            poses.append(m)
+        elif key in (
+            "wrench",
+            "phase",
+            "contact_force",
+            "contact_force_magnitude",
+            "contact_point",
+            "arc_length",
+            "contacts",
+            "events",
+        ):
+            recorded[key].append(decode(m))
+    result = Resimulation()
+    pipeline = PosePipeline(build_config(configs[0][1]))
+    pending = list(configs[1:])
+    resets = reset_requests(metadata)
+    expected: Dict[str, list] = defaultdict(list)
+    for index, m in enumerate(poses):
+        # what happened before this pose: configurations (by log time) and ~/reset requests (by
+        # the poses recorded before them), applied in their log-time order
+        due = []
+        while pending and pending[0][0] <= m.log_time:
+            due.append(pending.pop(0))
+        while resets and resets[0][0] <= index:
+            due.append((resets.pop(0)[1], None))
+        for _, values in sorted(due, key=lambda item: item[0]):
+            if values is None:
+                pipeline.request_reset()
+            else:
+                pipeline.reconfigure(build_config(values), bool(values.get("resets", True)))
+        msg = decode(m)
+        p, q = msg.pose.position, msg.pose.orientation
+        stamp = header_ns(msg)
+        try:
+            state, events = pipeline.handle(msg.header.frame_id, stamp, (p.x, p.y, p.z),
+                                            (q.x, q.y, q.z, q.w))
+        except VibrissaError as exc:
+            result.dropped[drop_reason(exc)] += 1
+            continue
+        result.states.append((stamp, state))
+        result.events.extend(events)
+        result.event_steps.extend([len(result.states) - 1] * len(events))
+        r, sensed = pipeline.reading(state)
+        units = pipeline.config.units
+        expected["wrench"].append((stamp, sensed))
+        expected["phase"].append((None, (float(r.phase),)))
+        expected["contact_force"].append((stamp, r.force_world))
+        expected["contact_force_magnitude"].append((None, (r.force_magnitude,)))
+        if r.contact_world is not None:
+            expected["contact_point"].append((stamp, r.contact_world))
+            expected["arc_length"].append((None, (r.s1,)))
+        for c in contact_records(state, units):
+            expected["contacts"].append((stamp, _contact_values(c)))
+        for e in events:
+            expected["events"].append((None, _event_values(event_record(e, units))))
+    got = {
+        "wrench": [
+            (header_ns(w), (w.wrench.force.x, w.wrench.force.y, w.wrench.torque.z))
+            for w in recorded["wrench"]
+        ],
+        "phase": [(None, (float(x.data),)) for x in recorded["phase"]],
+        "contact_force": [
+            (header_ns(v), (v.vector.x, v.vector.y)) for v in recorded["contact_force"]
+        ],
+        "contact_force_magnitude": [
+            (None, (x.data,)) for x in recorded["contact_force_magnitude"]
+        ],
+        "contact_point": [
+            (header_ns(v), (v.point.x, v.point.y)) for v in recorded["contact_point"]
+        ],
+        "arc_length": [(None, (x.data,)) for x in recorded["arc_length"]],
+        "contacts": [(header_ns(cloud), _contact_values(c)) for cloud in recorded["contacts"]
+                     for c in decode_contacts(cloud)],
+        "events": [(None, _event_values(decode_event(e.data))) for e in recorded["events"]],
+    }
+    names = {
+        "wrench": ("force.x", "force.y", "torque.z"),
+        "phase": ("data",),
+        "contact_force": ("x", "y"),
+        "contact_force_magnitude": ("data",),
+        "contact_point": ("x", "y"),
+        "arc_length": ("data",),
+        "contacts": CONTACT_VALUES,
+        "events": EVENT_VALUES,
+    }
+    if not has_contacts:
+        del names["contacts"]
+    for topic, fields in names.items():
+        want, have = expected[topic], got[topic]
+        if len(want) != len(have):
+            result.mismatches.append(f"{topic}: {len(have)} recorded, {len(want)} re-simulated")
+        for (s_want, v_want), (s_have, v_have) in zip(want, have):
+            if s_want is not None and s_want != s_have:
+                result.mismatches.append(
+                    f"{topic}: stamp {s_have} recorded where {s_want} was expected"
+                )
+                break
+            for name, a, b in zip(fields, v_have, v_want):
+                key = f"{topic}.{name}"
+                dev = (
+                    _relative(float(a), float(b))
+                    if isinstance(a, (int, float)) and isinstance(b, (int, float))
+                    else (0.0 if a == b else math.inf)
+                )
+                result.deviations[key] = max(result.deviations.get(key, 0.0), dev)
+                result.compared[key] += 1
+    return result
+
+
+def export_rows(path: str):
+    """
+    (time [s], state) per accepted pose of a log, from the recorded poses and configuration.
+
+    Parameters
+    ----------
+    path : str or path-like
+        A finished log written by the whisker node.
+
+    Returns
+    -------
+    rows : list of tuple
+        (time [s], :class:`~vibrissa_ros.core.state.WhiskerState`) per accepted pose, in order.
+    resimulation : Resimulation
+        The :func:`resimulate` result the rows come from.
+
+    Raises
+    ------
+    LogError
+        When the log cannot be read or has no recorded configuration.
+
+    """
+    sim = resimulate(path)
+    return [(stamp / 1e9, state) for stamp, state in sim.states], sim

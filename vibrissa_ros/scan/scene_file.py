@@ -1,0 +1,180 @@
+"""
+Scene files (YAML): read and write the obstacles of :class:`~vibrissa_ros.core.scenes.scene.Scene`.
+
+The format (README, "Scenes")::
+
+    friction: 0.0                 # global Coulomb coefficient (default 0)
+    obstacles:
+      - {type: peg, x: 0.0, y: 0.45, r: 0.03, friction: 0.3}
+      - {type: polygon, vertices: [[0.3, 0.6], [0.5, 0.6], [0.5, 0.8], [0.3, 0.8]]}
+      - {type: curve, points: [[-1.0, 0.8], [0.0, 0.5], [1.0, 0.9]], side: above}
+      - {type: parabola, p0: 0.3, k: 1.0, placement: {x: 0.0, y: 0.0, rotation: 0.0}}
+
+Lengths are in whisker lengths (the command-line tool) or in metres (the ROS node: pass
+``length_scale`` = the whisker's length in metres; they are converted to whisker lengths here, at
+the edge). Rotations are in radians (``rotation``) or degrees (``rotation_deg``); friction
+coefficients have no unit. Every error names the file, the obstacle's index and the key.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from pathlib import Path
+from typing import Any, Dict, Optional, Union
+
+import yaml
+
+from ..core.errors import ParameterError
+from ..core.profiles import PROFILE_PARAMETERS
+from ..core.scenes.scene import Scene
+
+#: shape keys measured in 1/length (all other shape keys are lengths)
+INVERSE_LENGTH_KEYS = ("k",)
+#: keys that are neither lengths nor inverse lengths
+UNITLESS_KEYS = ("type", "name", "friction", "side", "rotation", "rotation_deg")
+
+
+def _scale(value: Any, factor: float, into_l: bool) -> Any:
+    """Convert a number, or every number of nested lists (anything else is kept)."""
+    if isinstance(value, bool):
+        return value
+    if isinstance(value, str):  # YAML 1.1 reads 1e-3 (no dot) as a string
+        try:
+            value = float(value)
+        except ValueError:
+            return value
+    if isinstance(value, (int, float)):
+        # into metres (written for people): 15 significant digits, no trailing rounding noise
+        return value / factor if into_l else float(f"{value * factor:.15g}")
+    if isinstance(value, (list, tuple)):
+        return [_scale(v, factor, into_l) for v in value]
+    return value
+
+
+def convert_lengths(data: Any, length_scale: float, into_l: bool = True) -> Any:
+    """
+    Return a scene mapping with its lengths converted from metres to L (or back: ``into_l``).
+
+    ``length_scale`` [m] is the whisker's length; 1/length keys (the parabola's k) convert the
+    other way. Malformed entries are passed on unchanged, for the scene's validation to name.
+    """
+    factor = float(length_scale)
+    if not isinstance(data, dict) or factor == 1.0:
+        return data
+    out = dict(data)
+    entries = data.get("obstacles")
+    if not isinstance(entries, list):
+        return out
+    converted = []
+    for entry in entries:
+        if not isinstance(entry, dict):
+            converted.append(entry)
+            continue
+        new: Dict[str, Any] = {}
+        family = entry.get("type") in PROFILE_PARAMETERS
+        for key, value in entry.items():
+            if key in UNITLESS_KEYS:
+                new[key] = value
+            elif key == "placement" and isinstance(value, dict):
+                new[key] = {k: (_scale(v, factor, into_l) if k in ("x", "y") else v)
+                            for k, v in value.items()}
+            elif family and key in INVERSE_LENGTH_KEYS:
+                new[key] = _scale(value, factor, not into_l)
+            else:
+                new[key] = _scale(value, factor, into_l)
+        converted.append(new)
+    out["obstacles"] = converted
+    return out
+
+
+def _read(source: Union[str, os.PathLike]):
+    """Return (text, label) of a scene given as a path or as YAML text."""
+    if isinstance(source, os.PathLike) or (
+            isinstance(source, str) and "\n" not in source and ": " not in source
+            and not source.lstrip().startswith("{")):
+        path = Path(source)
+        try:
+            return path.read_text(encoding="utf-8"), str(path)
+        except OSError as exc:
+            raise ParameterError(f"scene file {str(path)!r} cannot be read: "
+                                 f"{exc.strerror or exc}") from None
+    if not isinstance(source, str):
+        raise ParameterError(f"a scene is a file path or YAML text, not {type(source).__name__}")
+    return source, "scene text"
+
+
+def load_scene(source: Union[str, os.PathLike], length_scale: float = 1.0) -> Scene:
+    """
+    Read a scene from a YAML file (path) or YAML text.
+
+    Parameters
+    ----------
+    source : str or path-like
+        A YAML file's path, or YAML text.
+    length_scale : float, optional
+        [m]: the whisker's length when the file is in metres (the node), > 0; 1: the file is in
+        whisker lengths.
+
+    Returns
+    -------
+    Scene
+        The scene, in whisker lengths.
+
+    Raises
+    ------
+    ParameterError
+        Naming the file, the obstacle's index and the key; also when the file cannot be read,
+        is not valid YAML or ``length_scale`` is not a length > 0.
+
+    """
+    if not (isinstance(length_scale, (int, float)) and math.isfinite(length_scale)
+            and length_scale > 0.0):
+        raise ParameterError(f"length_scale = {length_scale!r} must be a length > 0 [m]")
+    text, label = _read(source)
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f" (line {mark.line + 1}, column {mark.column + 1})" if mark else ""
+        problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
+        raise ParameterError(f"{label}: not valid YAML{where}: {problem}") from None
+    if not isinstance(data, dict):
+        raise ParameterError(f"{label}: a scene file is a mapping with keys 'obstacles' and "
+                             "'friction'")
+    try:
+        return Scene.from_dict(convert_lengths(data, length_scale))
+    except ParameterError as exc:
+        raise ParameterError(f"{label}: {exc}") from None
+
+
+def scene_to_dict(scene: Scene, length_scale: float = 1.0) -> Dict[str, Any]:
+    """Return the scene's mapping with lengths in metres (``length_scale`` [m] per L)."""
+    return convert_lengths(scene.to_dict(), length_scale, into_l=False)
+
+
+def dump_scene(scene: Scene, path: Optional[Union[str, os.PathLike]] = None,
+               length_scale: float = 1.0) -> str:
+    """
+    Write a scene as YAML (to ``path`` if given) and return the text; :func:`load_scene` reads it.
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene (whisker lengths).
+    path : str or path-like, optional
+        The file written (UTF-8); None: only the text is returned.
+    length_scale : float, optional
+        [m]: write lengths in metres for a whisker of that length; 1: in whisker lengths.
+
+    Returns
+    -------
+    str
+        The YAML text.
+
+    """
+    text = yaml.safe_dump(scene_to_dict(scene, length_scale), sort_keys=False,
+                          default_flow_style=None)
+    if path is not None:
+        Path(path).write_text(text, encoding="utf-8")
+    return text
