@@ -472,8 +472,9 @@ class QuasistaticTracker:
         distance (the walls of a closed shape's strip are the lines at the ends of the slope
         interval). The gap is largest where (p - q(a)) . t(a) = 0, and its superlevel sets above
         zero are intervals of a, so a local maximum with a positive gap is the largest: it is
-        found by safeguarded Newton from the last one; failing that, brentq on a sign change
-        found on a grid, the ends and the grid itself give the bound.
+        found by safeguarded Newton from the last one, else by brentq where the interval's ends
+        bracket it; failing both, brentq on a sign change found on a grid, the ends and the grid
+        itself give the bound.
         """
         prof = self.profile
 
@@ -506,6 +507,12 @@ class QuasistaticTracker:
                     self._alpha_hint = a
                     return value
                 break
+        if g(lo) > 0.0 > g(hi):  # one sign change over the whole interval (open profiles)
+            a = brentq(g, lo, hi, xtol=1e-14)
+            value = support_gap(a)
+            if value > 0.0:
+                self._alpha_hint = a
+                return value
         grid = [lo + (hi - lo) * k / 16.0 for k in range(17)]
         best = max(support_gap(a) for a in grid)
         values = [g(a) for a in grid]
