@@ -464,9 +464,9 @@ class SceneTracker:
                 events.append(ev)
         substeps = 0
         last_switch = None
-        # a lower bound on the whisker's distance from the obstacles (away from its contacts) at
-        # t: no sub-step moves a whisker point farther than that (or than the floor), so no
-        # obstacle is passed between two sub-steps, however long the step
+        # a lower bound on the whisker's distance from the obstacles at t: no sub-step of the free
+        # whisker (a rigid motion) moves a point of it farther than that (or than the floor), so
+        # no obstacle is passed between two sub-steps, however long the step
         clear = self._clear_end if events == [] else 0.0
         while t < 1.0:
             substeps += 1
@@ -479,13 +479,6 @@ class SceneTracker:
                 t_new = t + allowed / path.length  # the unloaded whisker moves rigidly
             try:
                 new_vec, iters = self._advance(modes, vec, path, t, t_new, dpose)
-                if modes and h > 16.0 * _H_MIN and (
-                        (t_new - t) * path.length + self._slope_change(modes, new_vec - vec)
-                        > allowed):
-                    # a loaded whisker's point moves at most the foot's path plus the change of
-                    # slope: too far to be sure that no obstacle is passed
-                    h = max(0.5 * h, _H_MIN * 16.0)
-                    continue
             except ConvergenceError:
                 if h > _H_MIN:
                     h *= 0.25
@@ -580,11 +573,6 @@ class SceneTracker:
         if self._change(modes, new - vec) > 2.0 * _MAX_CHANGE:
             raise ConvergenceError("sub-step jumped")
         return new, self.solver.evaluations - before
-
-    def _slope_change(self, modes, dv) -> float:
-        """Largest change of the whisker's slope at the collocation nodes."""
-        K = self.solver.layout(modes)[0]
-        return float(np.max(np.abs(dv[:K]))) if K else 0.0
 
     def _change(self, modes, dv) -> float:
         """Largest change of the slopes and geometric contact unknowns (forces excluded)."""
