@@ -1,7 +1,7 @@
 """
 History does not matter: whole turns, refusals, jumps and resets leave no trace.
 
-The recovery rule (README "Recovery: when a step cannot be followed"): a step that cannot be
+The recovery rule (doc/mechanics/decisions.md, "Recovery"): a step that cannot be
 followed re-places the whisker unloaded at the new pose when it is free there (an event
 ``reset``), else it is refused and the state kept. A free whisker carries nothing but its pose,
 and every pose is taken with its heading in (-pi, pi]. So, in every obstacle family:
@@ -388,7 +388,7 @@ def test_refusals_speak_of_the_obstacle_and_the_pose():
 
 
 def test_what_the_properties_met():
-    """Runs after the properties above (file order): the figures for the README."""
+    """Runs after the properties above (file order): the figures for the docs."""
     print(f"\nhistory properties: {dict(TALLY)}")
     if TALLY["histories"]:
         assert TALLY["refusals"] > 0 and TALLY["resets"] > 0

@@ -11,8 +11,8 @@ for 31 of its 181 poses: the storm's random turns had wound the tracker's headin
 (it followed each yaw the short way round but kept the unwound sum, -24.2 rad at the storm's end),
 so every contact asked the profile for a slope whole turns away and was refused, and a step that
 could not be followed left the state where it was. Now headings are taken in (-pi, pi] and a step
-that cannot be followed to a free pose re-places the whisker there (README "Recovery: when a step
-cannot be followed"), so the sweep follows the storm directly, with no reset.
+that cannot be followed to a free pose re-places the whisker there (doc/mechanics/decisions.md,
+"Recovery"), so the sweep follows the storm directly, with no reset.
 """
 
 import math

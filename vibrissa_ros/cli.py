@@ -114,7 +114,7 @@ def build_parser() -> argparse.ArgumentParser:
     scan.add_argument(
         "--scene", metavar="SCENE.yaml",
         help="several obstacles (pegs, polygons, curves, profiles) and friction from a scene "
-        "file, lengths in L (README: Scenes); instead of --profile/--param/--place",
+        "file, lengths in L (doc/guide/scenes.md); instead of --profile/--param/--place",
     )
     scan.add_argument(
         "--friction", type=_nonnegative, metavar="MU",

@@ -12,7 +12,8 @@ normal of the obstacle at ``alpha`` is (sin alpha, -cos alpha): the contact forc
 points along it.
 
 All lengths are in units of the whisker length L (the paper's units). A new profile is one small
-subclass of :class:`ConvexProfile` giving ``point`` and ``radius_of_curvature`` (see README).
+subclass of :class:`ConvexProfile` giving ``point`` and ``radius_of_curvature``
+(doc/guide/python.md, "Adding a convex profile").
 """
 
 from __future__ import annotations

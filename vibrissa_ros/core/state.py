@@ -106,7 +106,7 @@ class Event:
     folds: criterion (c) of paper §2.2, the whisker jumps), ``release`` (the contact force
     returns to zero and the whisker leaves the obstacle smoothly) or ``reset`` (the step could not
     be followed and the whisker was placed unloaded at the new pose, or it was reset on request;
-    README "Recovery: when a step cannot be followed"). The parameters are the dataclass's
+    doc/mechanics/decisions.md, "Recovery"). The parameters are the dataclass's
     fields, kept as attributes of the same names.
 
     Parameters

@@ -30,7 +30,8 @@ SHAPE_PARAMETERS = {
     "ellipse": (("a", "obstacle.a"), ("b", "obstacle.b")),
     "peg": (("r", "obstacle.peg_radius"),),
 }
-#: obstacle.type of a scene file (several obstacles, friction: README "Scenes in the node")
+#: obstacle.type of a scene file (several obstacles, friction: doc/guide/node.md, "Scenes in the
+#: node")
 SCENE = "scene"
 #: the key under which a recorded configuration carries the scene file's text (not a parameter:
 #: ``vibrissa resim`` rebuilds the scene from it, whatever became of the file)
@@ -104,8 +105,8 @@ PARAMETERS: Tuple[ParameterSpec, ...] = (
         ParameterSpec(
             "obstacle.scene_file",
             "",
-            "scene: a scene YAML file (README 'Scenes') with lengths in metres; a relative path "
-            "is taken from the working directory, package://<package>/<path> from the "
+            "scene: a scene YAML file (doc/guide/scenes.md) with lengths in metres; a relative "
+            "path is taken from the working directory, package://<package>/<path> from the "
             "package's share folder",
         ),
         positive("obstacle.k", 10.0, "parabola: y = apex_y + k (x - apex_x)^2 / 2", "1/m"),

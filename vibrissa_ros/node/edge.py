@@ -302,7 +302,7 @@ def contact_records(state, units: Units) -> Tuple[ContactRecord, ...]:
 # -- event payloads -------------------------------------------------------------------------------
 #: the single-contact tracker's events (with the phases before and after)
 EVENT_KINDS = ("touch", "phase", "snap", "release", "reset")
-#: the scene tracker's events (README "Scenes"; with the obstacle, the contact's kind and s)
+#: the scene tracker's events (doc/guide/scenes.md; with the obstacle, the contact's kind and s)
 SCENE_EVENT_KINDS = ("touch", "release", "tip", "tangential", "corner", "edge", "slip", "stick",
                      "merge", "snap", "reset")
 

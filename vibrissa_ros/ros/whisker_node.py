@@ -5,9 +5,9 @@ In: ``~/foot_pose`` (geometry_msgs/PoseStamped in ``world_frame``). Out: ``~/wre
 ``~/phase``, ``~/contact_force``, ``~/contact_force_magnitude``, ``~/contact_point``,
 ``~/arc_length``, ``~/contacts``, ``~/events``, ``~/centerline``, ``~/obstacle`` and
 ``~/obstacles`` (latched) and ``/diagnostics``. Service: ``~/reset`` (std_srvs/Trigger: the next
-pose places the whisker unloaded, README "Recovery: when a step cannot be followed");
-the README's topic table says what each carries. Every message with a header carries the stamp
-of the pose that produced it; the wrench and events are always published, the other per-pose
+pose places the whisker unloaded, doc/mechanics/decisions.md, "Recovery"); the topic table of
+doc/guide/node.md says what each carries. Every message with a header carries the stamp of the
+pose that produced it; the wrench and events are always published, the other per-pose
 topics only while somebody subscribes (or the node records). This module only wires: checks and
 steps are :mod:`vibrissa_ros.node.pipeline`'s, conversions :mod:`vibrissa_ros.node.edge`'s,
 messages :mod:`.messages`', recording :mod:`.recorder`'s and queueing :mod:`.backlog`'s.

@@ -115,7 +115,7 @@ def write_contacts_jsonl(states, stream: IO[str], by_pose: bool = False) -> None
 
 
 def scene_event_record(event, by_pose: bool = False) -> dict:
-    """Describe a scene event: where, what (README "Scenes"), which contact."""
+    """Describe a scene event: where, what (doc/guide/scenes.md), which contact."""
     record = {**_where(event.pose, by_pose), "kind": event.kind, "contact": event.contact_kind}
     if event.obstacle is not None:
         record["obstacle"] = int(event.obstacle)

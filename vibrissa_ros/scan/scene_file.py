@@ -1,7 +1,7 @@
 """
 Scene files (YAML): read and write the obstacles of :class:`~vibrissa_ros.core.scenes.scene.Scene`.
 
-The format (README, "Scenes")::
+The format (doc/guide/scenes.md)::
 
     friction: 0.0                 # global Coulomb coefficient (default 0)
     obstacles:

@@ -26,7 +26,7 @@ the profile's name (a scene task's is ``scene``); the poses' ``contacts`` (how m
 the whisker, after contact_y: the scan CSV's last column); and the events' ``obstacle`` (index in
 the scene file), ``contact`` (side, tip or corner) and ``s`` (the contact's arc length, null when
 not located), after to_phase. A scene task's events have the scene kinds (touch, release, tip,
-tangential, corner, edge, slip, stick, merge, snap; README "Scenes") and null from_phase and
+tangential, corner, edge, slip, stick, merge, snap; doc/guide/scenes.md) and null from_phase and
 to_phase (several contacts have no one phase: the poses' ``phase`` is the contact nearest the
 foot's); a profile task's keep their kinds and phases. A study without scene files has none of
 these columns (its datasets are unchanged).

@@ -28,7 +28,7 @@ counter-clockwise from +x: 90 is the paper's set-up], and back with ``back`` (``
 centred at (x, y), r = 0 a point), is placed by its own parameters: a study with pegs has no
 placement (other than 0).
 
-A scene file (README "Scenes": several obstacles, friction) is an obstacle too::
+A scene file (doc/guide/scenes.md: several obstacles, friction) is an obstacle too::
 
     obstacles:
       - scene: scene_two_pegs.yaml    # or a list of files (a grid axis); relative to the study

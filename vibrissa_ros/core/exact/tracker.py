@@ -93,8 +93,8 @@ class TrackerOptions:
         The model and profile evaluations one step may use before it raises ConvergenceError.
     recover : bool, optional
         A step that cannot be followed re-places the whisker unloaded at the new pose when it is
-        free there (an event ``reset``); False raises instead (README "Recovery: when a step
-        cannot be followed").
+        free there (an event ``reset``); False raises instead (doc/mechanics/decisions.md,
+        "Recovery").
 
     """
 
@@ -104,8 +104,8 @@ class TrackerOptions:
     #: model and profile evaluations one step may use before it raises ConvergenceError
     max_evaluations: int = 100_000
     #: a step that cannot be followed re-places the whisker unloaded at the new pose when it is
-    #: free there (an event ``reset``); False raises instead (README "Recovery: when a step
-    #: cannot be followed")
+    #: free there (an event ``reset``); False raises instead (doc/mechanics/decisions.md,
+    #: "Recovery")
     recover: bool = True
 
 
@@ -241,8 +241,7 @@ class QuasistaticTracker:
             The step cannot be followed and the whisker cannot be re-placed unloaded at ``pose``
             (it would cut the obstacle there), or ``options.recover`` is off; the state is kept.
             When it can, the whisker is re-placed there instead and the result has one event
-            ``reset`` whose ``reason`` is the refusal (README "Recovery: when a step cannot be
-            followed").
+            ``reset`` whose ``reason`` is the refusal (doc/mechanics/decisions.md, "Recovery").
 
         """
         target = _as_pose(pose)

@@ -23,8 +23,8 @@ It is discretized on n Chebyshev points of [0, s1] with the spectral integration
 (Clenshaw-Curtis weights in its last row): theta = pi/2 + h S kappa0 + f h^2 A cos(theta - alpha)
 with h = s1/2 and A = S diag(1/B) (S - 1 w). Newton on this n x n system (n + 1 with s1 in
 tangential contact, closed by theta(s1) = alpha) converges quadratically; the sensitivities to the
-branch unknowns come from the same factorization. The error decays exponentially in n (README:
-convergence study).
+branch unknowns come from the same factorization. The error decays exponentially in n (convergence
+study in doc/mechanics/real-whiskers.md).
 
 The model works in the *unmirrored* foot frame (``mirrored = False``): the intrinsic curvature is
 not mirror-symmetric, so both bending directions are solved as they are. Unknowns of a contact
@@ -47,7 +47,7 @@ from ..state import Phase
 
 HALF_PI = 0.5 * math.pi
 
-#: default number of Chebyshev points (error ~1e-15 on the convergence study, README)
+#: default number of Chebyshev points (error ~1e-15: doc/mechanics/real-whiskers.md)
 DEFAULT_POINTS = 32
 
 

@@ -1,9 +1,9 @@
 """
 Equilibrium of a whisker touching several obstacle features at once, with Coulomb friction.
 
-Mechanics (README "Scenes"; dimensionless: L = 1, EI_b = 1, world frame). Contacts c = 1..k at
-arc lengths 0 < s_1 < ... < s_k <= 1 carry the forces F_c of the obstacles on the whisker; the
-moment of everything beyond s is
+Mechanics (doc/mechanics/contacts.md; dimensionless: L = 1, EI_b = 1, world frame). Contacts
+c = 1..k at arc lengths 0 < s_1 < ... < s_k <= 1 carry the forces F_c of the obstacles on the
+whisker; the moment of everything beyond s is
 
     M(s) = sum_{c: s_c > s} (r(s_c) - r(s)) x F_c,   theta' = kappa0 + M / B,  theta(0) = heading,
 
@@ -53,7 +53,7 @@ from .boundary import Arc, Vertex
 from ..errors import ConvergenceError
 from ..general.model import WhiskerShape, chebyshev_operators
 
-#: Chebyshev points per segment (the convergence study of the README: ~1e-14 at 24)
+#: Chebyshev points per segment (~1e-14 at 24: doc/mechanics/contacts.md)
 DEFAULT_SEGMENT_POINTS = 24
 KINDS = ("side", "corner", "tip", "tip_corner")
 #: relative step of the forward differences in the contact arc lengths

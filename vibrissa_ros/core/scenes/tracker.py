@@ -85,7 +85,7 @@ class SceneContact:
     obstacle : int
         The obstacle's index in the scene.
     kind : {'side', 'corner', 'tip', 'tip_corner'}
-        What touches what (README "Scenes").
+        What touches what (doc/guide/scenes.md).
     s : float
         The whisker's arc length at the contact.
     x, y : float
@@ -214,8 +214,8 @@ class SceneEvent:
     Parameters
     ----------
     kind : str
-        The event's kind (README "Scenes"; ``reset``: the whisker was placed unloaded at the new
-        pose).
+        The event's kind (doc/guide/scenes.md; ``reset``: the whisker was placed unloaded at the
+        new pose).
     pose : FootPose
         The foot pose where it happened.
     obstacle : int or None, optional
@@ -274,8 +274,8 @@ class SceneTracker:
         Solver evaluations one step may use before it raises ConvergenceError.
     recover : bool, optional
         A step that cannot be followed re-places the whisker unloaded at the new pose when it is
-        free there (an event ``reset``); False raises instead (README "Recovery: when a step
-        cannot be followed").
+        free there (an event ``reset``); False raises instead (doc/mechanics/decisions.md,
+        "Recovery").
 
     """
 
@@ -349,8 +349,9 @@ class SceneTracker:
         """
         Move the foot along the straight path to ``pose`` and follow the equilibrium.
 
-        Headings as :meth:`QuasistaticTracker.step <vibrissa_ros.core.tracker.QuasistaticTracker
-        .step>` takes them: in (-pi, pi], turned the short way round.
+        Headings as :meth:`QuasistaticTracker.step
+        <vibrissa_ros.core.exact.tracker.QuasistaticTracker.step>` takes them: in (-pi, pi],
+        turned the short way round.
 
         Parameters
         ----------
@@ -369,8 +370,8 @@ class SceneTracker:
         ModelAssumptionError, ConvergenceError
             The step cannot be followed and the unloaded whisker would cut an obstacle at
             ``pose``, or ``recover`` is off; the state is kept. When the whisker is free there it
-            is re-placed instead, and the result has one event ``reset`` (README "Recovery: when
-            a step cannot be followed").
+            is re-placed instead, and the result has one event ``reset``
+            (doc/mechanics/decisions.md, "Recovery").
 
         """
         target = _as_pose(pose)
