@@ -487,18 +487,28 @@ class QuasistaticTracker:
 
         lo, hi = prof.alpha_min + 1e-12, prof.alpha_max - 1e-12
         a = min(max(self._alpha_hint, lo), hi)
-        # safeguarded Newton from the last nearest point
-        for _ in range(30):
+        # safeguarded Newton from the last nearest point: a step that would leave the slope
+        # interval, or the part of it known to lie on one side of the root (g > 0 below it, < 0
+        # above), halves the way to that end instead (a cold start converges without brentq)
+        blo, bhi = lo, hi
+        for _ in range(40):
             px, py = prof.point(a)
             ca, sa = math.cos(a), math.sin(a)
             ga = (x - px) * ca + (y - py) * sa
             dg = -prof.radius_of_curvature(a) + (y - py) * ca - (x - px) * sa
             if dg >= 0.0:
                 break
+            if ga > 0.0:
+                blo = a
+            elif ga < 0.0:
+                bhi = a
             step = ga / dg
             a_new = a - step
-            if not (lo < a_new < hi):
-                break
+            if not (blo < a_new < bhi):
+                a_new = 0.5 * (a + (bhi if step < 0.0 else blo))
+                step = a - a_new
+                if not (lo < a_new < hi) or a_new == a:
+                    break
             a = a_new
             if abs(step) < 1e-13:
                 value = support_gap(a)
