@@ -1,0 +1,299 @@
+"""
+The 3D whisker's shape and stiffness: taper, intrinsic curvature, torsional stiffness.
+
+Dimensionless (L = 1, EI_b = the bending stiffness at the base). The whisker is a solid cone of
+circular section: bending stiffness B(s) = (1 - (1 - taper) s)^4, torsional stiffness
+C(s) = G J(s) = B(s) / (1 + nu) (J = 2 I, G = E / (2 (1 + nu))), with nu the Poisson ratio.
+
+The unloaded whisker lies in the plane of its base frame's x and y axes: it leaves along +x and
+bends toward +y with the intrinsic curvature kappa0(s), either linear in arc length
+(kappa0 = k0 + k1 s, the planar general whisker's) or the parabola y = A x^2 that morphology
+papers fit to rat whiskers (Towal et al. 2011, Belli et al. 2018), arc length measured from the
+parabola's vertex. For the parabola, with u = 2 A x,
+
+    s = (u sqrt(1 + u^2) + asinh(u)) / (4 A),                    (arc length of y = A x^2)
+    kappa0 = 2 A / (1 + u^2)^(3/2),   intrinsic slope phi0 = atan(u),
+
+and u(s) is found by Newton's method (convex, monotone: converges from above in a few steps).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+
+from ..errors import ParameterError
+
+#: Poisson ratio of keratin used by Elastica3D (default)
+DEFAULT_POISSON = 0.38
+_NEWTON_STEPS = 60
+
+
+def _number(key: str, value) -> float:
+    try:
+        value = float(value)
+    except (TypeError, ValueError):
+        raise ParameterError(f"whisker {key} = {value!r} is not a number") from None
+    if not math.isfinite(value):
+        raise ParameterError(f"whisker {key} = {value!r} must be finite")
+    return value
+
+
+@lru_cache(maxsize=1)
+def _gauss():
+    return np.polynomial.legendre.leggauss(48)
+
+
+@dataclass(frozen=True)
+class RodShape:
+    """
+    Taper, intrinsic curvature and Poisson ratio of a 3D whisker (dimensionless).
+
+    The defaults are the paper's whisker (uniform, straight) with keratin's Poisson ratio. The
+    parameters are the dataclass's fields, kept as attributes of the same names.
+
+    Parameters
+    ----------
+    taper : float, optional
+        rho = tip radius / base radius in (0, 1]; B(s) = (1 - (1 - rho) s)^4 [EI_b].
+    k0, k1 : float, optional
+        Intrinsic curvature kappa0(s) = k0 + k1 s [1/L] toward the base frame's +y;
+        ``|k0| + |k1| <= 20``. Not together with ``parabola``.
+    parabola : float or None, optional
+        The coefficient A [1/L] of the parabola y = A x^2 the unloaded whisker follows in its own
+        plane (from its vertex at the base); ``|A| <= 10``. None: the linear curvature.
+    poisson : float, optional
+        Poisson ratio nu in [0, 0.5]: C(s) = B(s) / (1 + nu).
+
+    Raises
+    ------
+    ParameterError
+        When a field is not a finite number or out of its range, or when both a parabola and a
+        linear curvature are given.
+
+    """
+
+    taper: float = 1.0
+    k0: float = 0.0
+    k1: float = 0.0
+    parabola: float | None = None
+    poisson: float = DEFAULT_POISSON
+
+    def __post_init__(self):
+        for key in ("taper", "k0", "k1", "poisson"):
+            object.__setattr__(self, key, _number(key, getattr(self, key)))
+        if self.parabola is not None:
+            object.__setattr__(self, "parabola", _number("parabola", self.parabola))
+            if self.k0 != 0.0 or self.k1 != 0.0:
+                raise ParameterError(
+                    "whisker parabola and curvature k0/k1 are exclusive: give one shape"
+                )
+            if abs(self.parabola) > 10.0:
+                raise ParameterError(
+                    f"whisker parabola A = {self.parabola!r} [1/L] must satisfy |A| <= 10"
+                )
+            if self.parabola == 0.0:
+                object.__setattr__(self, "parabola", None)
+        if not 0.0 < self.taper <= 1.0:
+            raise ParameterError(
+                f"whisker taper = {self.taper!r} is not allowed; taper (tip radius / base radius) "
+                "must be in (0, 1]"
+            )
+        if abs(self.k0) + abs(self.k1) > 20.0:
+            raise ParameterError(
+                f"intrinsic curvature k0 = {self.k0!r}, k1 = {self.k1!r}: |k0| + |k1| must be "
+                "<= 20 (the whisker would curl more than about three turns)"
+            )
+        if not 0.0 <= self.poisson <= 0.5:
+            raise ParameterError(
+                f"whisker poisson = {self.poisson!r} must be in [0, 0.5]"
+            )
+
+    @property
+    def is_straight(self) -> bool:
+        """Tell whether the unloaded whisker is straight."""
+        return self.parabola is None and self.k0 == 0.0 and self.k1 == 0.0
+
+    @property
+    def torsion_ratio(self) -> float:
+        """C / B = 1 / (1 + nu)."""
+        return 1.0 / (1.0 + self.poisson)
+
+    def stiffness(self, s):
+        """
+        Return the bending stiffness B(s) [EI_b].
+
+        Parameters
+        ----------
+        s : array_like
+            Arc lengths [L].
+
+        Returns
+        -------
+        numpy.ndarray
+            B at ``s``.
+
+        """
+        return (1.0 - (1.0 - self.taper) * np.asarray(s, dtype=float)) ** 4
+
+    def stiffness_slope(self, s):
+        """
+        Return dB/ds [EI_b / L].
+
+        Parameters
+        ----------
+        s : array_like
+            Arc lengths [L].
+
+        Returns
+        -------
+        numpy.ndarray
+            dB/ds at ``s``.
+
+        """
+        a = 1.0 - self.taper
+        return -4.0 * a * (1.0 - a * np.asarray(s, dtype=float)) ** 3
+
+    def _u(self, s):
+        """Return u = 2 A x(s) on the parabola (Newton on the arc length)."""
+        a = self.parabola
+        s = np.asarray(s, dtype=float)
+        target = 4.0 * abs(a) * s
+        # start above the root (F convex, increasing for u >= 0): u = target / 2 >= root
+        u = 0.5 * target
+        for _ in range(_NEWTON_STEPS):
+            root = np.sqrt(1.0 + u * u)
+            du = (u * root + np.arcsinh(u) - target) / (2.0 * root)
+            u = u - du
+            if np.all(np.abs(du) <= 4e-16 * (1.0 + np.abs(u))):
+                break
+        return math.copysign(1.0, a) * u
+
+    def curvature(self, s):
+        """
+        Return the intrinsic curvature kappa0(s) [1/L] (toward the base frame's +y).
+
+        Parameters
+        ----------
+        s : array_like
+            Arc lengths [L].
+
+        Returns
+        -------
+        numpy.ndarray
+            kappa0 at ``s``.
+
+        """
+        s = np.asarray(s, dtype=float)
+        if self.parabola is None:
+            return self.k0 + self.k1 * s
+        u = self._u(s)
+        return 2.0 * self.parabola / (1.0 + u * u) ** 1.5
+
+    def curvature_slope(self, s):
+        """
+        Return d kappa0 / ds [1/L^2].
+
+        Parameters
+        ----------
+        s : array_like
+            Arc lengths [L].
+
+        Returns
+        -------
+        numpy.ndarray
+            The derivative of kappa0 at ``s``.
+
+        """
+        s = np.asarray(s, dtype=float)
+        if self.parabola is None:
+            return self.k1 + 0.0 * s
+        u = self._u(s)
+        return -12.0 * self.parabola ** 2 * u / (1.0 + u * u) ** 3
+
+    def intrinsic_slope(self, s):
+        """
+        Return the unloaded whisker's slope in its plane, int_0^s kappa0 [rad].
+
+        Parameters
+        ----------
+        s : array_like
+            Arc lengths [L].
+
+        Returns
+        -------
+        numpy.ndarray
+            The slope phi0 at ``s``, relative to the base frame's +x.
+
+        """
+        s = np.asarray(s, dtype=float)
+        if self.parabola is None:
+            return self.k0 * s + 0.5 * self.k1 * s * s
+        return np.arctan(self._u(s))
+
+    def intrinsic_offset(self, s_a: float, s_b) -> np.ndarray:
+        """
+        Return the unloaded displacement from s_a to s_b in the body frame at s_a.
+
+        The part of the whisker beyond its last contact carries no load and keeps its intrinsic
+        shape: a plane curve in the (d1, d2) plane of the frame at s_a.
+
+        Parameters
+        ----------
+        s_a : float
+            Start arc length [L].
+        s_b : array_like
+            End arc lengths [L] (>= s_a).
+
+        Returns
+        -------
+        numpy.ndarray
+            Offsets (m, 2) in (d1, d2) components [L].
+
+        """
+        s_b = np.atleast_1d(np.asarray(s_b, dtype=float))
+        out = np.zeros((s_b.size, 2))
+        if self.is_straight:
+            out[:, 0] = s_b - s_a
+            return out
+        if self.parabola is not None:
+            u_a = self._u(s_a)
+            u_b = self._u(s_b)
+            a = self.parabola
+            dx = (u_b - u_a) / (2.0 * a)
+            dy = (u_b * u_b - u_a * u_a) / (4.0 * a)
+            c, sn = 1.0 / math.sqrt(1.0 + u_a * u_a), u_a / math.sqrt(1.0 + u_a * u_a)
+            out[:, 0] = c * dx + sn * dy
+            out[:, 1] = -sn * dx + c * dy
+            return out
+        x, w = _gauss()
+        phi_a = float(self.intrinsic_slope(s_a))
+        for i, sb in enumerate(s_b):
+            if sb <= s_a:
+                continue
+            u = s_a + 0.5 * (sb - s_a) * (x + 1.0)
+            th = self.intrinsic_slope(u) - phi_a
+            half = 0.5 * (sb - s_a)
+            out[i] = half * (w @ np.cos(th)), half * (w @ np.sin(th))
+        return out
+
+    def free_centerline(self, s) -> np.ndarray:
+        """
+        Return points of the unloaded whisker in its base frame, shape (m, 3).
+
+        Parameters
+        ----------
+        s : array_like
+            Arc lengths [L].
+
+        Returns
+        -------
+        numpy.ndarray
+            Points (m, 3), z = 0.
+
+        """
+        off = self.intrinsic_offset(0.0, s)
+        return np.column_stack((off, np.zeros(len(off))))
