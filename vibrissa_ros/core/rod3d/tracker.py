@@ -1,0 +1,839 @@
+"""
+Quasistatic tracking of the 3D whisker among obstacles in space.
+
+A :class:`RodTracker` holds the current equilibrium (a configuration of frictionless contacts
+solved by :class:`~.model.RodSolver`). :meth:`RodTracker.step` moves the base along the straight
+path to a new pose (position linear, orientation along the shorter great arc, in the path
+parameter t in [0, 1]) and follows the equilibrium by natural-parameter continuation in t
+(tangent predictor, Newton corrector). After every accepted sub-step it evaluates the
+configuration's inequalities; where one of them crosses zero the crossing is located by root
+finding in t (Brent, to 1e-14) and the configuration changes:
+
+===============  ====================================================================
+event            change of the configuration
+===============  ====================================================================
+``touch``        a new contact with zero force (side, or tip when the tip touches first)
+``release``      a contact's normal force returns to zero: the contact is dropped
+``tip``          a side contact reaches the tip (s = 1): side -> tip
+``tangential``   the tip's tangent reaches the surface's tangent plane: tip -> side
+``snap``         the equilibrium is lost: the branch folds (Newton finds no solution
+                 beyond t) or becomes unstable (the sign of the Jacobian's determinant
+                 changes, e.g. a planar equilibrium buckling out of its plane); the
+                 whisker jumps to the stable equilibrium found from there
+``reset``        the step could not be followed; the unloaded whisker was re-placed
+===============  ====================================================================
+
+Stability (doc/mechanics/rod3d.md, "Stability"): the unloaded whisker is stable, and a contact
+that appears with zero force cannot destabilise it, so the sign of det J of the collocation
+system just after each change of configuration is recorded as the configuration's stable sign;
+along the configuration the equilibrium is stable while det J keeps that sign. A sign change is
+a fold or a bifurcation: either way the equilibrium followed so far stops being a minimum of
+the energy, and the whisker snaps.
+
+Every loop is bounded; all draw on one budget of solver evaluations per step
+(``max_evaluations``). A step returns a state or raises a VibrissaError and keeps the state.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, List, Optional, Sequence, Tuple
+
+import numpy as np
+import scipy.linalg as sla
+from scipy.optimize import brentq, minimize_scalar
+
+from ..errors import (
+    ConvergenceError,
+    InvalidPoseError,
+    ModelAssumptionError,
+    ParameterError,
+    VibrissaError,
+)
+from .model import DEFAULT_SEGMENT_POINTS, RodContactMode, RodSolver
+from .pose import BasePose, quat_conjugate, quat_matrix, quat_multiply
+from .shape import RodShape
+
+#: largest change of the unknowns in one sub-step
+_MAX_CHANGE = 0.05
+#: largest motion of any point of the whisker in one sub-step [L]
+_MAX_MOVE = 0.05
+#: smallest free sub-step motion [L] (the finest sampling of the free whisker's path)
+_MIN_FREE_MOVE = 2e-3
+_H_MIN = 1e-12
+_EVENT_XTOL = 1e-14
+_MAX_EVENTS = 64
+_MAX_SUBSTEPS = 5000
+#: penetration below which a point counts as cutting an obstacle
+_CUT = -1e-10
+#: the whisker's sample points for the clearance (and the bound on the distance between them)
+_SAMPLES = np.linspace(0.0, 1.0, 81)
+_HALF_SPACING = 0.5 / 80.0
+#: clearance below which the distance is refined by a minimisation in s
+_NEAR = 0.05
+_NUMERICAL_ERRORS = (ArithmeticError, ValueError, np.linalg.LinAlgError)
+
+
+@dataclass(frozen=True)
+class RodContact:
+    """
+    One contact of a 3D equilibrium (world frame, dimensionless).
+
+    The parameters are the dataclass's fields, kept as attributes of the same names.
+
+    Parameters
+    ----------
+    kind : str
+        ``side`` or ``tip``.
+    obstacle : int
+        Index of the obstacle in the scene.
+    name : str
+        The obstacle's name.
+    s : float
+        Arc length of the contact point [L].
+    f : float
+        Normal force [EI_b / L^2], >= 0.
+    point : tuple of float
+        The contact point (x, y, z) [L].
+    force : tuple of float
+        The force on the whisker (fx, fy, fz), along the obstacle's outward normal.
+
+    """
+
+    kind: str
+    obstacle: int
+    name: str
+    s: float
+    f: float
+    point: Tuple[float, float, float]
+    force: Tuple[float, float, float]
+
+
+@dataclass(frozen=True)
+class RodState:
+    """
+    One quasistatic equilibrium of the 3D whisker.
+
+    The parameters are the dataclass's fields, kept as attributes of the same names (world
+    frame, dimensionless).
+
+    Parameters
+    ----------
+    pose : BasePose
+        The base pose.
+    contacts : tuple of RodContact
+        The contacts, from the base to the tip.
+    force : tuple of float
+        The total contact force on the whisker (fx, fy, fz).
+    moment : tuple of float
+        The moment of the contact forces about the base point (mx, my, mz).
+    tip : tuple of float
+        The tip's position.
+    tip_tangent : tuple of float
+        The unit tangent at the tip.
+    equilibrium : RodEquilibrium, optional
+        The solver's solution (internal: it samples the centerline).
+
+    """
+
+    pose: BasePose
+    contacts: Tuple[RodContact, ...]
+    force: Tuple[float, float, float]
+    moment: Tuple[float, float, float]
+    tip: Tuple[float, float, float]
+    tip_tangent: Tuple[float, float, float]
+    equilibrium: Any = field(default=None, compare=False, repr=False)
+
+    @property
+    def nearest(self) -> Optional[RodContact]:
+        """The contact nearest the base, or None."""
+        return self.contacts[0] if self.contacts else None
+
+    def centerline(self, n: int = 101) -> np.ndarray:
+        """
+        Return ``n`` >= 2 points from the base to the tip, world frame, shape (n, 3).
+
+        Parameters
+        ----------
+        n : int, optional
+            Number of points, equally spaced in arc length.
+
+        Returns
+        -------
+        numpy.ndarray
+            The points [L].
+
+        Raises
+        ------
+        ParameterError
+            When ``n`` < 2.
+
+        """
+        n = int(n)
+        if n < 2:
+            raise ParameterError(f"centerline points n = {n}: need at least 2")
+        return self.equilibrium.centerline(np.linspace(0.0, 1.0, n))
+
+    def base_wrench(self) -> Tuple[np.ndarray, np.ndarray]:
+        """
+        Return the base load in the base frame: (force (3,), moment about the base (3,)).
+
+        Returns
+        -------
+        tuple of numpy.ndarray
+            R(q)^T force and R(q)^T moment.
+
+        """
+        R = self.pose.rotation
+        return R.T @ np.array(self.force), R.T @ np.array(self.moment)
+
+
+@dataclass(frozen=True)
+class RodEvent:
+    """
+    Something that happened during a step, located by root finding in the path parameter.
+
+    The parameters are the dataclass's fields, kept as attributes of the same names.
+
+    Parameters
+    ----------
+    kind : str
+        ``touch``, ``release``, ``tip``, ``tangential``, ``snap`` or ``reset``.
+    pose : BasePose
+        The base pose where it happened.
+    obstacle : int or None, optional
+        The obstacle concerned.
+    s : float or None, optional
+        The contact's arc length there.
+    contacts_before, contacts_after : int, optional
+        The number of contacts before and after.
+    reason : str, optional
+        Why a snap or a reset happened (not compared).
+
+    """
+
+    kind: str
+    pose: BasePose
+    obstacle: Optional[int] = None
+    s: Optional[float] = None
+    contacts_before: int = 0
+    contacts_after: int = 0
+    reason: str = field(default="", compare=False)
+
+
+@dataclass(frozen=True)
+class RodStepResult:
+    """
+    The outcome of one step: the new state, the events crossed and the solver work spent.
+
+    The parameters are the dataclass's fields, kept as attributes of the same names.
+
+    Parameters
+    ----------
+    state : RodState
+        The equilibrium at the new pose.
+    events : tuple of RodEvent
+        The events, in path order.
+    substeps : int
+        Accepted continuation sub-steps.
+    evaluations : int
+        Solver evaluations spent.
+
+    """
+
+    state: RodState
+    events: Tuple[RodEvent, ...]
+    substeps: int
+    evaluations: int
+
+
+class _Path:
+    """The straight path between two base poses (p linear, q by slerp) (internal)."""
+
+    def __init__(self, a: BasePose, b: BasePose):
+        self.a, self.b = a, b
+        self.dp = b.p - a.p
+        rel = quat_multiply(quat_conjugate(a.q), b.q)
+        if rel[0] < 0.0:
+            rel = -rel
+        v = rel[1:]
+        sin_half = float(np.linalg.norm(v))
+        self.angle = 2.0 * math.atan2(sin_half, float(rel[0]))
+        self.axis = v / sin_half if sin_half > 0.0 else np.zeros(3)
+        #: bound on the speed of any point of the whisker per unit t
+        self.speed = float(np.linalg.norm(self.dp)) + self.angle
+
+    def pose(self, t: float) -> BasePose:
+        if t == 0.0:
+            return self.a
+        if t == 1.0:
+            return self.b
+        return self.a.at(self.b, t)
+
+    def rate(self, pose: BasePose) -> np.ndarray:
+        """(dp/dt, dq/dt) (7,) at ``pose`` on the path."""
+        out = np.empty(7)
+        out[:3] = self.dp
+        w = np.concatenate(([0.0], 0.5 * self.angle * self.axis))
+        out[3:] = quat_multiply(pose.q, w)
+        return out
+
+
+def _as_pose(pose) -> BasePose:
+    if isinstance(pose, BasePose):
+        return pose
+    raise InvalidPoseError(f"base pose {pose!r} is not a BasePose")
+
+
+def _det_measure(lu) -> float:
+    """Sign of det J times the geometric mean of |U_ii|: continuous, zero where J is singular."""
+    lu_, piv = lu
+    d = np.diag(lu_)
+    swaps = int(np.count_nonzero(piv != np.arange(piv.size)))
+    sign = -1.0 if (swaps + int(np.count_nonzero(d < 0.0))) % 2 else 1.0
+    with np.errstate(divide="ignore"):
+        mean = float(np.mean(np.log(np.abs(d))))
+    return sign * math.exp(mean)
+
+
+class RodTracker:
+    """
+    Quasistatic tracker of the 3D whisker in a scene of 3D obstacles.
+
+    Parameters
+    ----------
+    obstacles : sequence
+        The scene's 3D obstacles (:mod:`.obstacles`), or a scene (iterable of them).
+    pose : BasePose
+        The initial base pose; the unloaded whisker must be clear of every obstacle there.
+    shape : RodShape, optional
+        The whisker (default: uniform, straight, nu = 0.38).
+    n : int, optional
+        Chebyshev points per segment.
+    max_evaluations : int, optional
+        Budget of solver evaluations per step.
+    recover : bool, optional
+        Re-place the unloaded whisker when a step cannot be followed and the unloaded whisker
+        is clear of every obstacle at the new pose (a ``reset`` event).
+
+    Raises
+    ------
+    InvalidPoseError
+        When the unloaded whisker cuts an obstacle at ``pose``.
+
+    """
+
+    def __init__(self, obstacles: Sequence[Any], pose: BasePose,
+                 shape: Optional[RodShape] = None, n: int = DEFAULT_SEGMENT_POINTS,
+                 max_evaluations: int = 20000, recover: bool = True):
+        self.shape = RodShape() if shape is None else shape
+        self.obstacles = tuple(obstacles)
+        self.solver = RodSolver(self.shape, self.obstacles, n=n)
+        self.max_evaluations = int(max_evaluations)
+        self.recover = bool(recover)
+        self._free_points = self.shape.free_centerline(_SAMPLES)
+        pose = _as_pose(pose)
+        self._check_placeable(pose, "the initial pose")
+        self._place(pose)
+
+    # -- placing ------------------------------------------------------------------------------
+    def _check_placeable(self, pose: BasePose, what: str) -> None:
+        gap, k, s = self._free_gap(pose, exact=True)
+        if gap < _CUT:
+            ob = self.obstacles[k]
+            name = getattr(ob, "name", f"obstacle {k}")
+            where = "its base" if s == 0.0 else f"arc length s = {s:.4g} L"
+            raise InvalidPoseError(
+                f"{what} {pose.position} (quaternion {pose.quaternion}) puts the unloaded "
+                f"whisker inside {name} (at {where}, {-gap:.3g} L deep): a whisker can only be "
+                "placed clear of every obstacle"
+            )
+
+    def _place(self, pose: BasePose) -> None:
+        self._pose = pose
+        self._modes: Tuple[RodContactMode, ...] = ()
+        self._vec = np.zeros(0)
+        self._lu = None
+        self._sign = 1.0
+        self._state = self._make_state()
+
+    @property
+    def state(self) -> RodState:
+        """The current equilibrium."""
+        return self._state
+
+    @property
+    def pose(self) -> BasePose:
+        """The current base pose."""
+        return self._pose
+
+    # -- the public step ----------------------------------------------------------------------
+    def step(self, pose: BasePose) -> RodStepResult:
+        """
+        Move the base along the straight path to ``pose`` and follow the equilibrium.
+
+        Parameters
+        ----------
+        pose : BasePose
+            The new base pose.
+
+        Returns
+        -------
+        RodStepResult
+            The new state and the events crossed.
+
+        Raises
+        ------
+        InvalidPoseError
+            The pose is not valid input (the state is kept).
+        ModelAssumptionError, ConvergenceError
+            The step cannot be followed and the unloaded whisker would cut an obstacle at
+            ``pose``, or ``recover`` is off; the state is kept. When the whisker is free there it
+            is re-placed instead, and the result has one event ``reset``.
+
+        """
+        target = _as_pose(pose)
+        self._start = self.solver.evaluations
+        saved = (self._pose, self._modes, self._vec, self._lu, self._sign, self._state)
+        try:
+            return self._step_checked(target)
+        except (ModelAssumptionError, ConvergenceError) as exc:
+            (self._pose, self._modes, self._vec, self._lu, self._sign, self._state) = saved
+            if not self.recover:
+                raise
+            spent = self.solver.evaluations - self._start
+            try:
+                result = self.reset(target, reason=str(exc))
+            except InvalidPoseError:
+                raise exc from None
+            return RodStepResult(result.state, result.events, 0, spent + result.evaluations)
+        except BaseException:
+            (self._pose, self._modes, self._vec, self._lu, self._sign, self._state) = saved
+            raise
+
+    def reset(self, pose: Optional[BasePose] = None, reason: str = "reset on request"
+              ) -> RodStepResult:
+        """
+        Place the whisker unloaded at ``pose``, forgetting its history.
+
+        Parameters
+        ----------
+        pose : BasePose, optional
+            Where to place it; default: the current base pose.
+        reason : str
+            Why, carried by the event.
+
+        Returns
+        -------
+        RodStepResult
+            The unloaded state and one event ``reset``.
+
+        Raises
+        ------
+        InvalidPoseError
+            The unloaded whisker would cut an obstacle at ``pose`` (the state is kept).
+
+        """
+        target = self._pose if pose is None else _as_pose(pose)
+        before = len(self._modes)
+        self._check_placeable(target, "the reset pose")
+        self._place(target)
+        event = RodEvent("reset", target, contacts_before=before, reason=reason)
+        return RodStepResult(self._state, (event,), 0, 0)
+
+    def _step_checked(self, target: BasePose) -> RodStepResult:
+        try:
+            return self._step(target)
+        except VibrissaError:
+            raise
+        except _NUMERICAL_ERRORS as exc:
+            raise ConvergenceError(
+                f"the step from {self._pose.position} to {target.position} failed numerically "
+                f"({type(exc).__name__}: {exc})") from exc
+
+    def _check_budget(self) -> None:
+        if self.solver.evaluations - self._start > self.max_evaluations:
+            raise ConvergenceError(
+                f"the step used more than {self.max_evaluations} solver evaluations without "
+                "settling")
+
+    # -- the step -----------------------------------------------------------------------------
+    def _step(self, target: BasePose) -> RodStepResult:
+        path = _Path(self._pose, target)
+        events: List[RodEvent] = []
+        if path.speed == 0.0:
+            return RodStepResult(self._state, (), 0, 0)
+        t = 0.0
+        substeps = 0
+        h = 1.0
+        for _ in range(_MAX_SUBSTEPS):
+            if t >= 1.0:
+                break
+            self._check_budget()
+            if len(events) > _MAX_EVENTS:
+                raise ConvergenceError(f"more than {_MAX_EVENTS} events in one step")
+            if not self._modes:
+                t = self._free_advance(path, t, events)
+                h = 1.0
+            else:
+                t, h = self._contact_advance(path, t, h, events)
+            substeps += 1
+        else:
+            raise ConvergenceError(f"the step needed more than {_MAX_SUBSTEPS} sub-steps")
+        self._pose = target
+        if not self._modes:
+            self._vec, self._lu = np.zeros(0), None
+        self._state = self._make_state()
+        return RodStepResult(self._state, tuple(events), substeps,
+                             self.solver.evaluations - self._start)
+
+    # -- the free whisker ---------------------------------------------------------------------
+    def _free_gap(self, pose: BasePose, exact: bool = False, skip=()):
+        """(clearance, obstacle, s): a lower bound of the free whisker's distance, exact near."""
+        pts = np.array(pose.position) + self._free_points @ pose.rotation.T
+        return self._gap_of_points(pts, lambda s: self._free_point(pose, s), exact, skip)
+
+    def _free_point(self, pose: BasePose, s: float) -> np.ndarray:
+        off = self.shape.free_centerline([s])[0]
+        return np.array(pose.position) + pose.rotation @ off
+
+    def _gap_of_points(self, pts, point_at, exact, skip):
+        best = (math.inf, -1, 0.0)
+        for k, ob in enumerate(self.obstacles):
+            if k in skip:
+                continue
+            d = ob.signed_distance(pts)
+            j = int(np.argmin(d))
+            dmin = float(d[j])
+            if dmin > _NEAR and not exact:
+                value, s = dmin - _HALF_SPACING, float(_SAMPLES[j])
+            else:
+                value, s = self._refine(ob, point_at, j, dmin)
+            if value < best[0]:
+                best = (value, k, s)
+        return best
+
+    def _refine(self, ob, point_at, j, dmin):
+        """The distance's minimum over s near sample j (bounded Brent in s)."""
+        lo = float(_SAMPLES[max(j - 1, 0)])
+        hi = float(_SAMPLES[min(j + 1, _SAMPLES.size - 1)])
+
+        def d(s):
+            return float(ob.signed_distance(point_at(s)[None, :])[0])
+
+        res = minimize_scalar(d, bounds=(lo, hi), method="bounded",
+                              options={"xatol": 1e-12, "maxiter": 200})
+        cands = [(dmin, float(_SAMPLES[j])), (float(res.fun), float(res.x))]
+        for s_end in (lo, hi):
+            cands.append((d(s_end), s_end))
+        return min(cands)
+
+    def _free_advance(self, path: _Path, t: float, events: List[RodEvent]) -> float:
+        """Move the free whisker as far as it stays clear; on a touch, add the contact."""
+        pose = path.pose(t)
+        gap, _, _ = self._free_gap(pose)
+        for _ in range(_MAX_SUBSTEPS):
+            self._check_budget()
+            self.solver.evaluations += 1
+            move = max(gap, _MIN_FREE_MOVE)
+            t_new = min(1.0, t + move / path.speed)
+            pose_new = path.pose(t_new)
+            gap_new, k, s = self._free_gap(pose_new, exact=gap - 2 * path.speed * (t_new - t)
+                                           < _NEAR)
+            if gap_new < _CUT:
+                return self._free_touch(path, t, t_new, events)
+            t, gap = t_new, gap_new
+            if t >= 1.0:
+                return 1.0
+        raise ConvergenceError("the free whisker's path needed too many sub-steps")
+
+    def _free_touch(self, path: _Path, t_a: float, t_b: float, events) -> float:
+        def g(tau):
+            self.solver.evaluations += 1
+            return self._free_gap(path.pose(tau), exact=True)[0]
+
+        t_star = t_a if g(t_a) <= 0.0 else self._root(g, t_a, t_b)
+        pose = path.pose(t_star)
+        gap, k, s = self._free_gap(pose, exact=True)
+        kind = "tip" if s >= 1.0 - 1e-9 else "side"
+        mode = RodContactMode(kind, k)
+        breaks = [1.0 if kind == "tip" else s]
+        vec = self.solver.guess((mode,), breaks, [0.0],
+                                lambda ss: self.solver.free_quaternions(pose, ss))
+        vec, lu = self.solver.solve((mode,), pose, vec)
+        self._modes, self._vec, self._lu = (mode,), vec, lu
+        self._sign = math.copysign(1.0, _det_measure(lu))
+        self._pose = pose
+        events.append(RodEvent("touch", pose, k, breaks[0], 0, 1))
+        return t_star
+
+    # -- contact continuation -----------------------------------------------------------------
+    def _solve_at(self, path, t, t_new, vec, lu):
+        pose = path.pose(t)
+        tan = self.solver.tangent(self._modes, vec, pose, path.rate(pose), lu)
+        guess = vec + (t_new - t) * tan
+        pose_new = path.pose(t_new)
+        return self.solver.solve(self._modes, pose_new, guess, max_step=0.5)
+
+    def _event_values(self, path, t, vec, lu):
+        """Named inequality values (>= 0 admissible) of the configuration at (t, vec)."""
+        sol = self.solver
+        modes = self._modes
+        pose = path.pose(t)
+        out = {}
+        fs = sol.forces_of(modes, vec)
+        br = sol.breaks_of(modes, vec)
+        for c, m in enumerate(modes):
+            out[("release", c)] = fs[c]
+            if m.kind == "side" and c == len(modes) - 1:
+                out[("tip", c)] = 1.0 - br[c]
+            if m.kind == "tip":
+                q = sol.quaternions(modes, vec, pose, [1.0])[0]
+                d1 = quat_matrix(q)[:, 0]
+                tip = sol.centerline(modes, vec, pose, [1.0])[0]
+                nrm = np.asarray(self.obstacles[m.obstacle].surface(tip).normal)
+                out[("tangential", c)] = -float(d1 @ nrm)
+        out[("stable", -1)] = self._sign * _det_measure(lu)
+        return out
+
+    def _contact_gap(self, path, t, vec, exact=False):
+        pose = path.pose(t)
+        sol = self.solver
+        pts = sol.centerline(self._modes, vec, pose, _SAMPLES)
+        skip = {m.obstacle for m in self._modes}
+
+        def point_at(s):
+            return sol.centerline(self._modes, vec, pose, [s])[0]
+
+        return self._gap_of_points(pts, point_at, exact, skip)
+
+    def _contact_advance(self, path: _Path, t: float, h: float, events) -> Tuple[float, float]:
+        sol = self.solver
+        pose = path.pose(t)
+        tan = sol.tangent(self._modes, self._vec, pose, path.rate(pose), self._lu)
+        big = float(np.max(np.abs(tan * self._scales())))
+        dt = min(1.0 - t, h, _MAX_MOVE / path.speed)
+        if big > 0.0:
+            dt = min(dt, _MAX_CHANGE / big)
+        for _ in range(64):
+            self._check_budget()
+            t_new = min(1.0, t + dt)
+            try:
+                vec, lu = sol.solve(self._modes, path.pose(t_new), self._vec + (t_new - t) * tan,
+                                    max_step=0.5)
+                break
+            except ConvergenceError:
+                dt *= 0.25
+                if dt < _H_MIN:
+                    self._snap(path, t, events, "the equilibrium branch folds (no solution "
+                               "beyond this pose)")
+                    return t, 1.0
+        else:
+            raise ConvergenceError("the continuation step could not be shortened enough")
+        values = self._event_values(path, t_new, vec, lu)
+        gap = self._contact_gap(path, t_new, vec)[0]
+        crossed = [key for key, v in values.items() if v < 0.0]
+        if gap < _CUT:
+            crossed.append(("touch", -1))
+        if not crossed:
+            self._vec, self._lu, self._pose = vec, lu, path.pose(t_new)
+            return t_new, min(1.0, 2.0 * dt)
+        return self._first_event(path, t, t_new, crossed, events), 1.0
+
+    def _scales(self) -> np.ndarray:
+        """Weights of the unknowns in the sub-step bound: forces count relative to their size."""
+        w = np.ones(self._vec.size)
+        o = 4 * self.solver.n * len(self._modes)
+        for m in self._modes:
+            o += m.size
+            w[o - 1] = 1.0 / (1.0 + abs(self._vec[o - 1]))
+        return w
+
+    def _first_event(self, path, t_a, t_b, crossed, events) -> float:
+        vec_a, lu_a = self._vec, self._lu
+        cache = {}
+
+        def solution(tau):
+            if tau not in cache:
+                if tau == t_a:
+                    cache[tau] = (vec_a, lu_a)
+                else:
+                    cache[tau] = self._solve_at(path, t_a, tau, vec_a, lu_a)
+            return cache[tau]
+
+        best = None
+        for key in crossed:
+            if key[0] == "touch":
+                def g(tau):
+                    v, _ = solution(tau)
+                    return self._contact_gap(path, tau, v, exact=True)[0]
+            else:
+                def g(tau, key=key):
+                    v, lu = solution(tau)
+                    return self._event_values(path, tau, v, lu)[key]
+            try:
+                if g(t_a) < 0.0:
+                    t_star = t_a
+                else:
+                    t_star = self._root(g, t_a, t_b)
+            except ConvergenceError:
+                continue
+            if best is None or t_star < best[0]:
+                best = (t_star, key)
+        if best is None:
+            raise ConvergenceError("an event between two sub-steps could not be located")
+        t_star, key = best
+        if key[0] == "stable":
+            # follow the branch up to the singular point, then snap
+            if t_star > t_a:
+                vec, lu = solution(t_star)
+                self._vec, self._lu, self._pose = vec, lu, path.pose(t_star)
+            self._snap(path, t_star, events, "the equilibrium becomes unstable (the sign of "
+                       "the Jacobian's determinant changes)")
+            return t_star
+        vec, lu = solution(t_star)
+        self._vec, self._lu, self._pose = vec, lu, path.pose(t_star)
+        self._change(path, t_star, key, events)
+        return t_star
+
+    def _root(self, g, a, b):
+        try:
+            return float(brentq(g, a, b, xtol=_EVENT_XTOL, rtol=4 * np.finfo(float).eps,
+                                maxiter=200))
+        except ValueError as exc:
+            raise ConvergenceError(f"an event could not be bracketed ({exc})") from None
+
+    # -- configuration changes ----------------------------------------------------------------
+    def _rebuild(self, pose, modes, breaks, forces, old_modes, old_vec):
+        sol = self.solver
+
+        def quats(s):
+            return sol.quaternions(old_modes, old_vec, pose, s)
+
+        vec = sol.guess(modes, breaks, forces, quats)
+        return sol.solve(modes, pose, vec)
+
+    def _change(self, path, t, key, events):
+        sol = self.solver
+        kind, c = key
+        pose = path.pose(t)
+        modes = list(self._modes)
+        breaks = list(sol.breaks_of(self._modes, self._vec))
+        forces = list(sol.forces_of(self._modes, self._vec))
+        before = len(modes)
+        obstacle = modes[c].obstacle if c >= 0 else None
+        s_event = breaks[c] if c >= 0 else None
+        if kind == "release":
+            del modes[c], breaks[c], forces[c]
+        elif kind == "tip":
+            modes[c] = RodContactMode("tip", modes[c].obstacle)
+            breaks[c] = 1.0
+        elif kind == "tangential":
+            modes[c] = RodContactMode("side", modes[c].obstacle)
+            breaks[c] = 1.0
+        elif kind == "touch":
+            gap, k, s = self._contact_gap(path, t, self._vec, exact=True)
+            obstacle, s_event = k, s
+            new = RodContactMode("tip" if s >= 1.0 - 1e-9 else "side", k)
+            at = int(np.searchsorted(breaks, s))
+            if new.kind == "side" and at == len(breaks) and modes and modes[-1].kind == "tip":
+                raise ModelAssumptionError("a side touch beyond a tip contact")
+            modes.insert(at, new)
+            breaks.insert(at, 1.0 if new.kind == "tip" else s)
+            forces.insert(at, 0.0)
+        events.append(RodEvent(kind, pose, obstacle, s_event, before, len(modes)))
+        self._set_configuration(pose, tuple(modes), breaks, forces)
+
+    def _set_configuration(self, pose, modes, breaks, forces):
+        if not modes:
+            self._modes, self._vec, self._lu, self._pose = (), np.zeros(0), None, pose
+            return
+        vec, lu = self._rebuild(pose, modes, breaks, forces, self._modes, self._vec)
+        self._modes, self._vec, self._lu, self._pose = modes, vec, lu, pose
+        self._sign = math.copysign(1.0, _det_measure(lu))
+
+    def _snap(self, path, t, events, reason):
+        """The equilibrium is lost at t: find where the whisker goes and go there."""
+        sol = self.solver
+        pose = path.pose(t)
+        before = len(self._modes)
+        old_modes, old_vec = self._modes, self._vec
+        breaks = sol.breaks_of(old_modes, old_vec)
+        forces = sol.forces_of(old_modes, old_vec)
+        t_after = min(1.0, t + 1e-6)
+        pose_after = path.pose(t_after)
+        # 1. a stable equilibrium of the same contacts, off the lost one (a bifurcated branch)
+        lu = self._lu
+        null = _null_vector(lu)
+        for amp in (1e-3, -1e-3, 1e-2, -1e-2, 1e-1, -1e-1):
+            try:
+                vec, lu2 = sol.solve(old_modes, pose_after, old_vec + amp * null, max_step=0.5)
+            except ConvergenceError:
+                continue
+            if (np.max(np.abs(vec - old_vec)) > 1e-6 and _det_measure(lu2) * self._sign > 0.0
+                    and min(sol.forces_of(old_modes, vec)) >= 0.0
+                    and self._contact_gap_at(pose_after, old_modes, vec) >= _CUT):
+                events.append(RodEvent("snap", pose, None, None, before, before, reason))
+                self._vec, self._lu, self._pose = vec, lu2, pose_after
+                return
+        # 2. drop contacts: the last ones first, then all
+        k = len(old_modes)
+        subsets = [tuple(i for i in range(k) if i != j) for j in reversed(range(k))] + [()]
+        for keep in subsets:
+            modes = tuple(old_modes[i] for i in keep)
+            try:
+                if not modes:
+                    if self._free_gap(pose, exact=True)[0] < _CUT:
+                        continue
+                    events.append(RodEvent("snap", pose, None, None, before, 0, reason))
+                    self._modes, self._vec, self._lu, self._pose = (), np.zeros(0), None, pose
+                    return
+                vec, lu2 = self._rebuild(pose, modes, [breaks[i] for i in keep],
+                                         [forces[i] for i in keep], old_modes, old_vec)
+            except ConvergenceError:
+                continue
+            if (min(sol.forces_of(modes, vec)) >= 0.0
+                    and self._contact_gap_at(pose, modes, vec) >= _CUT):
+                events.append(RodEvent("snap", pose, None, None, before, len(modes), reason))
+                self._modes, self._vec, self._lu, self._pose = modes, vec, lu2, pose
+                self._sign = math.copysign(1.0, _det_measure(lu2))
+                return
+        raise ConvergenceError(
+            f"the whisker snaps at base {tuple(round(v, 6) for v in pose.position)} ({reason}) "
+            "and no stable equilibrium was found to jump to"
+        )
+
+    def _contact_gap_at(self, pose, modes, vec):
+        pts = self.solver.centerline(modes, vec, pose, _SAMPLES)
+        skip = {m.obstacle for m in modes}
+        best = math.inf
+        for k, ob in enumerate(self.obstacles):
+            if k not in skip:
+                best = min(best, float(np.min(ob.signed_distance(pts))))
+        return best
+
+    # -- states -------------------------------------------------------------------------------
+    def _make_state(self) -> RodState:
+        eq = self.solver.equilibrium(self._modes, self._vec, self._pose)
+        contacts = []
+        for m, s, f, x, F in zip(eq.modes, eq.s, eq.f, eq.points, eq.forces):
+            name = getattr(self.obstacles[m.obstacle], "name", f"obstacle{m.obstacle}")
+            contacts.append(RodContact(m.kind, m.obstacle, name, float(s), float(f),
+                                       tuple(float(v) for v in x), tuple(float(v) for v in F)))
+        return RodState(self._pose, tuple(contacts), tuple(float(v) for v in eq.force),
+                        tuple(float(v) for v in eq.moment), tuple(float(v) for v in eq.tip),
+                        tuple(float(v) for v in eq.tip_frame[:, 0]), eq)
+
+
+def _null_vector(lu) -> np.ndarray:
+    """An approximate null vector of the factorized Jacobian (inverse iteration, 3 steps)."""
+    n = lu[0].shape[0]
+    v = np.ones(n) / math.sqrt(n)
+    for _ in range(3):
+        w = sla.lu_solve(lu, v, check_finite=False)
+        norm = float(np.linalg.norm(w))
+        if not math.isfinite(norm) or norm == 0.0:
+            break
+        v = w / norm
+    return v / max(float(np.max(np.abs(v))), 1e-300)
