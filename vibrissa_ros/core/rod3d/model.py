@@ -41,14 +41,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any, Optional, Sequence, Tuple
+from typing import Any, NamedTuple, Optional, Sequence, Tuple
 
 import numpy as np
 import scipy.linalg as sla
 
 from ..errors import ConvergenceError, ParameterError
 from ..general.model import chebyshev_operators
-from .pose import BasePose, quat_about, quat_matrix, quat_multiply
+from .pose import BasePose, quat_matrix, quat_multiply
 from .shape import RodShape
 
 #: Chebyshev points per segment (error ~1e-13 at 24: doc/mechanics/rod3d.md)
@@ -56,6 +56,19 @@ DEFAULT_SEGMENT_POINTS = 24
 KINDS = ("side", "tip")
 _E3 = np.array([0.0, 0.0, 1.0])
 _NEWTON_ITERATIONS = 30
+_CHORD_ITERATIONS = 8
+#: convergence: the estimated error of the unknowns (max norm)
+_TOL = 1e-13
+#: chord iterations stop here; the closing Newton step squares the error
+_CHORD_TOL = 1e-8
+
+
+class Solved(NamedTuple):
+    """A converged unknown vector with its Jacobian's LU factorization and pose sensitivities."""
+
+    vec: np.ndarray
+    lu: Tuple[np.ndarray, np.ndarray]
+    sens: np.ndarray
 
 
 @dataclass(frozen=True)
@@ -85,40 +98,86 @@ class RodContactMode:
 
 def _skew(v: np.ndarray) -> np.ndarray:
     """[v]_x (..., 3, 3) with [v]_x w = v x w."""
-    x, y, z = v[..., 0], v[..., 1], v[..., 2]
-    o = np.zeros_like(x)
-    return np.stack((np.stack((o, -z, y), -1), np.stack((z, o, -x), -1),
-                     np.stack((-y, x, o), -1)), -2)
+    v = np.asarray(v, dtype=float)
+    out = np.zeros(v.shape[:-1] + (3, 3))
+    out[..., 0, 1], out[..., 0, 2] = -v[..., 2], v[..., 1]
+    out[..., 1, 0], out[..., 1, 2] = v[..., 2], -v[..., 0]
+    out[..., 2, 0], out[..., 2, 1] = -v[..., 1], v[..., 0]
+    return out
+
+
+def _cross(a, b) -> np.ndarray:
+    """a x b over the last axis (broadcast), without numpy.cross's overhead."""
+    a = np.asarray(a, dtype=float)
+    b = np.asarray(b, dtype=float)
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    out[..., 0] = a1 * b2 - a2 * b1
+    out[..., 1] = a2 * b0 - a0 * b2
+    out[..., 2] = a0 * b1 - a1 * b0
+    return out
+
+
+def _table(rows):
+    """Index and sign tables from nested tuples of signed component names ('+w', '-x', ...)."""
+    names = {"w": 0, "x": 1, "y": 2, "z": 3, "0": 4}
+    flat = np.array(rows, dtype=object)
+    idx = np.vectorize(lambda e: names[e[1]])(flat).astype(int)
+    sgn = np.vectorize(lambda e: -1.0 if e[0] == "-" else 1.0)(flat).astype(float)
+    return idx, sgn
+
+
+# dR/dq_k / 2 for k = w, x, y, z (rows of R, columns of R)
+_DROT = _table((
+    (("+w", "-z", "+y"), ("+z", "+w", "-x"), ("-y", "+x", "+w")),
+    (("+x", "+y", "+z"), ("+y", "-x", "-w"), ("+z", "+w", "-x")),
+    (("-y", "+x", "+w"), ("+x", "+y", "+z"), ("-w", "+z", "-y")),
+    (("-z", "-w", "+x"), ("+w", "-z", "+y"), ("+x", "+y", "+z")),
+))
+# Lv(q): q * (0, v) = Lv(q) v
+_LEFT = _table((("-x", "-y", "-z"), ("+w", "-z", "+y"), ("+z", "+w", "-x"), ("-y", "+x", "+w")))
+# Rm(k): q * (0, k) = Rm(k) q, from (k1, k2, k3) stored as x, y, z (w unused, '0' = zero)
+_RIGHT = _table((("+0", "-x", "-y", "-z"), ("+x", "+0", "+z", "-y"),
+                 ("+y", "-z", "+0", "+x"), ("+z", "+y", "-x", "+0")))
 
 
 def _drot(Q: np.ndarray) -> np.ndarray:
     """dR/dq_k for quaternions Q (N, 4): shape (N, 4, 3, 3)."""
-    w, x, y, z = Q[:, 0], Q[:, 1], Q[:, 2], Q[:, 3]
-
-    def m(rows):
-        return 2.0 * np.stack([np.stack(r, -1) for r in rows], -2)
-
-    return np.stack((
-        m(((w, -z, y), (z, w, -x), (-y, x, w))),
-        m(((x, y, z), (y, -x, -w), (z, w, -x))),
-        m(((-y, x, w), (x, y, z), (-w, z, -y))),
-        m(((-z, -w, x), (w, -z, y), (x, y, z))),
-    ), axis=1)
+    idx, sgn = _DROT
+    return 2.0 * Q[:, idx] * sgn
 
 
 def _left_vector(Q: np.ndarray) -> np.ndarray:
     """Lv(q) (N, 4, 3) with q * (0, v) = Lv(q) v."""
-    w, x, y, z = Q[:, 0], Q[:, 1], Q[:, 2], Q[:, 3]
-    return np.stack((np.stack((-x, -y, -z), -1), np.stack((w, -z, y), -1),
-                     np.stack((z, w, -x), -1), np.stack((-y, x, w), -1)), -2)
+    idx, sgn = _LEFT
+    return Q[:, idx] * sgn
 
 
 def _right_pure(K: np.ndarray) -> np.ndarray:
     """Rm(k) (N, 4, 4) with q * (0, k) = Rm(k) q."""
-    a, b, c = K[:, 0], K[:, 1], K[:, 2]
-    o = np.zeros_like(a)
-    return np.stack((np.stack((o, -a, -b, -c), -1), np.stack((a, o, c, -b), -1),
-                     np.stack((b, -c, o, a), -1), np.stack((c, b, -a, o), -1)), -2)
+    idx, sgn = _RIGHT
+    padded = np.zeros((K.shape[0], 5))
+    padded[:, 1:4] = K
+    return padded[:, idx] * sgn
+
+
+def _rotations(Q: np.ndarray) -> np.ndarray:
+    """R(q) (N, 3, 3) of quaternions (N, 4) (the unit-quaternion formula)."""
+    w, x, y, z = Q[:, 0], Q[:, 1], Q[:, 2], Q[:, 3]
+    R = np.empty((Q.shape[0], 3, 3))
+    ww, xx, yy, zz = w * w, x * x, y * y, z * z
+    xy, xz, yz, wx, wy, wz = x * y, x * z, y * z, w * x, w * y, w * z
+    R[:, 0, 0] = ww + xx - yy - zz
+    R[:, 0, 1] = 2.0 * (xy - wz)
+    R[:, 0, 2] = 2.0 * (xz + wy)
+    R[:, 1, 0] = 2.0 * (xy + wz)
+    R[:, 1, 1] = ww - xx + yy - zz
+    R[:, 1, 2] = 2.0 * (yz - wx)
+    R[:, 2, 0] = 2.0 * (xz - wy)
+    R[:, 2, 1] = 2.0 * (yz + wx)
+    R[:, 2, 2] = ww - xx - yy + zz
+    return R
 
 
 class _Layout:
@@ -277,6 +336,10 @@ class RodSolver:
         x, S, Vinv = chebyshev_operators(self.n)
         self._x, self._S, self._Vinv = x, S, Vinv
         self._tau = 0.5 * (x + 1.0)
+        # nodal values -> their interpolant's integral from -1, as Chebyshev series of degree n
+        C = np.polynomial.chebyshev
+        cint = np.stack([C.chebint(np.eye(self.n)[j], lbnd=-1.0) for j in range(self.n)], 1)
+        self._int_matrix = cint @ Vinv
         self._templates = {}
         self._nu1 = 1.0 + shape.poisson
         self.evaluations = 0
@@ -366,91 +429,53 @@ class RodSolver:
 
         """
         self.evaluations += 1
-        sh = self.shape
         k = len(modes)
         lay = _Layout(self, self.breaks_of(modes, vec))
-        N, G = lay.N, lay.G
+        N, G, ends = lay.N, lay.G, lay.ends
         Q = vec[:4 * N].reshape(N, 4)
-        R = quat_matrix(Q)
+        R = _rotations(Q)
         D1 = R[:, :, 0]
-        p = np.array(pose.position)
-        r = p + G @ D1
-        s = lay.s
-        B = sh.stiffness(s)
-        kinv = np.empty((N, 3))
-        kinv[:, 0] = self._nu1 / B
-        kinv[:, 1] = 1.0 / B
-        kinv[:, 2] = kinv[:, 1]
-        kap0 = sh.curvature(s)
-        # contacts
+        r = pose.p + G @ D1
+        kinv, kap0 = self._stiffness(lay.s)
+        fs, surf, F = [], [], []
         o = 4 * N
-        fs, surf, F, rc, ends = [], [], [], [], lay.ends
         for c, m in enumerate(modes):
             f = float(vec[o + m.size - 1])
             sp = self.obstacles[m.obstacle].surface(r[ends[c]])
             fs.append(f)
             surf.append(sp)
-            F.append(f * np.asarray(sp.normal))
-            rc.append(r[ends[c]])
+            F.append(f * np.asarray(sp.normal, dtype=float))
             o += m.size
-        M = np.zeros((N, 3))
-        for c in range(k):
-            e = ends[c] + 1
-            M[:e] += np.cross(rc[c] - r[:e], F[c])
-        mb = np.einsum("iab,ia->ib", R, M)
-        kap = kinv * mb
-        kap[:, 2] += kap0
-        Lv = _left_vector(Q)
-        g = 0.5 * np.einsum("iab,ib->ia", Lv, kap)
-        qb = np.array(pose.quaternion)
+        M = self._moments(r, ends, F)
+        kap, Lv, g = self._curvature(Q, R, M, kinv, kap0)
         res = np.empty(self.size(modes))
-        res[:4 * N] = (Q - qb - G @ g).ravel()
+        res[:4 * N] = (Q - pose.q - G @ g).ravel()
         o = 4 * N
         for c, m in enumerate(modes):
-            sp = surf[c]
-            res[o] = sp.distance
+            res[o] = surf[c].distance
             if m.kind == "side":
-                res[o + 1] = D1[ends[c]] @ np.asarray(sp.normal)
+                res[o + 1] = D1[ends[c]] @ np.asarray(surf[c].normal, dtype=float)
             o += m.size
         if not jacobian and not pose_sensitivity:
             return res, None, None
         dR = _drot(Q)                                   # (N, 4, 3, 3)
         D = dR[:, :, :, 0].transpose(0, 2, 1)          # dd1/dq (N, 3, 4)
+        Dcat = D.transpose(1, 0, 2).reshape(3, 4 * N)  # columns (j, k)
         P = 0.5 * Lv * kinv[:, None, :]                # (N, 4, 3): dg/dkappa
-        PRt = np.einsum("iab,icb->iac", P, R)          # P R^T (N, 4, 3): dg/dM
+        PRt = np.matmul(P, R.transpose(0, 2, 1))       # P R^T (N, 4, 3): dg/dM
         n_unk = res.size
         J = np.zeros((n_unk, n_unk)) if jacobian else None
         sens = np.zeros((n_unk, 7)) if pose_sensitivity else None
-        # dg/dQ: diagonal part
-        T = np.einsum("ikab,ia->ibk", dR, M)            # d(R^T M)/dq (N, 3, 4)
-        diag = 0.5 * _right_pure(kap) + np.einsum("iab,ibk->iak", P, T)
-        dg = np.zeros((N, 4, N, 4))
-        idx = np.arange(N)
-        dg[idx, :, idx, :] = diag
-        # dg/dQ through M: the contacts' forces and positions
+        Hs = [np.asarray(sp.hessian, dtype=float) for sp in surf]
+        ns = [np.asarray(sp.normal, dtype=float) for sp in surf]
         dM_dp = np.zeros((N, 3, 3))                      # dM_i / dp
-        Hs, ns = [], []
         for c in range(k):
             e = ends[c] + 1
-            X = _skew(F[c])
-            H = np.asarray(surf[c].hessian)
-            nrm = np.asarray(surf[c].normal)
-            Hs.append(H)
-            ns.append(nrm)
-            ge = G[ends[c]]                                # (N,)
-            XD = np.einsum("ab,jbk->jak", X, D)             # (N, 3, 4)
-            PX = np.einsum("iab,jbk->ijak", PRt[:e], XD)  # (e, N, 4, 4)
-            w1 = ge[None, :] - G[:e]                        # (e, N)
-            dg[:e] -= w1[:, None, :, None] * PX.transpose(0, 2, 1, 3)
-            Y = fs[c] * np.einsum("iab,bc->iac", _skew(rc[c] - r[:e]), H)   # (e, 3, 3)
-            PY = np.einsum("iab,ibc->iac", PRt[:e], Y)     # (e, 4, 3)
-            PYD = np.einsum("iab,jbk->iajk", PY, D)        # (e, 4, N, 4)
-            dg[:e] += PYD * ge[None, None, :, None]
-            dM_dp[:e] += Y
+            dM_dp[:e] += fs[c] * np.matmul(_skew(r[ends[c]] - r[:e]), Hs[c])
         if jacobian:
-            J[:4 * N, :4 * N] = np.eye(4 * N) - np.tensordot(G, dg, axes=(1, 0)).reshape(
-                4 * N, 4 * N)
-        # the contacts' unknown columns and equations
+            dg = self._dg(Q, R, M, kap, P, PRt, dR, Dcat, G, r, ends, F, fs, Hs, dM_dp)
+            J[:4 * N, :4 * N] = -(G @ dg.reshape(N, 16 * N)).reshape(4 * N, 4 * N)
+            J[np.arange(4 * N), np.arange(4 * N)] += 1.0
         o = 4 * N
         for c, m in enumerate(modes):
             e = ends[c] + 1
@@ -458,15 +483,14 @@ class RodSolver:
             if jacobian:
                 # column f_c
                 dM = np.zeros((N, 3))
-                dM[:e] = np.cross(rc[c] - r[:e], nrm)
-                J[:4 * N, o + m.size - 1] = -(G @ np.einsum("iab,ib->ia", PRt, dM)).ravel()
+                dM[:e] = _cross(r[ends[c]] - r[:e], nrm)
+                J[:4 * N, o + m.size - 1] = -(G @ np.matmul(PRt, dM[:, :, None])[:, :, 0]
+                                              ).ravel()
                 # rows: distance and tangency, d/dQ
                 ge = G[ends[c]]
-                dr_dQ = ge[:, None, None] * D                  # (N, 3, 4): dr_c / dQ_j
-                J[o, :4 * N] = np.einsum("a,jak->jk", nrm, dr_dQ).ravel()
+                J[o, :4 * N] = ((nrm @ D) * ge[:, None]).ravel()
                 if m.kind == "side":
-                    t = D1[ends[c]]
-                    row = np.einsum("a,jak->jk", H @ t, dr_dQ)
+                    row = ((H @ D1[ends[c]]) @ D) * ge[:, None]
                     row[ends[c]] += nrm @ D[ends[c]]
                     J[o + 1, :4 * N] = row.ravel()
             if sens is not None:
@@ -475,21 +499,72 @@ class RodSolver:
                     sens[o + 1, :3] = H @ D1[ends[c]]
             o += m.size
         if jacobian:
-            # columns of the contact arc lengths
             o = 4 * N
             for c, m in enumerate(modes):
                 if m.kind == "side":
                     J[:, o] = self._break_column(lay, c, modes, Q, R, D1, r, M, F, fs, Hs, ns,
-                                                 rc, kinv, B, g, PRt, Lv)
+                                                 kinv, g, PRt, Lv)
                 o += m.size
         if sens is not None:
-            sens[:4 * N, :3] = -(G @ np.einsum("iab,ibc->iac", PRt, dM_dp).reshape(N, 12)
-                                 ).reshape(N, 4, 3).reshape(4 * N, 3)
+            sens[:4 * N, :3] = -(G @ np.matmul(PRt, dM_dp).reshape(N, 12)).reshape(4 * N, 3)
             sens[:4 * N, 3:] = -np.tile(np.eye(4), (N, 1))
         return res, J, sens
 
-    def _break_column(self, lay, c, modes, Q, R, D1, r, M, F, fs, Hs, ns, rc, kinv, B, g,
-                      PRt, Lv):
+    def _stiffness(self, s):
+        """(1/C, 1/B, 1/B) (N, 3) and kappa0 (N,) at arc lengths s."""
+        B = self.shape.stiffness(s)
+        kinv = np.empty((s.size, 3))
+        kinv[:, 1] = 1.0 / B
+        kinv[:, 2] = kinv[:, 1]
+        kinv[:, 0] = self._nu1 * kinv[:, 1]
+        return kinv, self.shape.curvature(s)
+
+    @staticmethod
+    def _moments(r, ends, F, tip_moment=None):
+        """M(s_i) = sum_c [s_i <= s_c] (r_c - r_i) x F_c (+ a moment applied at the end)."""
+        M = np.zeros_like(r)
+        for e, Fc in zip(ends, F):
+            M[:e + 1] += _cross(r[e] - r[:e + 1], Fc)
+        if tip_moment is not None:
+            M += tip_moment
+        return M
+
+    @staticmethod
+    def _curvature(Q, R, M, kinv, kap0):
+        """Body curvature kappa (N, 3), Lv(q) and g = 1/2 q * (0, kappa) (N, 4)."""
+        mb = np.matmul(M[:, None, :], R)[:, 0, :]        # R^T M
+        kap = kinv * mb
+        kap[:, 2] += kap0
+        Lv = _left_vector(Q)
+        g = 0.5 * np.matmul(Lv, kap[:, :, None])[:, :, 0]
+        return kap, Lv, g
+
+    @staticmethod
+    def _dg(Q, R, M, kap, P, PRt, dR, Dcat, G, r, ends, F, fs, Hs, dM_dp):
+        """d g_i / d q_j (N, 4, N, 4) (dense: the moments depend on every position)."""
+        N = Q.shape[0]
+        T = np.einsum("ikab,ia->ibk", dR, M)            # d(R^T M)/dq (N, 3, 4)
+        diag = 0.5 * _right_pure(kap) + np.matmul(P, T)
+        dg = np.zeros((N, 4, N, 4))
+        PR2 = PRt.reshape(4 * N, 3)
+        for c, e in enumerate(ends):
+            e1 = e + 1
+            ge = G[e]
+            X = _skew(F[c])
+            # -(r_c - r_i) x F = [F]_x (r_c - r_i): d/dq_j = [F]_x (G_cj - G_ij) D_j, negated
+            A = (PR2[:4 * e1] @ (X @ Dcat)).reshape(e1, 4, N, 4)
+            w1 = ge[None, :] - G[:e1]
+            dg[:e1] -= A * w1[:, None, :, None]
+            if fs[c] != 0.0:
+                # (r_c - r_i) x f H dr_c: the normal turns with the contact point
+                PY = np.matmul(PRt[:e1], fs[c] * np.matmul(_skew(r[e] - r[:e1]), Hs[c]))
+                B2 = (PY.reshape(4 * e1, 3) @ Dcat).reshape(e1, 4, N, 4)
+                dg[:e1] += B2 * ge[None, None, :, None]
+        idx = np.arange(N)
+        dg[idx, :, idx, :] += diag
+        return dg
+
+    def _break_column(self, lay, c, modes, Q, R, D1, r, M, F, fs, Hs, ns, kinv, g, PRt, Lv):
         """d residual / d s_c (analytic: moving nodes and integration weights)."""
         sh = self.shape
         N = lay.N
@@ -501,10 +576,9 @@ class RodSolver:
             e = lay.ends[cp] + 1
             drc = dr[lay.ends[cp]]
             dF = fs[cp] * (Hs[cp] @ drc)
-            dM[:e] += np.cross(drc - dr[:e], F[cp]) + np.cross(rc[cp] - r[:e], dF)
+            dM[:e] += _cross(drc - dr[:e], F[cp]) + _cross(r[lay.ends[cp]] - r[:e], dF)
         mb = np.einsum("iab,ia->ib", R, M)
-        dB = sh.stiffness_slope(lay.s) * ds
-        dkinv = -dB / (B * B)
+        dkinv = -sh.stiffness_slope(lay.s) * ds * kinv[:, 1] ** 2
         dkap = np.einsum("iab,ia->ib", R, dM) * kinv
         dkap[:, 0] += self._nu1 * dkinv * mb[:, 0]
         dkap[:, 1] += dkinv * mb[:, 1]
@@ -523,10 +597,15 @@ class RodSolver:
 
     # -- solving ------------------------------------------------------------------------------
     def solve(self, modes: Sequence[RodContactMode], pose: BasePose, guess: np.ndarray,
-              tol: float = 1e-13, max_iterations: int = _NEWTON_ITERATIONS,
-              max_step: Optional[float] = None):
+              lu=None, max_iterations: int = _NEWTON_ITERATIONS,
+              max_step: Optional[float] = None) -> "Solved":
         """
-        Solve a configuration's equilibrium by Newton's method from ``guess``.
+        Solve a configuration's equilibrium from ``guess``: chord iterations, then Newton.
+
+        With ``lu`` (a factorized Jacobian from a nearby solution) the first iterations reuse it
+        (a residual evaluation each); when they stop contracting fast, Newton takes over. The
+        result carries the Jacobian's factorization and the pose sensitivities at the solution
+        (evaluated at most one Newton step away from it).
 
         Parameters
         ----------
@@ -536,48 +615,74 @@ class RodSolver:
             The base pose.
         guess : numpy.ndarray
             The starting unknown vector.
-        tol : float, optional
-            Convergence: the Newton step's max norm.
+        lu : tuple, optional
+            A factorized Jacobian to start with (scipy.linalg.lu_factor).
         max_iterations : int, optional
             Bound on the iterations.
         max_step : float or None, optional
-            Refuse (ConvergenceError) a Newton step longer than this (max norm).
+            Refuse (ConvergenceError) an iteration step longer than this (max norm).
 
         Returns
         -------
-        tuple
-            (vec, lu factorization of the Jacobian at the solution).
+        Solved
+            The solution, its Jacobian's factorization and its pose sensitivities.
 
         Raises
         ------
         ConvergenceError
-            When Newton does not converge within ``max_iterations``, a contact leaves (0, 1], or
-            a value is not finite.
+            When the iterations do not converge within ``max_iterations``, a contact leaves
+            (0, 1], or a value is not finite.
 
         """
         vec = np.array(guess, dtype=float)
         last = math.inf
-        for it in range(max_iterations):
-            try:
-                res, J, _ = self.residual(modes, vec, pose)
+        it = 0
+        try:
+            converged = False
+            if lu is not None:
+                for it in range(1, _CHORD_ITERATIONS + 1):
+                    res, _, _ = self.residual(modes, vec, pose, jacobian=False)
+                    step = sla.lu_solve(lu, res, check_finite=False)
+                    size = self._take(step, max_step)
+                    vec = vec - step
+                    self._check_breaks(modes, vec)
+                    rate = size / last if last < math.inf else 1.0
+                    # near enough for the closing Newton step to square the error away
+                    if size <= _TOL or (rate < 0.5 and size * rate / (1.0 - rate) <= _CHORD_TOL):
+                        converged = True
+                        break
+                    if last < math.inf and rate > 0.5:
+                        break
+                    last = size
+                last = math.inf
+            for it in range(it, max_iterations):
+                # at a converged chord solution this evaluation gives the Jacobian and the
+                # sensitivities there; its Newton step is one more (tiny) correction
+                res, J, sens = self.residual(modes, vec, pose, pose_sensitivity=True)
                 lu = sla.lu_factor(J, check_finite=True)
                 step = sla.lu_solve(lu, res, check_finite=False)
-            except (ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
-                raise ConvergenceError(f"3D whisker: Newton failed ({exc})") from None
-            size = float(np.max(np.abs(step)))
-            if not math.isfinite(size):
-                raise ConvergenceError("3D whisker: Newton step is not finite")
-            if max_step is not None and size > max_step:
-                raise ConvergenceError("3D whisker: Newton step too long")
-            vec = vec - step
-            self._check_breaks(modes, vec)
-            if size <= tol or (size < 1e-9 and size >= 0.5 * last):
-                res, J, _ = self.residual(modes, vec, pose)
-                return vec, sla.lu_factor(J, check_finite=False)
-            last = size
+                size = self._take(step, max_step)
+                vec = vec - step
+                self._check_breaks(modes, vec)
+                if size <= _TOL or (converged and size <= _CHORD_TOL) or (
+                        last < math.inf and size * size * size / (last * last) <= _TOL):
+                    return Solved(vec, lu, sens)
+                converged = False
+                last = size
+        except (ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
+            raise ConvergenceError(f"3D whisker: Newton failed ({exc})") from None
         raise ConvergenceError(
             f"3D whisker: Newton did not converge in {max_iterations} iterations"
         )
+
+    @staticmethod
+    def _take(step, max_step) -> float:
+        size = float(np.max(np.abs(step)))
+        if not math.isfinite(size):
+            raise ConvergenceError("3D whisker: Newton step is not finite")
+        if max_step is not None and size > max_step:
+            raise ConvergenceError("3D whisker: Newton step too long")
+        return size
 
     def _check_breaks(self, modes, vec):
         b = self.breaks_of(modes, vec)
@@ -589,22 +694,16 @@ class RodSolver:
                 )
             prev = v
 
-    def tangent(self, modes, vec, pose: BasePose, dpose: np.ndarray, lu=None) -> np.ndarray:
+    def tangent(self, solved: "Solved", dpose: np.ndarray) -> np.ndarray:
         """
         Return d vec / dt along a pose path with d(p, q_base)/dt = ``dpose`` (7,).
 
         Parameters
         ----------
-        modes : sequence of RodContactMode
-            The contacts.
-        vec : numpy.ndarray
-            A solution.
-        pose : BasePose
-            Its pose.
+        solved : Solved
+            A solution with its Jacobian and pose sensitivities.
         dpose : numpy.ndarray
             (dp/dt, dq/dt) (7,).
-        lu : tuple, optional
-            The Jacobian's LU factorization at ``vec``.
 
         Returns
         -------
@@ -612,10 +711,7 @@ class RodSolver:
             The tangent (size,).
 
         """
-        _, J, sens = self.residual(modes, vec, pose, jacobian=lu is None, pose_sensitivity=True)
-        if lu is None:
-            lu = sla.lu_factor(J, check_finite=False)
-        return -sla.lu_solve(lu, sens @ dpose, check_finite=False)
+        return -sla.lu_solve(solved.lu, solved.sens @ dpose, check_finite=False)
 
     # -- guesses and sampling -----------------------------------------------------------------
     def free_quaternions(self, pose: BasePose, s) -> np.ndarray:
@@ -669,10 +765,19 @@ class RodSolver:
             out.append([b, f] if m.kind == "side" else [f])
         return np.concatenate([np.asarray(v, dtype=float) for v in out])
 
-    def _segment_coefficients(self, lay: _Layout, values: np.ndarray) -> np.ndarray:
-        """Chebyshev coefficients (k, n, d) of nodal values (N, d) per segment."""
-        v = values.reshape(lay.k, lay.n, -1)
-        return np.einsum("ab,kbd->kad", self._Vinv, v)
+    def _locate(self, lay: _Layout, s: np.ndarray):
+        """Segment index and local coordinate x in [-1, 1] of arc lengths s (<= the last end)."""
+        c = np.minimum(np.searchsorted(np.array(lay.breaks), s), lay.k - 1)
+        starts = np.concatenate(([0.0], lay.breaks[:-1]))
+        x = 2.0 * (s - starts[c]) / lay.h[c] - 1.0
+        return c, np.clip(x, -1.0, 1.0)
+
+    def _interpolate(self, lay: _Layout, values: np.ndarray, s: np.ndarray) -> np.ndarray:
+        """Nodal values (N, d) interpolated at arc lengths s (m,) inside the segments."""
+        c, x = self._locate(lay, s)
+        V = np.polynomial.chebyshev.chebvander(x, self.n - 1) @ self._Vinv     # (m, n)
+        vals = values.reshape(lay.k, lay.n, -1)[c]                            # (m, n, d)
+        return np.einsum("mj,mjd->md", V, vals)
 
     def quaternions(self, modes, vec, pose: BasePose, s) -> np.ndarray:
         """
@@ -700,18 +805,17 @@ class RodSolver:
             return self.free_quaternions(pose, s)
         lay = _Layout(self, self.breaks_of(modes, vec))
         Q = vec[:4 * lay.N].reshape(lay.N, 4)
-        coef = self._segment_coefficients(lay, Q)
-        out = np.empty((s.size, 4))
-        starts = np.concatenate(([0.0], lay.breaks[:-1]))
         end = lay.breaks[-1]
-        for i, si in enumerate(s):
-            if si > end:
-                phi = (self.shape.intrinsic_slope(si) - self.shape.intrinsic_slope(end))
-                out[i] = quat_multiply(Q[-1], quat_about(_E3, float(phi)))
-                continue
-            c = min(int(np.searchsorted(lay.breaks, si)), lay.k - 1)
-            x = 2.0 * (si - starts[c]) / lay.h[c] - 1.0
-            out[i] = np.polynomial.chebyshev.chebval(x, coef[c])
+        out = np.empty((s.size, 4))
+        inside = s <= end
+        if np.any(inside):
+            out[inside] = self._interpolate(lay, Q, s[inside])
+        if not np.all(inside):
+            phi = self.shape.intrinsic_slope(s[~inside]) - self.shape.intrinsic_slope(end)
+            rot = np.zeros((phi.size, 4))
+            rot[:, 0] = np.cos(0.5 * phi)
+            rot[:, 3] = np.sin(0.5 * phi)
+            out[~inside] = quat_multiply(Q[-1], rot)
         return out
 
     def centerline(self, modes, vec, pose: BasePose, s) -> np.ndarray:
@@ -736,36 +840,27 @@ class RodSolver:
 
         """
         s = np.atleast_1d(np.asarray(s, dtype=float))
-        p = np.array(pose.position)
+        p = pose.p
         if not modes:
-            return p + self.shape.free_centerline(s) @ quat_matrix(np.array(pose.quaternion)).T
+            return p + self.shape.free_centerline(s) @ pose.rotation.T
         lay = _Layout(self, self.breaks_of(modes, vec))
         Q = vec[:4 * lay.N].reshape(lay.N, 4)
-        R = quat_matrix(Q)
+        R = _rotations(Q)
         D1 = R[:, :, 0]
-        coef = self._segment_coefficients(lay, D1)
-        starts = np.concatenate(([0.0], lay.breaks[:-1]))
-        base = np.empty((lay.k, 3))
-        ints = []
-        acc = p.copy()
-        C = np.polynomial.chebyshev
-        for c in range(lay.k):
-            base[c] = acc
-            ic = C.chebint(coef[c], lbnd=-1.0) * (0.5 * lay.h[c])
-            ints.append(ic)
-            acc = acc + C.chebval(1.0, ic)
+        # segment starts: the nodes' positions r = p + G D1 at each segment's first node
+        r_nodes = p + lay.G @ D1
         end = lay.breaks[-1]
         out = np.empty((s.size, 3))
-        tail = s > end
-        for i, si in enumerate(s):
-            if tail[i]:
-                continue
-            c = min(int(np.searchsorted(lay.breaks, si)), lay.k - 1)
-            x = 2.0 * (si - starts[c]) / lay.h[c] - 1.0
-            out[i] = base[c] + C.chebval(x, ints[c])
-        if np.any(tail):
-            off = self.shape.intrinsic_offset(end, s[tail])
-            out[tail] = acc + off[:, :1] * R[-1, :, 0] + off[:, 1:] * R[-1, :, 1]
+        inside = s <= end
+        if np.any(inside):
+            c, x = self._locate(lay, s[inside])
+            W = np.polynomial.chebyshev.chebvander(x, self.n) @ self._int_matrix   # (m, n)
+            vals = D1.reshape(lay.k, lay.n, 3)[c]
+            starts = r_nodes.reshape(lay.k, lay.n, 3)[c, 0]
+            out[inside] = starts + (0.5 * lay.h[c])[:, None] * np.einsum("mj,mjd->md", W, vals)
+        if not np.all(inside):
+            off = self.shape.intrinsic_offset(end, s[~inside])
+            out[~inside] = r_nodes[-1] + off[:, :1] * R[-1, :, 0] + off[:, 1:] * R[-1, :, 1]
         return out
 
     def equilibrium(self, modes: Sequence[RodContactMode], vec: np.ndarray, pose: BasePose
@@ -789,21 +884,37 @@ class RodSolver:
 
         """
         modes = tuple(modes)
-        p = np.array(pose.position)
-        breaks = self.breaks_of(modes, vec) if modes else ()
-        fs = self.forces_of(modes, vec) if modes else ()
+        p = pose.p
         if modes:
-            pts = self.centerline(modes, vec, pose, np.array(breaks))
+            breaks = self.breaks_of(modes, vec)
+            fs = self.forces_of(modes, vec)
+            lay = _Layout(self, breaks)
+            Q = vec[:4 * lay.N].reshape(lay.N, 4)
+            R = _rotations(Q[lay.ends])
+            r_ends = p + lay.G[lay.ends] @ _rotations(Q)[:, :, 0]
+            pts = r_ends
             forces = np.array([f * np.asarray(self.obstacles[m.obstacle].surface(x).normal)
                                for m, f, x in zip(modes, fs, pts)])
+            end = breaks[-1]
+            frame = R[-1] / np.linalg.norm(Q[-1]) ** 2
+            tip = r_ends[-1]
+            if end < 1.0:
+                off = self.shape.intrinsic_offset(end, [1.0])[0]
+                tip = tip + off[0] * frame[:, 0] + off[1] * frame[:, 1]
+                phi = float(self.shape.intrinsic_slope(1.0) - self.shape.intrinsic_slope(end))
+                c, sn = math.cos(phi), math.sin(phi)
+                frame = np.column_stack((c * frame[:, 0] + sn * frame[:, 1],
+                                         -sn * frame[:, 0] + c * frame[:, 1], frame[:, 2]))
+            force = forces.sum(axis=0)
+            moment = _cross(pts - p, forces).sum(axis=0)
         else:
+            breaks, fs = (), ()
             pts = np.zeros((0, 3))
             forces = np.zeros((0, 3))
-        tip = self.centerline(modes, vec, pose, [1.0])[0]
-        qt = self.quaternions(modes, vec, pose, [1.0])[0]
-        frame = quat_matrix(qt / np.linalg.norm(qt))
-        force = forces.sum(axis=0) if len(forces) else np.zeros(3)
-        moment = (np.cross(pts - p, forces).sum(axis=0) if len(forces) else np.zeros(3))
+            frame = quat_matrix(self.free_quaternions(pose, [1.0])[0])
+            tip = self.centerline(modes, vec, pose, [1.0])[0]
+            force = np.zeros(3)
+            moment = np.zeros(3)
         vec = np.array(vec, dtype=float)
         vec.setflags(write=False)
         return RodEquilibrium(pose, modes, vec, tuple(breaks), tuple(fs), pts, forces, force,

@@ -354,7 +354,7 @@ class RodTracker:
         self._pose = pose
         self._modes: Tuple[RodContactMode, ...] = ()
         self._vec = np.zeros(0)
-        self._lu = None
+        self._solved = None
         self._sign = 1.0
         self._state = self._make_state()
 
@@ -395,11 +395,11 @@ class RodTracker:
         """
         target = _as_pose(pose)
         self._start = self.solver.evaluations
-        saved = (self._pose, self._modes, self._vec, self._lu, self._sign, self._state)
+        saved = (self._pose, self._modes, self._vec, self._solved, self._sign, self._state)
         try:
             return self._step_checked(target)
         except (ModelAssumptionError, ConvergenceError) as exc:
-            (self._pose, self._modes, self._vec, self._lu, self._sign, self._state) = saved
+            (self._pose, self._modes, self._vec, self._solved, self._sign, self._state) = saved
             if not self.recover:
                 raise
             spent = self.solver.evaluations - self._start
@@ -409,7 +409,7 @@ class RodTracker:
                 raise exc from None
             return RodStepResult(result.state, result.events, 0, spent + result.evaluations)
         except BaseException:
-            (self._pose, self._modes, self._vec, self._lu, self._sign, self._state) = saved
+            (self._pose, self._modes, self._vec, self._solved, self._sign, self._state) = saved
             raise
 
     def reset(self, pose: Optional[BasePose] = None, reason: str = "reset on request"
@@ -483,7 +483,7 @@ class RodTracker:
             raise ConvergenceError(f"the step needed more than {_MAX_SUBSTEPS} sub-steps")
         self._pose = target
         if not self._modes:
-            self._vec, self._lu = np.zeros(0), None
+            self._vec, self._solved = np.zeros(0), None
         self._state = self._make_state()
         return RodStepResult(self._state, tuple(events), substeps,
                              self.solver.evaluations - self._start)
@@ -561,20 +561,24 @@ class RodTracker:
         breaks = [1.0 if kind == "tip" else s]
         vec = self.solver.guess((mode,), breaks, [0.0],
                                 lambda ss: self.solver.free_quaternions(pose, ss))
-        vec, lu = self.solver.solve((mode,), pose, vec)
-        self._modes, self._vec, self._lu = (mode,), vec, lu
-        self._sign = math.copysign(1.0, _det_measure(lu))
+        solved = self.solver.solve((mode,), pose, vec)
+        self._modes = (mode,)
+        self._accept(solved, pose)
+        self._sign = math.copysign(1.0, _det_measure(solved.lu))
         self._pose = pose
         events.append(RodEvent("touch", pose, k, breaks[0], 0, 1))
         return t_star
 
     # -- contact continuation -----------------------------------------------------------------
-    def _solve_at(self, path, t, t_new, vec, lu):
+    def _accept(self, solved, pose):
+        self._solved, self._vec, self._pose = solved, solved.vec, pose
+
+    def _solve_at(self, path, t, t_new, solved):
         pose = path.pose(t)
-        tan = self.solver.tangent(self._modes, vec, pose, path.rate(pose), lu)
-        guess = vec + (t_new - t) * tan
+        tan = self.solver.tangent(solved, path.rate(pose))
+        guess = solved.vec + (t_new - t) * tan
         pose_new = path.pose(t_new)
-        return self.solver.solve(self._modes, pose_new, guess, max_step=0.5)
+        return self.solver.solve(self._modes, pose_new, guess, lu=solved.lu, max_step=0.5)
 
     def _event_values(self, path, t, vec, lu):
         """Named inequality values (>= 0 admissible) of the configuration at (t, vec)."""
@@ -598,10 +602,12 @@ class RodTracker:
         return out
 
     def _contact_gap(self, path, t, vec, exact=False):
+        skip = {m.obstacle for m in self._modes}
+        if len(skip) == len(self.obstacles):
+            return (math.inf, -1, 0.0)
         pose = path.pose(t)
         sol = self.solver
         pts = sol.centerline(self._modes, vec, pose, _SAMPLES)
-        skip = {m.obstacle for m in self._modes}
 
         def point_at(s):
             return sol.centerline(self._modes, vec, pose, [s])[0]
@@ -611,7 +617,7 @@ class RodTracker:
     def _contact_advance(self, path: _Path, t: float, h: float, events) -> Tuple[float, float]:
         sol = self.solver
         pose = path.pose(t)
-        tan = sol.tangent(self._modes, self._vec, pose, path.rate(pose), self._lu)
+        tan = sol.tangent(self._solved, path.rate(pose))
         big = float(np.max(np.abs(tan * self._scales())))
         dt = min(1.0 - t, h, _MAX_MOVE / path.speed)
         if big > 0.0:
@@ -620,8 +626,9 @@ class RodTracker:
             self._check_budget()
             t_new = min(1.0, t + dt)
             try:
-                vec, lu = sol.solve(self._modes, path.pose(t_new), self._vec + (t_new - t) * tan,
-                                    max_step=0.5)
+                solved = sol.solve(self._modes, path.pose(t_new),
+                                   self._vec + (t_new - t) * tan, lu=self._solved.lu,
+                                   max_step=0.5)
                 break
             except ConvergenceError:
                 dt *= 0.25
@@ -631,13 +638,13 @@ class RodTracker:
                     return t, 1.0
         else:
             raise ConvergenceError("the continuation step could not be shortened enough")
-        values = self._event_values(path, t_new, vec, lu)
-        gap = self._contact_gap(path, t_new, vec)[0]
+        values = self._event_values(path, t_new, solved.vec, solved.lu)
+        gap = self._contact_gap(path, t_new, solved.vec)[0]
         crossed = [key for key, v in values.items() if v < 0.0]
         if gap < _CUT:
             crossed.append(("touch", -1))
         if not crossed:
-            self._vec, self._lu, self._pose = vec, lu, path.pose(t_new)
+            self._accept(solved, path.pose(t_new))
             return t_new, min(1.0, 2.0 * dt)
         return self._first_event(path, t, t_new, crossed, events), 1.0
 
@@ -651,27 +658,26 @@ class RodTracker:
         return w
 
     def _first_event(self, path, t_a, t_b, crossed, events) -> float:
-        vec_a, lu_a = self._vec, self._lu
+        solved_a = self._solved
         cache = {}
 
         def solution(tau):
             if tau not in cache:
                 if tau == t_a:
-                    cache[tau] = (vec_a, lu_a)
+                    cache[tau] = solved_a
                 else:
-                    cache[tau] = self._solve_at(path, t_a, tau, vec_a, lu_a)
+                    cache[tau] = self._solve_at(path, t_a, tau, solved_a)
             return cache[tau]
 
         best = None
         for key in crossed:
             if key[0] == "touch":
                 def g(tau):
-                    v, _ = solution(tau)
-                    return self._contact_gap(path, tau, v, exact=True)[0]
+                    return self._contact_gap(path, tau, solution(tau).vec, exact=True)[0]
             else:
                 def g(tau, key=key):
-                    v, lu = solution(tau)
-                    return self._event_values(path, tau, v, lu)[key]
+                    sv = solution(tau)
+                    return self._event_values(path, tau, sv.vec, sv.lu)[key]
             try:
                 if g(t_a) < 0.0:
                     t_star = t_a
@@ -687,13 +693,11 @@ class RodTracker:
         if key[0] == "stable":
             # follow the branch up to the singular point, then snap
             if t_star > t_a:
-                vec, lu = solution(t_star)
-                self._vec, self._lu, self._pose = vec, lu, path.pose(t_star)
+                self._accept(solution(t_star), path.pose(t_star))
             self._snap(path, t_star, events, "the equilibrium becomes unstable (the sign of "
                        "the Jacobian's determinant changes)")
             return t_star
-        vec, lu = solution(t_star)
-        self._vec, self._lu, self._pose = vec, lu, path.pose(t_star)
+        self._accept(solution(t_star), path.pose(t_star))
         self._change(path, t_star, key, events)
         return t_star
 
@@ -747,11 +751,12 @@ class RodTracker:
 
     def _set_configuration(self, pose, modes, breaks, forces):
         if not modes:
-            self._modes, self._vec, self._lu, self._pose = (), np.zeros(0), None, pose
+            self._modes, self._vec, self._solved, self._pose = (), np.zeros(0), None, pose
             return
-        vec, lu = self._rebuild(pose, modes, breaks, forces, self._modes, self._vec)
-        self._modes, self._vec, self._lu, self._pose = modes, vec, lu, pose
-        self._sign = math.copysign(1.0, _det_measure(lu))
+        solved = self._rebuild(pose, modes, breaks, forces, self._modes, self._vec)
+        self._modes = modes
+        self._accept(solved, pose)
+        self._sign = math.copysign(1.0, _det_measure(solved.lu))
 
     def _snap(self, path, t, events, reason):
         """The equilibrium is lost at t: find where the whisker goes and go there."""
@@ -764,18 +769,19 @@ class RodTracker:
         t_after = min(1.0, t + 1e-6)
         pose_after = path.pose(t_after)
         # 1. a stable equilibrium of the same contacts, off the lost one (a bifurcated branch)
-        lu = self._lu
-        null = _null_vector(lu)
+        null = _null_vector(self._solved.lu)
         for amp in (1e-3, -1e-3, 1e-2, -1e-2, 1e-1, -1e-1):
             try:
-                vec, lu2 = sol.solve(old_modes, pose_after, old_vec + amp * null, max_step=0.5)
+                solved = sol.solve(old_modes, pose_after, old_vec + amp * null, max_step=0.5)
             except ConvergenceError:
                 continue
-            if (np.max(np.abs(vec - old_vec)) > 1e-6 and _det_measure(lu2) * self._sign > 0.0
+            vec = solved.vec
+            if (np.max(np.abs(vec - old_vec)) > 1e-6
+                    and _det_measure(solved.lu) * self._sign > 0.0
                     and min(sol.forces_of(old_modes, vec)) >= 0.0
                     and self._contact_gap_at(pose_after, old_modes, vec) >= _CUT):
                 events.append(RodEvent("snap", pose, None, None, before, before, reason))
-                self._vec, self._lu, self._pose = vec, lu2, pose_after
+                self._accept(solved, pose_after)
                 return
         # 2. drop contacts: the last ones first, then all
         k = len(old_modes)
@@ -787,17 +793,18 @@ class RodTracker:
                     if self._free_gap(pose, exact=True)[0] < _CUT:
                         continue
                     events.append(RodEvent("snap", pose, None, None, before, 0, reason))
-                    self._modes, self._vec, self._lu, self._pose = (), np.zeros(0), None, pose
+                    self._modes, self._vec, self._solved, self._pose = (), np.zeros(0), None, pose
                     return
-                vec, lu2 = self._rebuild(pose, modes, [breaks[i] for i in keep],
-                                         [forces[i] for i in keep], old_modes, old_vec)
+                solved = self._rebuild(pose, modes, [breaks[i] for i in keep],
+                                       [forces[i] for i in keep], old_modes, old_vec)
             except ConvergenceError:
                 continue
-            if (min(sol.forces_of(modes, vec)) >= 0.0
-                    and self._contact_gap_at(pose, modes, vec) >= _CUT):
+            if (min(sol.forces_of(modes, solved.vec)) >= 0.0
+                    and self._contact_gap_at(pose, modes, solved.vec) >= _CUT):
                 events.append(RodEvent("snap", pose, None, None, before, len(modes), reason))
-                self._modes, self._vec, self._lu, self._pose = modes, vec, lu2, pose
-                self._sign = math.copysign(1.0, _det_measure(lu2))
+                self._modes = modes
+                self._accept(solved, pose)
+                self._sign = math.copysign(1.0, _det_measure(solved.lu))
                 return
         raise ConvergenceError(
             f"the whisker snaps at base {tuple(round(v, 6) for v in pose.position)} ({reason}) "
