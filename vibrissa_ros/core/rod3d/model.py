@@ -684,6 +684,113 @@ class RodSolver:
             raise ConvergenceError("3D whisker: Newton step too long")
         return size
 
+    def loaded_residual(self, s_load: float, vec: np.ndarray, pose: BasePose, force, moment,
+                        jacobian: bool = True):
+        """
+        Return the residual (and Jacobian) of the whisker under a given point load.
+
+        A force ``force`` and a couple ``moment`` (world frame) act at arc length ``s_load``;
+        beyond it the whisker is unloaded. The unknowns are the quaternions of one segment
+        [0, s_load] (``vec`` (4 n,)).
+
+        Parameters
+        ----------
+        s_load : float
+            Where the load acts, in (0, 1].
+        vec : numpy.ndarray
+            The quaternions (4 n,).
+        pose : BasePose
+            The base pose.
+        force, moment : array_like
+            The load (3,) each.
+        jacobian : bool, optional
+            Also return d residual / d vec.
+
+        Returns
+        -------
+        tuple
+            (residual, Jacobian or None).
+
+        """
+        self.evaluations += 1
+        lay = _Layout(self, (s_load,))
+        N, G, ends = lay.N, lay.G, lay.ends
+        Q = vec.reshape(N, 4)
+        R = _rotations(Q)
+        D1 = R[:, :, 0]
+        r = pose.p + G @ D1
+        kinv, kap0 = self._stiffness(lay.s)
+        F = [np.asarray(force, dtype=float)]
+        M = self._moments(r, ends, F, np.asarray(moment, dtype=float))
+        kap, Lv, g = self._curvature(Q, R, M, kinv, kap0)
+        res = (Q - pose.q - G @ g).ravel()
+        if not jacobian:
+            return res, None
+        dR = _drot(Q)
+        D = dR[:, :, :, 0].transpose(0, 2, 1)
+        Dcat = D.transpose(1, 0, 2).reshape(3, 4 * N)
+        P = 0.5 * Lv * kinv[:, None, :]
+        PRt = np.matmul(P, R.transpose(0, 2, 1))
+        dg = self._dg(Q, R, M, kap, P, PRt, dR, Dcat, G, r, ends, F, [0.0], [None], None)
+        J = -(G @ dg.reshape(N, 16 * N)).reshape(4 * N, 4 * N)
+        J[np.arange(4 * N), np.arange(4 * N)] += 1.0
+        return res, J
+
+    def solve_loaded(self, s_load: float, pose: BasePose, force, moment, guess=None,
+                     ramp: int = 1) -> np.ndarray:
+        """
+        Solve the whisker under a given point load (Newton, the load ramped in ``ramp`` steps).
+
+        Parameters
+        ----------
+        s_load : float
+            Where the load acts, in (0, 1].
+        pose : BasePose
+            The base pose.
+        force, moment : array_like
+            The load (3,) each, world frame.
+        guess : numpy.ndarray, optional
+            Starting quaternions (4 n,); default the unloaded whisker.
+        ramp : int, optional
+            Load steps (the load grows linearly to its value; each step starts from the last).
+
+        Returns
+        -------
+        numpy.ndarray
+            The quaternions (4 n,).
+
+        Raises
+        ------
+        ConvergenceError
+            When Newton does not converge at some load step.
+
+        """
+        lay = _Layout(self, (s_load,))
+        vec = (self.free_quaternions(pose, lay.s).ravel() if guess is None
+               else np.array(guess, dtype=float))
+        force = np.asarray(force, dtype=float)
+        moment = np.asarray(moment, dtype=float)
+        for k in range(1, ramp + 1):
+            lam = k / ramp
+            last = math.inf
+            for _ in range(_NEWTON_ITERATIONS):
+                try:
+                    res, J = self.loaded_residual(s_load, vec, pose, lam * force, lam * moment)
+                    step = np.linalg.solve(J, res)
+                except (ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
+                    raise ConvergenceError(f"3D whisker under a load: Newton failed ({exc})"
+                                           ) from None
+                size = self._take(step, None)
+                vec = vec - step
+                if size <= _TOL or (last < math.inf and size ** 3 / last ** 2 <= _TOL):
+                    break
+                last = size
+            else:
+                raise ConvergenceError(
+                    f"3D whisker under a load: Newton did not converge at load step {k}/{ramp}"
+                )
+        return vec
+
     def _check_breaks(self, modes, vec):
         b = self.breaks_of(modes, vec)
         prev = 0.0
