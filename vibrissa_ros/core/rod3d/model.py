@@ -51,8 +51,8 @@ from ..general.model import chebyshev_operators
 from .pose import BasePose, quat_matrix, quat_multiply
 from .shape import RodShape
 
-#: Chebyshev points per segment (error ~1e-13 at 24: doc/mechanics/rod3d.md)
-DEFAULT_SEGMENT_POINTS = 24
+#: Chebyshev points per segment (error ~1e-12 at 16 with the cone map: doc/mechanics/rod3d.md)
+DEFAULT_SEGMENT_POINTS = 16
 KINDS = ("side", "tip")
 _E3 = np.array([0.0, 0.0, 1.0])
 _NEWTON_ITERATIONS = 30
@@ -61,14 +61,23 @@ _CHORD_ITERATIONS = 8
 _TOL = 1e-13
 #: chord iterations stop here; the closing Newton step squares the error
 _CHORD_TOL = 1e-8
+#: chord contraction up to which a Jacobian is reused (no eigenvalue can change sign)
+_STALE_RATE = 0.05
 
 
 class Solved(NamedTuple):
-    """A converged unknown vector with its Jacobian's LU factorization and pose sensitivities."""
+    """
+    A converged unknown vector with a Jacobian's LU factorization and pose sensitivities.
+
+    ``age`` 0: evaluated at the solution (within one Newton step); k > 0: reused from a solution
+    k chord solves back, every one of which contracted by at least 1 / _STALE_RATE per
+    iteration (so no eigenvalue of the Jacobian can have changed sign since).
+    """
 
     vec: np.ndarray
     lu: Tuple[np.ndarray, np.ndarray]
     sens: np.ndarray
+    age: int = 0
 
 
 @dataclass(frozen=True)
@@ -184,41 +193,96 @@ class _Layout:
     """
     Nodes and integration matrices of one set of segment ends (internal).
 
-    ``breaks`` = (s_1, ..., s_k) the segment ends (the last one is s_k <= 1); node i of segment
-    c sits at s = s_(c-1) + h_c tau_j with tau the Chebyshev points mapped to [0, 1].
+    ``breaks`` = (s_1, ..., s_k) the segment ends (the last one is s_k <= 1). Node j of segment
+    c = [a, b] sits at s(tau_j), tau the Chebyshev points mapped to [0, 1]: s = a + (b - a) tau
+    for a cylinder, and for a cone s_p - s = (s_p - a) exp(tau L), L = log((s_p - b)/(s_p - a)),
+    with s_p = 1 / (1 - taper) (where B would vanish): then B(s(tau)) is exp(4 tau L) times a
+    constant, an entire function of tau, and the thin tip's boundary layer costs no extra points
+    (the planar general solver's map). ``w`` = ds/dtau at the nodes: G = T diag(w).
     """
 
-    __slots__ = ("breaks", "n", "k", "N", "s", "G", "seg", "ends", "tau", "h")
+    __slots__ = ("breaks", "n", "k", "N", "s", "w", "G", "ends", "tau", "a", "b", "L", "sp",
+                 "T")
 
     def __init__(self, solver: "RodSolver", breaks: Sequence[float]):
         n = solver.n
-        self.breaks = tuple(float(b) for b in breaks)
+        self.breaks = tuple(float(v) for v in breaks)
         self.n, self.k = n, len(self.breaks)
         self.N = n * self.k
-        starts = (0.0,) + self.breaks[:-1]
-        self.h = np.array(self.breaks) - np.array(starts)
+        self.a = np.array((0.0,) + self.breaks[:-1])
+        self.b = np.array(self.breaks)
         self.tau = solver._tau
-        self.seg = np.repeat(np.arange(self.k), n)
-        self.s = np.repeat(np.array(starts), n) + np.repeat(self.h, n) * np.tile(self.tau, self.k)
-        self.G = solver._template(self.k) * np.repeat(self.h, n)[None, :]
+        self.sp = solver._sp
+        tau = np.tile(self.tau, self.k)
+        a = np.repeat(self.a, n)
+        b = np.repeat(self.b, n)
+        if self.sp is None:
+            self.L = None
+            self.s = a + (b - a) * tau
+            self.w = b - a
+        else:
+            sp = self.sp
+            self.L = np.log((sp - self.b) / (sp - self.a))
+            L = np.repeat(self.L, n)
+            gap = (sp - a) * np.exp(tau * L)
+            self.s = sp - gap
+            self.w = -L * gap
+        self.T = solver._template(self.k)
+        self.G = self.T * self.w[None, :]
         self.ends = np.arange(1, self.k + 1) * n - 1
 
-    def dG(self, solver: "RodSolver", c: int) -> np.ndarray:
-        """dG / d s_c (the end of segment c moves; the next segment's start with it)."""
-        dh = np.zeros(self.k)
-        dh[c] = 1.0
-        if c + 1 < self.k:
-            dh[c + 1] = -1.0
-        return solver._template(self.k) * np.repeat(dh, self.n)[None, :]
+    def _parts(self, c: int):
+        """Slices and per-node quantities of the segments that end (c) and start (c+1) at s_c."""
+        n = self.n
+        right = slice(c * n, (c + 1) * n)
+        left = slice((c + 1) * n, (c + 2) * n) if c + 1 < self.k else None
+        return right, left
 
     def ds(self, c: int) -> np.ndarray:
         """d s_i / d s_c at the nodes."""
         out = np.zeros(self.N)
-        n = self.n
-        out[c * n:(c + 1) * n] = self.tau
-        if c + 1 < self.k:
-            out[(c + 1) * n:(c + 2) * n] = 1.0 - self.tau
+        right, left = self._parts(c)
+        tau = self.tau
+        if self.sp is None:
+            out[right] = tau
+            if left is not None:
+                out[left] = 1.0 - tau
+            return out
+        sp = self.sp
+        out[right] = tau * (sp - self.s[right]) / (sp - self.b[c])
+        if left is not None:
+            out[left] = (1.0 - tau) * (sp - self.s[left]) / (sp - self.a[c + 1])
         return out
+
+    def dw(self, c: int) -> np.ndarray:
+        """d w_i / d s_c at the nodes."""
+        out = np.zeros(self.N)
+        right, left = self._parts(c)
+        if self.sp is None:
+            out[right] = 1.0
+            if left is not None:
+                out[left] = -1.0
+            return out
+        sp, tau = self.sp, self.tau
+        out[right] = (sp - self.s[right]) * (1.0 + self.L[c] * tau) / (sp - self.b[c])
+        if left is not None:
+            out[left] = ((sp - self.s[left]) * (-1.0 + self.L[c + 1] * (1.0 - tau))
+                         / (sp - self.a[c + 1]))
+        return out
+
+    def dG(self, solver: "RodSolver", c: int) -> np.ndarray:
+        """dG / d s_c (the end of segment c moves; the next segment's start with it)."""
+        return self.T * self.dw(c)[None, :]
+
+    def locate(self, s: np.ndarray):
+        """Segment index and local coordinate x in [-1, 1] of arc lengths s (<= the last end)."""
+        c = np.minimum(np.searchsorted(self.b, s), self.k - 1)
+        a, b = self.a[c], self.b[c]
+        if self.sp is None:
+            tau = (s - a) / (b - a)
+        else:
+            tau = np.log((self.sp - s) / (self.sp - a)) / self.L[c]
+        return c, np.clip(2.0 * tau - 1.0, -1.0, 1.0)
 
 
 @dataclass(frozen=True)
@@ -342,7 +406,9 @@ class RodSolver:
         self._int_matrix = cint @ Vinv
         self._templates = {}
         self._nu1 = 1.0 + shape.poisson
+        self._sp = None if shape.taper == 1.0 else 1.0 / (1.0 - shape.taper)
         self.evaluations = 0
+        self._free_tip_cache = None
 
     # -- operators ----------------------------------------------------------------------------
     def _template(self, k: int) -> np.ndarray:
@@ -597,15 +663,18 @@ class RodSolver:
 
     # -- solving ------------------------------------------------------------------------------
     def solve(self, modes: Sequence[RodContactMode], pose: BasePose, guess: np.ndarray,
-              lu=None, max_iterations: int = _NEWTON_ITERATIONS,
+              start: Optional["Solved"] = None, reuse: bool = False,
+              max_iterations: int = _NEWTON_ITERATIONS,
               max_step: Optional[float] = None) -> "Solved":
         """
         Solve a configuration's equilibrium from ``guess``: chord iterations, then Newton.
 
-        With ``lu`` (a factorized Jacobian from a nearby solution) the first iterations reuse it
+        With ``start`` (a nearby solution) the first iterations reuse its factorized Jacobian
         (a residual evaluation each); when they stop contracting fast, Newton takes over. The
         result carries the Jacobian's factorization and the pose sensitivities at the solution
-        (evaluated at most one Newton step away from it).
+        (evaluated at most one Newton step away from it), or with ``reuse`` those of ``start``
+        when the chord iterations converged contracting by a factor 20 or more each (the
+        Jacobian has barely changed; :class:`Solved`).
 
         Parameters
         ----------
@@ -615,8 +684,10 @@ class RodSolver:
             The base pose.
         guess : numpy.ndarray
             The starting unknown vector.
-        lu : tuple, optional
-            A factorized Jacobian to start with (scipy.linalg.lu_factor).
+        start : Solved, optional
+            A nearby solution whose Jacobian the chord iterations use.
+        reuse : bool, optional
+            Return ``start``'s Jacobian when the chord iterations converge fast enough.
         max_iterations : int, optional
             Bound on the iterations.
         max_step : float or None, optional
@@ -639,7 +710,9 @@ class RodSolver:
         it = 0
         try:
             converged = False
-            if lu is not None:
+            worst = 0.0
+            if start is not None:
+                lu = start.lu
                 for it in range(1, _CHORD_ITERATIONS + 1):
                     res, _, _ = self.residual(modes, vec, pose, jacobian=False)
                     step = sla.lu_solve(lu, res, check_finite=False)
@@ -647,8 +720,14 @@ class RodSolver:
                     vec = vec - step
                     self._check_breaks(modes, vec)
                     rate = size / last if last < math.inf else 1.0
+                    if last < math.inf:
+                        worst = max(worst, rate)
+                    if reuse and worst <= _STALE_RATE and (
+                            size <= _TOL or (last < math.inf and size * rate <= _TOL)):
+                        return Solved(vec, start.lu, start.sens, start.age + 1)
                     # near enough for the closing Newton step to square the error away
-                    if size <= _TOL or (rate < 0.5 and size * rate / (1.0 - rate) <= _CHORD_TOL):
+                    if (not reuse or worst > _STALE_RATE) and (size <= _TOL or (
+                            rate < 0.5 and size * rate / (1.0 - rate) <= _CHORD_TOL)):
                         converged = True
                         break
                     if last < math.inf and rate > 0.5:
@@ -820,6 +899,18 @@ class RodSolver:
         """
         return -sla.lu_solve(solved.lu, solved.sens @ dpose, check_finite=False)
 
+    def _free_tip(self):
+        """The unloaded whisker's tip and tip frame in its base frame (cached)."""
+        if self._free_tip_cache is None:
+            off = self.shape.free_centerline([1.0])[0]
+            phi = float(self.shape.intrinsic_slope(1.0))
+            c, sn = math.cos(phi), math.sin(phi)
+            frame = np.array([[c, -sn, 0.0], [sn, c, 0.0], [0.0, 0.0, 1.0]])
+            off.setflags(write=False)
+            frame.setflags(write=False)
+            self._free_tip_cache = (off, frame)
+        return self._free_tip_cache
+
     # -- guesses and sampling -----------------------------------------------------------------
     def free_quaternions(self, pose: BasePose, s) -> np.ndarray:
         """
@@ -872,16 +963,9 @@ class RodSolver:
             out.append([b, f] if m.kind == "side" else [f])
         return np.concatenate([np.asarray(v, dtype=float) for v in out])
 
-    def _locate(self, lay: _Layout, s: np.ndarray):
-        """Segment index and local coordinate x in [-1, 1] of arc lengths s (<= the last end)."""
-        c = np.minimum(np.searchsorted(np.array(lay.breaks), s), lay.k - 1)
-        starts = np.concatenate(([0.0], lay.breaks[:-1]))
-        x = 2.0 * (s - starts[c]) / lay.h[c] - 1.0
-        return c, np.clip(x, -1.0, 1.0)
-
     def _interpolate(self, lay: _Layout, values: np.ndarray, s: np.ndarray) -> np.ndarray:
         """Nodal values (N, d) interpolated at arc lengths s (m,) inside the segments."""
-        c, x = self._locate(lay, s)
+        c, x = lay.locate(s)
         V = np.polynomial.chebyshev.chebvander(x, self.n - 1) @ self._Vinv     # (m, n)
         vals = values.reshape(lay.k, lay.n, -1)[c]                            # (m, n, d)
         return np.einsum("mj,mjd->md", V, vals)
@@ -960,11 +1044,11 @@ class RodSolver:
         out = np.empty((s.size, 3))
         inside = s <= end
         if np.any(inside):
-            c, x = self._locate(lay, s[inside])
+            c, x = lay.locate(s[inside])
             W = np.polynomial.chebyshev.chebvander(x, self.n) @ self._int_matrix   # (m, n)
-            vals = D1.reshape(lay.k, lay.n, 3)[c]
+            vals = (D1 * lay.w[:, None]).reshape(lay.k, lay.n, 3)[c]
             starts = r_nodes.reshape(lay.k, lay.n, 3)[c, 0]
-            out[inside] = starts + (0.5 * lay.h[c])[:, None] * np.einsum("mj,mjd->md", W, vals)
+            out[inside] = starts + 0.5 * np.einsum("mj,mjd->md", W, vals)
         if not np.all(inside):
             off = self.shape.intrinsic_offset(end, s[~inside])
             out[~inside] = r_nodes[-1] + off[:, :1] * R[-1, :, 0] + off[:, 1:] * R[-1, :, 1]
@@ -1018,8 +1102,10 @@ class RodSolver:
             breaks, fs = (), ()
             pts = np.zeros((0, 3))
             forces = np.zeros((0, 3))
-            frame = quat_matrix(self.free_quaternions(pose, [1.0])[0])
-            tip = self.centerline(modes, vec, pose, [1.0])[0]
+            R0 = pose.rotation
+            tip_off, tip_frame = self._free_tip()
+            frame = R0 @ tip_frame
+            tip = p + R0 @ tip_off
             force = np.zeros(3)
             moment = np.zeros(3)
         vec = np.array(vec, dtype=float)

@@ -43,6 +43,13 @@ def quat_multiply(a, b) -> np.ndarray:
     """
     a = np.asarray(a, dtype=float)
     b = np.asarray(b, dtype=float)
+    if a.ndim == 1 and b.ndim == 1:
+        aw, ax, ay, az = a.tolist()
+        bw, bx, by, bz = b.tolist()
+        return np.array((aw * bw - ax * bx - ay * by - az * bz,
+                         aw * bx + ax * bw + ay * bz - az * by,
+                         aw * by - ax * bz + ay * bw + az * bx,
+                         aw * bz + ax * by - ay * bx + az * bw))
     aw, ax, ay, az = np.moveaxis(a, -1, 0)
     bw, bx, by, bz = np.moveaxis(b, -1, 0)
     return np.stack((
@@ -69,6 +76,12 @@ def quat_matrix(q) -> np.ndarray:
 
     """
     q = np.asarray(q, dtype=float)
+    if q.ndim == 1:
+        w, x, y, z = q.tolist()
+        return np.array((
+            (w * w + x * x - y * y - z * z, 2 * (x * y - w * z), 2 * (x * z + w * y)),
+            (2 * (x * y + w * z), w * w - x * x + y * y - z * z, 2 * (y * z - w * x)),
+            (2 * (x * z - w * y), 2 * (y * z + w * x), w * w - x * x - y * y + z * z)))
     w, x, y, z = np.moveaxis(q, -1, 0)
     return np.stack((
         np.stack((w * w + x * x - y * y - z * z, 2 * (x * y - w * z), 2 * (x * z + w * y)), -1),
@@ -275,8 +288,13 @@ class BasePose:
 
     @property
     def rotation(self) -> np.ndarray:
-        """R(q) (3, 3): the base frame's axes (columns) in the world."""
-        return quat_matrix(self.q)
+        """R(q) (3, 3): the base frame's axes (columns) in the world (read-only, cached)."""
+        R = self.__dict__.get("_rotation")
+        if R is None:
+            R = quat_matrix(self.q)
+            R.setflags(write=False)
+            object.__setattr__(self, "_rotation", R)
+        return R
 
     @property
     def is_planar(self) -> bool:

@@ -65,6 +65,8 @@ _H_MIN = 1e-12
 _EVENT_XTOL = 1e-14
 _MAX_EVENTS = 64
 _MAX_SUBSTEPS = 5000
+#: most consecutive solves that reuse one Jacobian
+_MAX_AGE = 8
 #: penetration below which a point counts as cutting an obstacle
 _CUT = -1e-10
 #: the whisker's sample points for the clearance (and the bound on the distance between them)
@@ -356,6 +358,7 @@ class RodTracker:
         self._vec = np.zeros(0)
         self._solved = None
         self._sign = 1.0
+        self._gap_cache = None
         self._state = self._make_state()
 
     @property
@@ -532,7 +535,8 @@ class RodTracker:
     def _free_advance(self, path: _Path, t: float, events: List[RodEvent]) -> float:
         """Move the free whisker as far as it stays clear; on a touch, add the contact."""
         pose = path.pose(t)
-        gap, _, _ = self._free_gap(pose)
+        cached = self._gap_cache
+        gap = cached[1] if cached is not None and cached[0] is pose else self._free_gap(pose)[0]
         for _ in range(_MAX_SUBSTEPS):
             self._check_budget()
             self.solver.evaluations += 1
@@ -545,6 +549,7 @@ class RodTracker:
                 return self._free_touch(path, t, t_new, events)
             t, gap = t_new, gap_new
             if t >= 1.0:
+                self._gap_cache = (pose_new, gap_new)
                 return 1.0
         raise ConvergenceError("the free whisker's path needed too many sub-steps")
 
@@ -578,7 +583,7 @@ class RodTracker:
         tan = self.solver.tangent(solved, path.rate(pose))
         guess = solved.vec + (t_new - t) * tan
         pose_new = path.pose(t_new)
-        return self.solver.solve(self._modes, pose_new, guess, lu=solved.lu, max_step=0.5)
+        return self.solver.solve(self._modes, pose_new, guess, start=solved, max_step=0.5)
 
     def _event_values(self, path, t, vec, lu):
         """Named inequality values (>= 0 admissible) of the configuration at (t, vec)."""
@@ -627,7 +632,8 @@ class RodTracker:
             t_new = min(1.0, t + dt)
             try:
                 solved = sol.solve(self._modes, path.pose(t_new),
-                                   self._vec + (t_new - t) * tan, lu=self._solved.lu,
+                                   self._vec + (t_new - t) * tan, start=self._solved,
+                                   reuse=self._solved.age < _MAX_AGE,
                                    max_step=0.5)
                 break
             except ConvergenceError:
