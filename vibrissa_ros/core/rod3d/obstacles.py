@@ -536,7 +536,7 @@ class Prism(Obstacle3D):
 
     @property
     def kind(self) -> str:  # type: ignore[override]
-        """Return the planar obstacle's kind ('peg', 'polygon', 'curve', 'parabola', ...)."""
+        """Return the planar obstacle's type, e.g. 'peg', 'polygon' or 'parabola'."""
         return self.planar.kind
 
     def signed_distance(self, points) -> np.ndarray:
