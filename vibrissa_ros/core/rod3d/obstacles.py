@@ -274,6 +274,17 @@ class Obstacle3D:
         raise NotImplementedError
 
 
+def _inherit_docstrings(cls):
+    """Give the public methods a subclass overrides without a docstring the base class's."""
+    for key, member in vars(cls).items():
+        base = getattr(Obstacle3D, key, None)
+        if (callable(member) and not key.startswith("_") and not member.__doc__
+                and base is not None):
+            member.__doc__ = base.__doc__
+    return cls
+
+
+@_inherit_docstrings
 @dataclass(frozen=True)
 class Sphere(Obstacle3D):
     """
@@ -340,6 +351,7 @@ class Sphere(Obstacle3D):
         return f"{self.name}: sphere(center={_fmt(self.center)}, r={self.r:g})"
 
 
+@_inherit_docstrings
 @dataclass(frozen=True)
 class Cylinder(Obstacle3D):
     """
@@ -434,6 +446,7 @@ def _unit_normal_to(ax: float, ay: float, az: float) -> Vector:
     return nx / norm, ny / norm, nz / norm
 
 
+@_inherit_docstrings
 @dataclass(frozen=True)
 class Plane(Obstacle3D):
     """
@@ -492,6 +505,7 @@ class Plane(Obstacle3D):
         return f"{self.name}: plane(point={_fmt(self.point)}, normal={_fmt(self.normal)})"
 
 
+@_inherit_docstrings
 @dataclass(frozen=True)
 class Prism(Obstacle3D):
     """
