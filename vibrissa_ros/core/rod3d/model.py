@@ -63,6 +63,8 @@ _TOL = 1e-13
 _CHORD_TOL = 1e-8
 #: chord contraction up to which a Jacobian is reused (no eigenvalue can change sign)
 _STALE_RATE = 0.05
+#: how far past the tip the last contact's branch is continued (to locate side -> tip)
+_S_EXTEND = 1.25
 
 
 class Solved(NamedTuple):
@@ -873,8 +875,12 @@ class RodSolver:
     def _check_breaks(self, modes, vec):
         b = self.breaks_of(modes, vec)
         prev = 0.0
-        for v in b:
-            if not (prev < v <= 1.0) or not math.isfinite(v):
+        # the last side contact may run past the tip while the tracker locates its side -> tip
+        # switch: the equations continue smoothly there (B > 0 up to the cone's apex)
+        limit = _S_EXTEND if self._sp is None else min(_S_EXTEND, 0.5 * (1.0 + self._sp))
+        for i, v in enumerate(b):
+            top = limit if i == len(b) - 1 else 1.0
+            if not (prev < v <= top) or not math.isfinite(v):
                 raise ConvergenceError(
                     f"3D whisker: contact arc lengths {b} left 0 < s_1 < ... <= 1"
                 )

@@ -278,12 +278,12 @@ class BasePose:
 
     @property
     def p(self) -> np.ndarray:
-        """The position as an array (3,) [L]."""
+        """Return the position as an array (3,) [L]."""
         return np.array(self.position)
 
     @property
     def q(self) -> np.ndarray:
-        """The quaternion as an array (4,)."""
+        """Return the quaternion as an array (4,)."""
         return np.array(self.quaternion)
 
     @property
@@ -304,7 +304,7 @@ class BasePose:
 
     @property
     def heading(self) -> float:
-        """The heading [rad] of a planar pose (the angle of the base frame's +x in the plane)."""
+        """Return the heading [rad] of a planar pose (the angle of its +x axis in the plane)."""
         w, x, y, z = self.quaternion
         return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
 
