@@ -5,7 +5,16 @@ Model, conventions and decisions: doc/mechanics/rod3d.md. Dimensionless like the
 (L = 1, EI_b = 1).
 """
 
+from .loads import LoadedRod, tip_loaded_rod
+from .model import RodContactMode, RodEquilibrium, RodSolver
+from .obstacles import Cylinder, Plane, Prism, Sphere, SurfacePoint
 from .pose import BasePose
+from .scene import Scene3D
 from .shape import DEFAULT_POISSON, RodShape
+from .tracker import RodContact, RodEvent, RodState, RodStepResult, RodTracker
 
-__all__ = ["BasePose", "DEFAULT_POISSON", "RodShape"]
+__all__ = [
+    "BasePose", "Cylinder", "DEFAULT_POISSON", "LoadedRod", "Plane", "Prism", "RodContact",
+    "RodContactMode", "RodEquilibrium", "RodEvent", "RodShape", "RodSolver", "RodState",
+    "RodStepResult", "RodTracker", "Scene3D", "Sphere", "SurfacePoint", "tip_loaded_rod",
+]

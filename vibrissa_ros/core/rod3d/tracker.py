@@ -305,8 +305,8 @@ class RodTracker:
 
     Parameters
     ----------
-    obstacles : sequence
-        The scene's 3D obstacles (:mod:`.obstacles`), or a scene (iterable of them).
+    obstacles : Scene3D or sequence
+        The scene, or its 3D obstacles (:mod:`.obstacles`).
     pose : BasePose
         The initial base pose; the unloaded whisker must be clear of every obstacle there.
     shape : RodShape, optional
@@ -330,7 +330,7 @@ class RodTracker:
                  shape: Optional[RodShape] = None, n: int = DEFAULT_SEGMENT_POINTS,
                  max_evaluations: int = 20000, recover: bool = True):
         self.shape = RodShape() if shape is None else shape
-        self.obstacles = tuple(obstacles)
+        self.obstacles = tuple(getattr(obstacles, "obstacles", obstacles))
         self.solver = RodSolver(self.shape, self.obstacles, n=n)
         self.max_evaluations = int(max_evaluations)
         self.recover = bool(recover)
@@ -567,6 +567,7 @@ class RodTracker:
         vec = self.solver.guess((mode,), breaks, [0.0],
                                 lambda ss: self.solver.free_quaternions(pose, ss))
         solved = self.solver.solve((mode,), pose, vec)
+        self._check_features((mode,), solved.vec, pose)
         self._modes = (mode,)
         self._accept(solved, pose)
         self._sign = math.copysign(1.0, _det_measure(solved.lu))
@@ -644,6 +645,7 @@ class RodTracker:
                     return t, 1.0
         else:
             raise ConvergenceError("the continuation step could not be shortened enough")
+        self._check_features(self._modes, solved.vec, path.pose(t_new))
         values = self._event_values(path, t_new, solved.vec, solved.lu)
         gap = self._contact_gap(path, t_new, solved.vec)[0]
         crossed = [key for key, v in values.items() if v < 0.0]
@@ -760,6 +762,7 @@ class RodTracker:
             self._modes, self._vec, self._solved, self._pose = (), np.zeros(0), None, pose
             return
         solved = self._rebuild(pose, modes, breaks, forces, self._modes, self._vec)
+        self._check_features(modes, solved.vec, pose)
         self._modes = modes
         self._accept(solved, pose)
         self._sign = math.copysign(1.0, _det_measure(solved.lu))
@@ -825,6 +828,20 @@ class RodTracker:
             if k not in skip:
                 best = min(best, float(np.min(ob.signed_distance(pts))))
         return best
+
+    def _check_features(self, modes, vec, pose):
+        """Refuse a contact on a prism's edge (a polygon's corner, a point peg): not modelled."""
+        sol = self.solver
+        pts = sol.centerline(modes, vec, pose, np.array(sol.breaks_of(modes, vec)))
+        for m, x in zip(modes, pts):
+            ob = self.obstacles[m.obstacle]
+            if ob.surface(x).feature == "edge":
+                name = getattr(ob, "name", f"obstacle {m.obstacle}")
+                raise ModelAssumptionError(
+                    f"the whisker would touch an edge of {name} (a polygon's corner or a point "
+                    f"peg, at {tuple(round(float(v), 6) for v in x)}): contacts with edges are "
+                    "not modelled by the 3D whisker; round the corner (a peg with r > 0) instead"
+                )
 
     # -- states -------------------------------------------------------------------------------
     def _make_state(self) -> RodState:
