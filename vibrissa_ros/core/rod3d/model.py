@@ -61,25 +61,22 @@ _CHORD_ITERATIONS = 8
 _TOL = 1e-13
 #: chord iterations stop here; the closing Newton step squares the error
 _CHORD_TOL = 1e-8
-#: chord contraction up to which a Jacobian is reused (no eigenvalue can change sign)
-_STALE_RATE = 0.05
 #: how far past the tip the last contact's branch is continued (to locate side -> tip)
 _S_EXTEND = 1.25
 
 
 class Solved(NamedTuple):
     """
-    A converged unknown vector with a Jacobian's LU factorization and pose sensitivities.
+    A converged unknown vector with its Jacobian's LU factorization and pose sensitivities.
 
-    ``age`` 0: evaluated at the solution (within one Newton step); k > 0: reused from a solution
-    k chord solves back, every one of which contracted by at least 1 / _STALE_RATE per
-    iteration (so no eigenvalue of the Jacobian can have changed sign since).
+    Both are evaluated at most one Newton step (<= 1e-8) from the solution: always fresh, since
+    the sign of det J is the stability monitor and a reused Jacobian cannot see an
+    out-of-plane mode that a planar iteration never excites.
     """
 
     vec: np.ndarray
     lu: Tuple[np.ndarray, np.ndarray]
     sens: np.ndarray
-    age: int = 0
 
 
 @dataclass(frozen=True)
@@ -665,7 +662,7 @@ class RodSolver:
 
     # -- solving ------------------------------------------------------------------------------
     def solve(self, modes: Sequence[RodContactMode], pose: BasePose, guess: np.ndarray,
-              start: Optional["Solved"] = None, reuse: bool = False,
+              start: Optional["Solved"] = None,
               max_iterations: int = _NEWTON_ITERATIONS,
               max_step: Optional[float] = None) -> "Solved":
         """
@@ -674,9 +671,7 @@ class RodSolver:
         With ``start`` (a nearby solution) the first iterations reuse its factorized Jacobian
         (a residual evaluation each); when they stop contracting fast, Newton takes over. The
         result carries the Jacobian's factorization and the pose sensitivities at the solution
-        (evaluated at most one Newton step away from it), or with ``reuse`` those of ``start``
-        when the chord iterations converged contracting by a factor 20 or more each (the
-        Jacobian has barely changed; :class:`Solved`).
+        (evaluated at most one Newton step away from it).
 
         Parameters
         ----------
@@ -688,8 +683,6 @@ class RodSolver:
             The starting unknown vector.
         start : Solved, optional
             A nearby solution whose Jacobian the chord iterations use.
-        reuse : bool, optional
-            Return ``start``'s Jacobian when the chord iterations converge fast enough.
         max_iterations : int, optional
             Bound on the iterations.
         max_step : float or None, optional
@@ -712,7 +705,6 @@ class RodSolver:
         it = 0
         try:
             converged = False
-            worst = 0.0
             if start is not None:
                 lu = start.lu
                 for it in range(1, _CHORD_ITERATIONS + 1):
@@ -722,14 +714,8 @@ class RodSolver:
                     vec = vec - step
                     self._check_breaks(modes, vec)
                     rate = size / last if last < math.inf else 1.0
-                    if last < math.inf:
-                        worst = max(worst, rate)
-                    if reuse and worst <= _STALE_RATE and (
-                            size <= _TOL or (last < math.inf and size * rate <= _TOL)):
-                        return Solved(vec, start.lu, start.sens, start.age + 1)
                     # near enough for the closing Newton step to square the error away
-                    if (not reuse or worst > _STALE_RATE) and (size <= _TOL or (
-                            rate < 0.5 and size * rate / (1.0 - rate) <= _CHORD_TOL)):
+                    if size <= _TOL or (rate < 0.5 and size * rate / (1.0 - rate) <= _CHORD_TOL):
                         converged = True
                         break
                     if last < math.inf and rate > 0.5:

@@ -65,8 +65,6 @@ _H_MIN = 1e-12
 _EVENT_XTOL = 1e-14
 _MAX_EVENTS = 64
 _MAX_SUBSTEPS = 5000
-#: most consecutive solves that reuse one Jacobian
-_MAX_AGE = 8
 #: penetration below which a point counts as cutting an obstacle
 _CUT = -1e-10
 #: the whisker's sample points for the clearance (and the bound on the distance between them)
@@ -334,6 +332,7 @@ class RodTracker:
         self.solver = RodSolver(self.shape, self.obstacles, n=n)
         self.max_evaluations = int(max_evaluations)
         self.recover = bool(recover)
+        self._nested = False
         self._free_points = self.shape.free_centerline(_SAMPLES)
         pose = _as_pose(pose)
         self._check_placeable(pose, "the initial pose")
@@ -634,7 +633,6 @@ class RodTracker:
             try:
                 solved = sol.solve(self._modes, path.pose(t_new),
                                    self._vec + (t_new - t) * tan, start=self._solved,
-                                   reuse=self._solved.age < _MAX_AGE,
                                    max_step=0.5)
                 break
             except ConvergenceError:
@@ -815,10 +813,51 @@ class RodTracker:
                 self._accept(solved, pose)
                 self._sign = math.copysign(1.0, _det_measure(solved.lu))
                 return
+        # 3. the equilibrium reached by swinging the whisker in from out of its plane
+        if not self._nested:
+            found = self._swing_in(pose)
+            if found is not None:
+                modes, solved = found
+                events.append(RodEvent("snap", pose, None, None, before, len(modes),
+                                       reason + "; it swings out of its plane"))
+                self._modes = modes
+                self._accept(solved, pose)
+                self._sign = math.copysign(1.0, _det_measure(solved.lu))
+                return
         raise ConvergenceError(
             f"the whisker snaps at base {tuple(round(v, 6) for v in pose.position)} ({reason}) "
             "and no stable equilibrium was found to jump to"
         )
+
+    def _swing_in(self, pose: BasePose):
+        """
+        Return (modes, solved) reached by turning the whisker in from out of its plane, or None.
+
+        The base is turned about its own y axis by +-90 deg (the whisker out of its plane of
+        curvature), where the unloaded whisker is clear, and turned back to ``pose`` by a helper
+        tracker with the same scene: the equilibrium it arrives at is stable by construction
+        (monitored on the way) and is where an out-of-plane snap lands (the +90 deg side first:
+        doc/mechanics/rod3d.md, "Snaps").
+        """
+        for angle in (0.5 * math.pi, -0.5 * math.pi):
+            q = quat_multiply(pose.q, np.array([math.cos(0.5 * angle), 0.0,
+                                                math.sin(0.5 * angle), 0.0]))
+            start = BasePose(pose.position, tuple(q))
+            helper = None
+            try:
+                helper = RodTracker(self.obstacles, start, shape=self.shape, n=self.solver.n,
+                                    max_evaluations=self.max_evaluations, recover=False)
+                helper._nested = True
+                helper.step(pose)
+            except VibrissaError:
+                continue
+            finally:
+                if helper is not None:
+                    self.solver.evaluations += helper.solver.evaluations
+            if helper._modes:
+                self._check_budget()
+                return helper._modes, helper._solved
+        return None
 
     def _contact_gap_at(self, pose, modes, vec):
         pts = self.solver.centerline(modes, vec, pose, _SAMPLES)
