@@ -562,6 +562,7 @@ class RodTracker:
         gap, k, s = self._free_gap(pose, exact=True)
         kind = "tip" if s >= 1.0 - 1e-9 else "side"
         mode = RodContactMode(kind, k)
+        self._check_touch_feature(k, self._free_point(pose, s))
         breaks = [1.0 if kind == "tip" else s]
         vec = self.solver.guess((mode,), breaks, [0.0],
                                 lambda ss: self.solver.free_quaternions(pose, ss))
@@ -745,6 +746,8 @@ class RodTracker:
         elif kind == "touch":
             gap, k, s = self._contact_gap(path, t, self._vec, exact=True)
             obstacle, s_event = k, s
+            self._check_touch_feature(k, self.solver.centerline(self._modes, self._vec, pose,
+                                                                [s])[0])
             new = RodContactMode("tip" if s >= 1.0 - 1e-9 else "side", k)
             at = int(np.searchsorted(breaks, s))
             if new.kind == "side" and at == len(breaks) and modes and modes[-1].kind == "tip":
@@ -868,19 +871,25 @@ class RodTracker:
                 best = min(best, float(np.min(ob.signed_distance(pts))))
         return best
 
+    def _check_touch_feature(self, k, point):
+        if self.obstacles[k].surface(point).feature == "edge":
+            self._refuse_edge(k, point)
+
+    def _refuse_edge(self, k, x):
+        name = getattr(self.obstacles[k], "name", f"obstacle {k}")
+        raise ModelAssumptionError(
+            f"the whisker would touch an edge of {name} (a polygon's corner or a point "
+            f"peg, at {tuple(round(float(v), 6) for v in x)}): contacts with edges are "
+            "not modelled by the 3D whisker; round the corner (a peg with r > 0) instead"
+        )
+
     def _check_features(self, modes, vec, pose):
         """Refuse a contact on a prism's edge (a polygon's corner, a point peg): not modelled."""
         sol = self.solver
         pts = sol.centerline(modes, vec, pose, np.array(sol.breaks_of(modes, vec)))
         for m, x in zip(modes, pts):
-            ob = self.obstacles[m.obstacle]
-            if ob.surface(x).feature == "edge":
-                name = getattr(ob, "name", f"obstacle {m.obstacle}")
-                raise ModelAssumptionError(
-                    f"the whisker would touch an edge of {name} (a polygon's corner or a point "
-                    f"peg, at {tuple(round(float(v), 6) for v in x)}): contacts with edges are "
-                    "not modelled by the 3D whisker; round the corner (a peg with r > 0) instead"
-                )
+            if self.obstacles[m.obstacle].surface(x).feature == "edge":
+                self._refuse_edge(m.obstacle, x)
 
     # -- states -------------------------------------------------------------------------------
     def _make_state(self) -> RodState:

@@ -1,0 +1,284 @@
+"""
+The 3D whisker's tracker: the planar golden tests run through the 3D solver, and its behaviour.
+
+Planar problems (base in z = 0 turning about z, obstacles that are prisms along z) must give the
+planar results to <= 1e-10 wherever the planar state is stable in 3D: the paper's exact scan of
+a parabola (test/data/elastica_parabola_p0_0.3.csv, elliptic integrals with mpmath events), the
+two-contact golden scenes (test/data/scene_golden.json) and the planar scene tracker's two-peg
+sweep. The genuinely 3D comparisons with the shooting solver are in test_rod3d_accuracy.py.
+"""
+
+import json
+import math
+import os
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+from vibrissa_ros.core.errors import InvalidPoseError, ModelAssumptionError
+from vibrissa_ros.core.general.model import WhiskerShape
+from vibrissa_ros.core.rod3d import (
+    BasePose, Cylinder, Plane, Prism, RodContactMode, RodShape, RodSolver, RodTracker, Scene3D,
+    Sphere,
+)
+from vibrissa_ros.core.scenes.scene import obstacle_from_dict
+from vibrissa_ros.core.scenes.tracker import SceneTracker
+from vibrissa_ros.scan.scene_file import load_scene
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+DATA = os.path.join(HERE, "data")
+#: where the paper's parabola scan's planar equilibrium loses stability out of its plane
+PARABOLA_BIFURCATION = -0.5007761050
+
+
+def _golden_rows():
+    path = os.path.join(DATA, "elastica_parabola_p0_0.3.csv")
+    lines = [ln for ln in open(path) if not ln.startswith("#")]
+    header = lines[0].strip().split(",")
+    rows = [dict(zip(header, map(float, ln.strip().split(",")))) for ln in lines[1:]]
+    events = {}
+    for ln in open(path):
+        if ln.startswith("# event:"):
+            parts = dict(p.split("=") for p in ln.split()[3:])
+            events[ln.split()[2]] = float(parts["x0_mp"])
+    return rows, events
+
+
+@pytest.fixture(scope="module")
+def parabola_scan():
+    rows, events = _golden_rows()
+    scene = Scene3D.from_dict({"obstacles": [{"type": "parabola", "p0": 0.3}]})
+    tracker = RodTracker(scene, BasePose.from_planar(rows[0]["x0"]))
+    states, found, previous = {}, [], None
+    for row in rows[1:]:
+        x0 = row["x0"]
+        if x0 == previous:
+            continue
+        previous = x0
+        result = tracker.step(BasePose.from_planar(x0))
+        found += [(e.kind, e.pose.position[0], e.reason) for e in result.events]
+        states[x0] = result.state
+    return rows, events, states, found
+
+
+def _row_error(state, row, mirror=1.0):
+    c = state.contacts[0]
+    return max(abs(state.force[0] - mirror * row["fx"]), abs(state.force[1] - row["fy"]),
+               abs(state.moment[2] - mirror * row["m0"]), abs(c.s - row["s1"]),
+               abs(c.point[0] - mirror * row["contact_x"]), abs(c.point[1] - row["contact_y"]),
+               abs(state.tip[0] - mirror * row["tip_x"]), abs(state.tip[1] - row["tip_y"]),
+               abs(state.force[2]), abs(state.moment[0]), abs(state.moment[1]))
+
+
+def test_the_paper_scan_equals_the_exact_planar_solution_until_it_buckles_out_of_plane(
+        parabola_scan):
+    rows, events, states, found = parabola_scan
+    kinds = [k for k, _, _ in found]
+    assert kinds[:3] == ["touch", "tangential", "snap"]
+    touch, tangential, snap = (x for _, x, _ in found[:3])
+    assert touch == pytest.approx(events["first_touch"], abs=1e-9)
+    assert tangential == pytest.approx(events["tip_to_tangential"], abs=1e-9)
+    assert snap == pytest.approx(PARABOLA_BIFURCATION, abs=1e-9)
+    assert "unstable" in found[2][2]
+    # the planar model folds much later: the 3D branch is lost before
+    assert snap > events["snap_off"] + 0.9
+    twice = {r["x0"] for r, q in zip(rows, rows[1:]) if r["x0"] == q["x0"]}   # event rows
+    checked = worst = 0
+    for row in rows:
+        x0 = row["x0"]
+        if x0 <= snap or x0 not in states or x0 in twice:
+            continue
+        state = states[x0]
+        if row["phase"] == 0:
+            assert state.contacts == ()
+            continue
+        worst = max(worst, _row_error(state, row))
+        checked += 1
+    assert checked > 500
+    assert worst < 1e-10
+
+
+def test_after_buckling_the_whisker_lands_bent_round_the_other_side(parabola_scan):
+    """The parabola is symmetric: the state at -a is the mirror image of the one at +a."""
+    rows, events, states, found = parabola_scan
+    kinds = [k for k, _, _ in found]
+    assert kinds[3:] == ["tip", "release"]
+    assert found[3][1] == pytest.approx(-events["tip_to_tangential"], abs=1e-9)
+    assert found[4][1] == pytest.approx(-events["first_touch"], abs=1e-9)
+    by_x = {round(r["x0"], 9): r for r in rows if r["phase"] != 0}
+    checked = worst = 0
+    for x0, state in states.items():
+        if x0 >= PARABOLA_BIFURCATION - 1e-3 or not state.contacts:
+            continue
+        row = by_x.get(round(-x0, 9))
+        if row is None or row["x0"] > events["first_touch"]:
+            continue
+        if (row["phase"] == 1) != (state.contacts[0].kind == "side"):
+            continue   # the two rows at an event
+        worst = max(worst, _row_error(state, row, mirror=-1.0))
+        checked += 1
+    assert checked > 300
+    assert worst < 1e-10
+
+
+@pytest.mark.parametrize("case", range(3))
+def test_the_golden_two_contact_scenes_are_reproduced(case):
+    golden = json.load(open(os.path.join(DATA, "scene_golden.json")))["cases"][case]
+    golden["contacts"].sort(key=lambda c: 1.0 if c["kind"] == "tip" else c["s"])
+    shape = RodShape(**golden["shape"])
+    obstacles, modes, breaks, forces = [], [], [], []
+    for k, c in enumerate(golden["contacts"]):
+        feature = c["feature"]
+        if feature["type"] == "circle":
+            planar = obstacle_from_dict({"type": "peg", "x": feature["cx"], "y": feature["cy"],
+                                         "r": feature["r"]}, f"peg{k}")
+        else:
+            planar = obstacle_from_dict({"type": "curve", "points": feature["points"],
+                                         "side": feature["side"]}, f"curve{k}")
+        obstacles.append(Prism(planar))
+        modes.append(RodContactMode("tip" if c["kind"] == "tip" else "side", k))
+        breaks.append(1.0 if c["kind"] == "tip" else c["s"] * (1 - 1e-3))
+        forces.append(math.hypot(c["fx"], c["fy"]) * (1 + 1e-3))
+    x, y, heading = golden["pose"]["x"], golden["pose"]["y"], golden["pose"]["heading"]
+    pose = BasePose.from_planar(x, y, heading)
+    # the golden contact forces integrated from the base (x, y, slope) as the starting shape
+    # (Newton from the unloaded whisker finds other equilibria of these strongly bent states)
+    loads = [(c["s"], c["x"], c["y"], c["fx"], c["fy"]) for c in golden["contacts"]]
+
+    def rhs(s, z):
+        m = sum((xc - z[0]) * fy - (yc - z[1]) * fx for sc, xc, yc, fx, fy in loads if sc > s)
+        kappa = float(shape.curvature(s)) + m / float(shape.stiffness(s))
+        return [math.cos(z[2]), math.sin(z[2]), kappa]
+
+    grid = np.linspace(0.0, 1.0, 2001)
+    path = solve_ivp(rhs, (0.0, 1.0), [x, y, heading], t_eval=grid, rtol=1e-10, atol=1e-12,
+                     max_step=0.01)
+    slopes = path.y[2]
+
+    def quaternions(s):
+        half = 0.5 * np.interp(s, grid, slopes)
+        return np.column_stack((np.cos(half), 0 * s, 0 * s, np.sin(half)))
+
+    solver = RodSolver(shape, obstacles)
+    solved = solver.solve(modes, pose, solver.guess(modes, breaks, forces, quaternions))
+    eq = solver.equilibrium(modes, solved.vec, pose)
+    base = golden["base"]
+    assert eq.force[0] == pytest.approx(base["fx"], abs=1e-9)
+    assert eq.force[1] == pytest.approx(base["fy"], abs=1e-9)
+    assert eq.moment[2] == pytest.approx(base["m0"], abs=1e-9)
+    for c, s, x in zip(golden["contacts"], eq.s, eq.points):
+        assert s == pytest.approx(c["s"], abs=1e-9)
+        assert x[:2] == pytest.approx((c["x"], c["y"]), abs=1e-9)
+
+
+@pytest.mark.parametrize("shapes", [(WhiskerShape(), RodShape()),
+                                    (WhiskerShape(0.3, -0.5, 0.4), RodShape(0.3, -0.5, 0.4))],
+                         ids=["straight", "tapered-curved"])
+def test_the_two_peg_sweep_equals_the_planar_scene_tracker(shapes):
+    planar_shape, shape = shapes
+    scene = load_scene(os.path.join(HERE, "..", "config", "scene_two_pegs.yaml"))
+    planar = SceneTracker(list(scene), -0.4, shape=planar_shape, friction=[0.0, 0.0])
+    tracker = RodTracker(Scene3D.from_planar(scene, drop_friction=True),
+                         BasePose.from_planar(-0.4), shape=shape)
+    planar_events, events, worst, two = [], [], 0.0, 0
+    for x0 in np.linspace(-0.4, 0.2, 61)[1:]:
+        a = planar.step(float(x0))
+        b = tracker.step(BasePose.from_planar(float(x0)))
+        planar_events += [(e.kind, e.obstacle, e.pose.x) for e in a.events]
+        events += [(e.kind, e.obstacle, e.pose.position[0]) for e in b.events]
+        sa, sb = a.state, b.state
+        assert len(sa.contacts) == len(sb.contacts)
+        two += len(sb.contacts) == 2
+        worst = max(worst, abs(sb.force[0] - sa.fx), abs(sb.force[1] - sa.fy),
+                    abs(sb.moment[2] - sa.m0), abs(sb.force[2]), abs(sb.moment[0]),
+                    abs(sb.moment[1]))
+        for ca, cb in zip(sa.contacts, sb.contacts):
+            worst = max(worst, abs(ca.s - cb.s), abs(ca.x - cb.point[0]),
+                        abs(ca.y - cb.point[1]))
+    assert two >= 3
+    assert worst < 1e-10
+    assert [(k, o) for k, o, _ in events] == [(k, o) for k, o, _ in planar_events]
+    for (_, _, x), (_, _, y) in zip(events, planar_events):
+        assert x == pytest.approx(y, abs=1e-9)
+
+
+# -- behaviour ----------------------------------------------------------------------------------
+
+def _sphere_tracker(**kw):
+    return RodTracker([Sphere((0.6, 0.3, 0.05), 0.15, "ball")], BasePose((0, 0, 0)), **kw)
+
+
+def test_a_base_inside_an_obstacle_or_a_cutting_whisker_is_refused_with_the_obstacle():
+    with pytest.raises(InvalidPoseError, match="ball"):
+        RodTracker([Sphere((0.0, 0.0, 0.0), 0.1, "ball")], BasePose((0, 0, 0)))
+    with pytest.raises(InvalidPoseError, match="ball"):
+        RodTracker([Sphere((0.5, 0.0, 0.0), 0.1, "ball")], BasePose((0, 0, 0)))
+
+
+def test_a_rolled_whisker_sweeping_a_sphere_touches_presses_and_releases():
+    shape = RodShape(taper=0.4, parabola=0.5)
+    ball = Sphere((0.55, 0.35, 0.1), 0.12, "ball")
+    q0 = np.array([math.cos(0.3), math.sin(0.3), 0.0, 0.0])      # rolled 0.6 rad
+    tracker = RodTracker([ball], BasePose((0.0, -0.3, 0.0), tuple(q0)), shape=shape)
+    kinds = []
+    for y in np.linspace(-0.3, 0.6, 91)[1:]:
+        result = tracker.step(BasePose((0.0, float(y), 0.0), tuple(q0)))
+        kinds += [e.kind for e in result.events]
+        state = result.state
+        for c in state.contacts:
+            assert c.f >= -1e-12
+            assert ball.signed_distance(np.array([c.point]))[0] == pytest.approx(0.0, abs=1e-12)
+        assert np.all(ball.signed_distance(state.centerline(201)) > -1e-9)
+    assert kinds[0] == "touch"
+    assert "release" in kinds or "snap" in kinds
+
+
+def test_an_edge_contact_is_refused_and_a_free_whisker_recovers():
+    polygon = obstacle_from_dict({"type": "polygon", "vertices": [[0.2, 0.5], [0.6, 0.5],
+                                                                  [0.6, 0.9]]}, "wedge")
+    scene = [Prism(polygon)]
+    tracker = RodTracker(scene, BasePose.from_planar(0.2 - 0.3, 0.0, math.pi / 2),
+                         recover=False)
+    before = tracker.state
+    with pytest.raises(ModelAssumptionError, match="edge"):
+        tracker.step(BasePose.from_planar(0.3, 0.0, math.pi / 2))
+    assert tracker.state is before
+
+
+def test_a_failed_step_keeps_the_state_and_reset_places_the_whisker():
+    tracker = _sphere_tracker(recover=False)
+    tracker.step(BasePose((0.0, 0.15, 0.0)))
+    kept = tracker.state
+    with pytest.raises(InvalidPoseError):
+        tracker.step("not a pose")
+    assert tracker.state is kept
+    result = tracker.reset(BasePose((0.0, -0.5, 0.0)))
+    assert [e.kind for e in result.events] == ["reset"]
+    assert result.state.contacts == ()
+
+
+def test_a_free_whisker_forgets_its_history():
+    tracker = _sphere_tracker()
+    for y in np.linspace(0, 0.3, 31):
+        tracker.step(BasePose((0.0, float(y), 0.02)))
+    tracker.step(BasePose((0.0, -0.6, 0.0)))
+    fresh = RodTracker(tracker.obstacles, BasePose((0.0, -0.6, 0.0)))
+    for y in np.linspace(-0.6, 0.3, 19):
+        a = tracker.step(BasePose((0.0, float(y), 0.0))).state
+        b = fresh.step(BasePose((0.0, float(y), 0.0))).state
+        assert a == b
+
+
+def test_planes_and_cylinders_hold_a_tip_and_a_side_contact():
+    floor = Plane((0.0, 0.0, -0.3), (0.0, 0.0, 1.0), "floor")
+    pole = Cylinder((0.5, 0.0, 0.0), (0.0, 1.0, 0.3), 0.05, "pole")
+    pitch = 0.35   # whisker tilted toward the floor (a turn about +y takes +x toward -z)
+    q = np.array([math.cos(0.5 * pitch), 0.0, math.sin(0.5 * pitch), 0.0])
+    tracker = RodTracker([floor, pole], BasePose((-0.2, 0.0, 0.1), tuple(q)))
+    for z in np.linspace(0.1, -0.1, 41)[1:]:
+        result = tracker.step(BasePose((-0.2, 0.0, float(z)), tuple(q)))
+        for c in result.state.contacts:
+            assert c.f >= -1e-12
+    names = {c.name for c in tracker.state.contacts}
+    assert "floor" in names
