@@ -49,8 +49,8 @@ CONFIGS = [
 
 @pytest.mark.parametrize("shape", SHAPES, ids=SHAPE_IDS)
 @pytest.mark.parametrize("modes,breaks", CONFIGS, ids=lambda v: str(v)[:40])
-def test_the_analytic_jacobian_and_pose_sensitivities_match_finite_differences(shape, modes,
-                                                                            breaks):
+def test_the_analytic_jacobian_and_pose_sensitivities_match_finite_differences(
+        shape, modes, breaks):
     rng = np.random.default_rng(7)
     solver = RodSolver(shape, _obstacles(), n=10)
     pose = _random_pose(rng)

@@ -307,9 +307,9 @@ class TipLoadResult:
     internal_moment : numpy.ndarray
         M(0) (3,) as the shooting found it (equals ``moment`` to the residual).
     residual : float
-        max |M(1) - M_tip| of the solution.
+        max abs(M(1) - M_tip) of the solution.
     drift : float
-        Largest | |q| - 1 | of the frame's quaternion at the ends of the integrations.
+        Largest abs(norm(q) - 1) of the frame's quaternion at the ends of the integrations.
     success : bool
         Whether the residual is below :data:`RESIDUAL_ACCEPT`.
     message : str
@@ -523,13 +523,17 @@ class ContactsResult:
     residual : float
         The max norm of the solved equations.
     drift : float
-        Largest | |q| - 1 | at the ends of the integrations.
+        Largest abs(norm(q) - 1) at the ends of the integrations.
     success : bool
         Whether the residual is below :data:`RESIDUAL_ACCEPT`.
     message : str
         How the solve ended.
     integrations : int
         The ODE integrations the solve used.
+    _problem : object, optional
+        The shooting problem (internal: :meth:`sample` re-integrates it).
+    _x : numpy.ndarray, optional
+        The solved unknowns (internal).
 
     """
 

@@ -2,11 +2,12 @@
 The 3D whisker under a given load: a force and a couple at one point, no obstacle.
 
 The 3D counterpart of the planar :func:`~vibrissa_ros.core.exact.elastica.tip_loaded_elastica`:
-the building block of calibration and of the inverse problem (:mod:`.inverse`), and the way to
-check a rod solver against the classic benchmarks (a pure tip couple bends a uniform straight
-rod into a circle of curvature M/B, twists it by M/C; a small force deflects it by F/3 in either
-plane). Solved by the same Chebyshev collocation as the contacts (:mod:`.model`) on [0, s], the
-load ramped from zero in steps so that large loads converge from the unloaded shape.
+the building block of calibration and of the 3D inverse problem, and the way to check a rod
+solver against the classic benchmarks (a pure tip couple bends a uniform straight rod into a
+circle of curvature M/B, twists it by M/C; a small force deflects it by F/3 in either plane).
+Solved by the same Chebyshev collocation as the contacts
+(:mod:`vibrissa_ros.core.rod3d.model`) on [0, s], the load ramped from zero in steps so that
+large loads converge from the unloaded shape.
 """
 
 from __future__ import annotations
@@ -153,7 +154,7 @@ def tip_loaded_rod(shape: RodShape, pose: BasePose, force, moment=(0.0, 0.0, 0.0
     ------
     ParameterError
         When the load is not three finite numbers each, ``s`` is not in (0, 1], or the load is
-        too large to be ramped up (|F| s^2 + |M| s > 200).
+        too large to be ramped up (norm(F) s^2 + norm(M) s > 200).
     ConvergenceError
         When the equilibrium cannot be followed from the unloaded whisker.
 

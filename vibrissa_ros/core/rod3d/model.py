@@ -72,6 +72,16 @@ class Solved(NamedTuple):
     Both are evaluated at most one Newton step (<= 1e-8) from the solution: always fresh, since
     the sign of det J is the stability monitor and a reused Jacobian cannot see an
     out-of-plane mode that a planar iteration never excites.
+
+    Parameters
+    ----------
+    vec : numpy.ndarray
+        The unknown vector.
+    lu : tuple of numpy.ndarray
+        The Jacobian's LU factorization (scipy.linalg.lu_factor).
+    sens : numpy.ndarray
+        The residual's derivative with respect to the base pose (p, q) (size x 7).
+
     """
 
     vec: np.ndarray
@@ -100,7 +110,7 @@ class RodContactMode:
 
     @property
     def size(self) -> int:
-        """Number of unknowns of the contact (side: s, f; tip: f)."""
+        """Return the number of unknowns of the contact (side: s, f; tip: f)."""
         return 2 if self.kind == "side" else 1
 
 
@@ -115,7 +125,7 @@ def _skew(v: np.ndarray) -> np.ndarray:
 
 
 def _cross(a, b) -> np.ndarray:
-    """a x b over the last axis (broadcast), without numpy.cross's overhead."""
+    """Return a x b over the last axis (broadcast), without numpy.cross's overhead."""
     a = np.asarray(a, dtype=float)
     b = np.asarray(b, dtype=float)
     a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
@@ -210,22 +220,21 @@ class _Layout:
         self.N = n * self.k
         self.a = np.array((0.0,) + self.breaks[:-1])
         self.b = np.array(self.breaks)
-        self.tau = solver._tau
+        self.tau = tau = solver._tau
         self.sp = solver._sp
-        tau = np.tile(self.tau, self.k)
-        a = np.repeat(self.a, n)
-        b = np.repeat(self.b, n)
+        a = self.a[:, None]
         if self.sp is None:
             self.L = None
-            self.s = a + (b - a) * tau
-            self.w = b - a
+            h = (self.b - self.a)[:, None]
+            self.s = (a + h * tau).ravel()
+            self.w = np.broadcast_to(h, (self.k, n)).ravel()
         else:
             sp = self.sp
             self.L = np.log((sp - self.b) / (sp - self.a))
-            L = np.repeat(self.L, n)
+            L = self.L[:, None]
             gap = (sp - a) * np.exp(tau * L)
-            self.s = sp - gap
-            self.w = -L * gap
+            self.s = (sp - gap).ravel()
+            self.w = (-L * gap).ravel()
         self.T = solver._template(self.k)
         self.G = self.T * self.w[None, :]
         self.ends = np.arange(1, self.k + 1) * n - 1
@@ -238,7 +247,7 @@ class _Layout:
         return right, left
 
     def ds(self, c: int) -> np.ndarray:
-        """d s_i / d s_c at the nodes."""
+        """Return d s_i / d s_c at the nodes."""
         out = np.zeros(self.N)
         right, left = self._parts(c)
         tau = self.tau
@@ -254,7 +263,7 @@ class _Layout:
         return out
 
     def dw(self, c: int) -> np.ndarray:
-        """d w_i / d s_c at the nodes."""
+        """Return d w_i / d s_c at the nodes."""
         out = np.zeros(self.N)
         right, left = self._parts(c)
         if self.sp is None:
@@ -270,7 +279,7 @@ class _Layout:
         return out
 
     def dG(self, solver: "RodSolver", c: int) -> np.ndarray:
-        """dG / d s_c (the end of segment c moves; the next segment's start with it)."""
+        """Return dG / d s_c (the end of segment c moves; the next segment's start with it)."""
         return self.T * self.dw(c)[None, :]
 
     def locate(self, s: np.ndarray):
@@ -448,7 +457,7 @@ class RodSolver:
         return 4 * self.n * len(modes) + sum(m.size for m in modes)
 
     def breaks_of(self, modes, vec) -> Tuple[float, ...]:
-        """The contacts' arc lengths from an unknown vector."""
+        """Return the contacts' arc lengths from an unknown vector."""
         out = []
         o = 4 * self.n * len(modes)
         for m in modes:
@@ -460,7 +469,7 @@ class RodSolver:
         return tuple(out)
 
     def forces_of(self, modes, vec) -> Tuple[float, ...]:
-        """The contacts' normal forces from an unknown vector."""
+        """Return the contacts' normal forces from an unknown vector."""
         out = []
         o = 4 * self.n * len(modes)
         for m in modes:
@@ -606,7 +615,7 @@ class RodSolver:
 
     @staticmethod
     def _dg(Q, R, M, kap, P, PRt, dR, Dcat, G, r, ends, F, fs, Hs, dM_dp):
-        """d g_i / d q_j (N, 4, N, 4) (dense: the moments depend on every position)."""
+        """Return d g_i / d q_j (N, 4, N, 4) (dense: the moments depend on every position)."""
         N = Q.shape[0]
         T = np.einsum("ikab,ia->ibk", dR, M)            # d(R^T M)/dq (N, 3, 4)
         diag = 0.5 * _right_pure(kap) + np.matmul(P, T)
@@ -630,7 +639,7 @@ class RodSolver:
         return dg
 
     def _break_column(self, lay, c, modes, Q, R, D1, r, M, F, fs, Hs, ns, kinv, g, PRt, Lv):
-        """d residual / d s_c (analytic: moving nodes and integration weights)."""
+        """Return d residual / d s_c (analytic: moving nodes and integration weights)."""
         sh = self.shape
         N = lay.N
         dG = lay.dG(self, c)
@@ -892,7 +901,7 @@ class RodSolver:
         return -sla.lu_solve(solved.lu, solved.sens @ dpose, check_finite=False)
 
     def _free_tip(self):
-        """The unloaded whisker's tip and tip frame in its base frame (cached)."""
+        """Return the unloaded whisker's tip and tip frame in its base frame (cached)."""
         if self._free_tip_cache is None:
             off = self.shape.free_centerline([1.0])[0]
             phi = float(self.shape.intrinsic_slope(1.0))

@@ -6,9 +6,9 @@ Every obstacle is an immutable value in whisker lengths L (dimensionless) with a
 surface, negative inside. The outward unit normal is grad d, the direction of a frictionless
 contact force on the whisker (doc/mechanics/rod3d.md).
 
-- :class:`Sphere` (center, r > 0): d = |x - c| - r.
+- :class:`Sphere` (center, r > 0): d = norm(x - c) - r.
 - :class:`Cylinder` (point, axis, r > 0), infinite along the unit ``axis`` a: with
-  P = I - a a^T and rho = |P (x - p)| the distance from the axis, d = rho - r.
+  P = I - a a^T and rho = norm(P (x - p)) the distance from the axis, d = rho - r.
 - :class:`Plane` (point, unit normal n): the obstacle is the half-space on the side opposite
   ``normal``, d = (x - p) . n.
 - :class:`Prism` (a planar scene obstacle of :mod:`vibrissa_ros.core.scenes.scene`: peg,
@@ -20,12 +20,12 @@ contact force on the whisker (doc/mechanics/rod3d.md).
 normal, the Hessian of d at x (what a Newton solver on the contact conditions needs), and
 whether the nearest feature is a smooth surface or an edge (a line):
 
-- sphere: H = (I - n n^T) / |x - c|; cylinder: H = (P - n n^T) / rho; plane: H = 0;
+- sphere: H = (I - n n^T) / norm(x - c); cylinder: H = (P - n n^T) / rho; plane: H = 0;
 - a prism's smooth arc of boundary curvature k (> 0 where the obstacle is locally convex, the
   sign of :mod:`~vibrissa_ros.core.scenes.boundary`) at the nearest point, with planar unit
   tangent t: H = [[k / (1 + k d) t t^T, 0], [0, 0]]. (Along the normal line d grows at unit
   rate, and the level set at distance d is the parallel curve, of curvature k / (1 + k d): a
-  disk of radius R gives k = 1/R, H = t t^T / (R + d) = (I - n n^T) / |x - c| as it must.)
+  disk of radius R gives k = 1/R, H = t t^T / (R + d) = (I - n n^T) / norm(x - c) as it must.)
 - an edge, the line a + tau e (unit e), and the signed distance d: H = (P - n n^T) / d with
   P = I - e e^T (d > 0 outside; inside a reflex corner d < 0 and the same formula holds).
 
@@ -288,7 +288,7 @@ def _inherit_docstrings(cls):
 @dataclass(frozen=True)
 class Sphere(Obstacle3D):
     """
-    A solid ball: d(x) = |x - center| - r.
+    A solid ball: d(x) = norm(x - center) - r.
 
     The parameters are the dataclass's fields, kept as attributes of the same names.
 

@@ -158,19 +158,37 @@ class RodShape:
         return -4.0 * a * (1.0 - a * np.asarray(s, dtype=float)) ** 3
 
     def _u(self, s):
-        """Return u = 2 A x(s) on the parabola (Newton on the arc length)."""
+        """Return u = 2 A x(s) on the parabola (Newton on the arc length from a table's guess)."""
         a = self.parabola
         s = np.asarray(s, dtype=float)
         target = 4.0 * abs(a) * s
-        # start above the root (F convex, increasing for u >= 0): u = target / 2 >= root
-        u = 0.5 * target
-        for _ in range(_NEWTON_STEPS):
+        grid, table = self._u_table()
+        # linear interpolation is within ~1e-6 of the root; F is convex and increasing, so
+        # Newton converges quadratically: three steps reach rounding (checked in the tests)
+        u = np.interp(s, grid, table, right=np.nan)
+        u = np.where(np.isnan(u), 0.5 * target, u)   # beyond the table: from above, as there
+        steps = 3 if np.all(s <= grid[-1]) else _NEWTON_STEPS
+        for _ in range(steps):
             root = np.sqrt(1.0 + u * u)
-            du = (u * root + np.arcsinh(u) - target) / (2.0 * root)
-            u = u - du
-            if np.all(np.abs(du) <= 4e-16 * (1.0 + np.abs(u))):
-                break
+            u = u - (u * root + np.arcsinh(u) - target) / (2.0 * root)
         return math.copysign(1.0, a) * u
+
+    def _u_table(self):
+        """u(s) on 257 arc lengths in [0, 1.5], solved to rounding (cached)."""
+        table = self.__dict__.get("_table")
+        if table is None:
+            grid = np.linspace(0.0, 1.5, 257)
+            target = 4.0 * abs(self.parabola) * grid
+            u = 0.5 * target      # above the root: Newton decreases monotonically to it
+            for _ in range(_NEWTON_STEPS):
+                root = np.sqrt(1.0 + u * u)
+                du = (u * root + np.arcsinh(u) - target) / (2.0 * root)
+                u = u - du
+                if np.all(np.abs(du) <= 4e-16 * (1.0 + np.abs(u))):
+                    break
+            table = (grid, u)
+            object.__setattr__(self, "_table", table)
+        return table
 
     def curvature(self, s):
         """

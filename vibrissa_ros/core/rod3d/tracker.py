@@ -147,7 +147,7 @@ class RodState:
 
     @property
     def nearest(self) -> Optional[RodContact]:
-        """The contact nearest the base, or None."""
+        """Return the contact nearest the base, or None."""
         return self.contacts[0] if self.contacts else None
 
     def centerline(self, n: int = 101) -> np.ndarray:
@@ -334,6 +334,8 @@ class RodTracker:
         self.recover = bool(recover)
         self._nested = False
         self._free_points = self.shape.free_centerline(_SAMPLES)
+        # only prisms have edges (a polygon's corners, a point peg)
+        self._edges = any(getattr(ob, "planar", None) is not None for ob in self.obstacles)
         pose = _as_pose(pose)
         self._check_placeable(pose, "the initial pose")
         self._place(pose)
@@ -362,12 +364,12 @@ class RodTracker:
 
     @property
     def state(self) -> RodState:
-        """The current equilibrium."""
+        """Return the current equilibrium."""
         return self._state
 
     @property
     def pose(self) -> BasePose:
-        """The current base pose."""
+        """Return the current base pose."""
         return self._pose
 
     # -- the public step ----------------------------------------------------------------------
@@ -517,7 +519,7 @@ class RodTracker:
         return best
 
     def _refine(self, ob, point_at, j, dmin):
-        """The distance's minimum over s near sample j (bounded Brent in s)."""
+        """Return the distance's minimum over s near sample j (bounded Brent in s)."""
         lo = float(_SAMPLES[max(j - 1, 0)])
         hi = float(_SAMPLES[min(j + 1, _SAMPLES.size - 1)])
 
@@ -769,7 +771,7 @@ class RodTracker:
         self._sign = math.copysign(1.0, _det_measure(solved.lu))
 
     def _snap(self, path, t, events, reason):
-        """The equilibrium is lost at t: find where the whisker goes and go there."""
+        """Find where the whisker goes when its equilibrium is lost at t, and go there."""
         sol = self.solver
         pose = path.pose(t)
         before = len(self._modes)
@@ -885,6 +887,8 @@ class RodTracker:
 
     def _check_features(self, modes, vec, pose):
         """Refuse a contact on a prism's edge (a polygon's corner, a point peg): not modelled."""
+        if not self._edges:
+            return
         sol = self.solver
         pts = sol.centerline(modes, vec, pose, np.array(sol.breaks_of(modes, vec)))
         for m, x in zip(modes, pts):
@@ -905,7 +909,7 @@ class RodTracker:
 
 
 def _null_vector(lu) -> np.ndarray:
-    """An approximate null vector of the factorized Jacobian (inverse iteration, 3 steps)."""
+    """Return an approximate null vector of the factorized Jacobian (inverse iteration)."""
     n = lu[0].shape[0]
     v = np.ones(n) / math.sqrt(n)
     for _ in range(3):
