@@ -15,8 +15,8 @@ from .shape import DEFAULT_POISSON, RodShape
 from .tracker import RodContact, RodEvent, RodState, RodStepResult, RodTracker
 
 __all__ = [
-    "BasePose", "ContactEstimate3D", "Cylinder", "DEFAULT_POISSON", "LoadedRod", "Plane", "Prism", "RodContact",
-    "RodContactMode", "RodEquilibrium", "RodEvent", "RodShape", "RodSolver", "RodState",
-    "RodStepResult", "RodTracker", "Scene3D", "Sphere", "SurfacePoint", "contact_from_wrench",
-    "tip_loaded_rod",
+    "BasePose", "ContactEstimate3D", "Cylinder", "DEFAULT_POISSON", "LoadedRod", "Plane", "Prism",
+    "RodContact", "RodContactMode", "RodEquilibrium", "RodEvent", "RodShape", "RodSolver",
+    "RodState", "RodStepResult", "RodTracker", "Scene3D", "Sphere", "SurfacePoint",
+    "contact_from_wrench", "tip_loaded_rod",
 ]
