@@ -14,12 +14,18 @@ arc length is the least-squares fit
 
     s_c = argmin_{s in [s_min, 1]} |g(s)|^2,    g(s) = (r(s) - p) x F - M0,
 
-found by a scan of s (the loaded solves warm-started along s, from the base outward) and
-Gauss-Newton on each local minimum of the scan (dg/ds by central differences of warm-started
-solves, steps kept inside the scan's bracket, halved until |g| decreases). Exact data have
-g(s_c) = 0 and Gauss-Newton converges quadratically (to the forward model's 1e-12). Noisy data
-leave a residual |g(s_c)|; divided by |F| it is the distance [L] by which the force's line of
-action misses the fitted contact point.
+found in two stages. (1) The shot: between the base and the contact the internal moment is
+M(s) = M0 - (r(s) - p) x F, so the whisker there solves an initial value problem from the base
+alone (the 3D form of the planar general inverse, :mod:`vibrissa_ros.core.general.inverse`),
+integrated with DOP853; |M(s)| = |F| times the distance from r(s) to the force's line of action,
+and its local minima on a grid of s are the candidate contacts. The shot is unique, so it follows
+the reading's own equilibrium branch where a given load at a given point has several (a strongly
+bent whisker). (2) The fit: from each candidate (its first loaded solve started from the shot,
+the next ones from the nearest solved s), Gauss-Newton on |g(s)|^2 with dg/ds by a difference of
+warm-started loaded solves, kept inside the candidate's basin, each step halved until |g|
+decreases. Exact data have g(s_c) = 0 and Gauss-Newton converges quadratically (to the forward
+model's 1e-12). Noisy data leave a residual |g(s_c)|; divided by |F| it is the distance [L] by
+which the force's line of action misses the fitted contact point.
 
 Only "no contact couple" is assumed, not the frictionless condition: a side contact with friction
 inverts the same way. The whisker's tangent at the fitted contact is reported, so that a user can
@@ -40,7 +46,7 @@ from scipy.integrate import solve_ivp
 
 from ..errors import ConvergenceError, ParameterError
 from .model import DEFAULT_SEGMENT_POINTS, RodContactMode, RodSolver
-from .pose import BasePose, quat_matrix, quat_multiply
+from .pose import BasePose, quat_matrix
 from .shape import RodShape
 
 #: the smallest contact arc length searched [L] (a contact nearer the base is not resolved)
@@ -51,12 +57,14 @@ FRAMES = ("world", "base")
 #: points at which the shot whisker's moment is sampled on [0, 1]
 _SCAN_POINTS = 201
 #: tolerances of the shot from the base (it only finds the candidates and the branch)
-_SHOOT_RTOL = 1e-10
+_SHOOT_RTOL = 1e-8
 #: the shot's local minima (lowest |M| first) refined by Gauss-Newton at most
 _CANDIDATES = 4
-#: Gauss-Newton iterations per local minimum
+#: Gauss-Newton iterations per local minimum, step halvings per iteration, step size that stops
 _GN_ITERATIONS = 40
-#: central-difference step of dg/ds [L]
+_HALVINGS = 12
+_S_TOL = 1e-14
+#: difference step of dg/ds [L]
 _FD_STEP = 1e-5
 #: most load steps of a solve from the unloaded whisker (when the warm start fails)
 _MAX_RAMP = 400
@@ -174,7 +182,9 @@ class _MomentFit:
         if vec is not None:
             return vec
         try:
-            vec = self.solver.solve_loaded(s, self.pose, self.F, self._zero, guess=self._guess(s))
+            with np.errstate(over="ignore", invalid="ignore"):  # a diverging Newton: refused
+                vec = self.solver.solve_loaded(s, self.pose, self.F, self._zero,
+                                               guess=self._guess(s))
         except ConvergenceError:
             # from the unloaded whisker, the load ramped (like tip_loaded_rod)
             ramp = min(_MAX_RAMP, 1 + int(math.ceil(2.0 * self.f * s * s)))
@@ -195,10 +205,33 @@ class _MomentFit:
         return np.cross(self.point(s) - self.p, self.F) - self.M0
 
     def slope(self, s: float) -> np.ndarray:
-        """Return dg/ds by differences (central; one-sided at MIN_ARC_LENGTH and 1)."""
-        lo = max(MIN_ARC_LENGTH, s - _FD_STEP)
-        hi = min(1.0, s + _FD_STEP)
-        return (self.misfit(hi) - self.misfit(lo)) / (hi - lo)
+        """Return dg/ds by a one-sided difference (outward, inward at s = 1): one more solve."""
+        h = _FD_STEP if s + _FD_STEP <= 1.0 else -_FD_STEP
+        return (self.misfit(s + h) - self.misfit(s)) / h
+
+
+def _intrinsic_curvature(shape: RodShape) -> Callable[[float], float]:
+    """Return kappa0(s) for scalars, in floats (the parabola's u(s) warm-started by Newton)."""
+    if shape.parabola is None:
+        k0, k1 = shape.k0, shape.k1
+        return lambda s: k0 + k1 * s
+    a = abs(shape.parabola)
+    state = [0.0]
+
+    def kappa0(s):
+        # u sqrt(1 + u^2) + asinh(u) = 4 |A| s: convex and increasing in u >= 0, so Newton
+        # converges from any start (:meth:`RodShape._u`)
+        target, u = 4.0 * a * s, state[0]
+        for _ in range(60):
+            root = math.sqrt(1.0 + u * u)
+            du = (u * root + math.asinh(u) - target) / (2.0 * root)
+            u = max(u - du, 0.0)
+            if abs(du) <= 4e-16 * (1.0 + u):
+                break
+        state[0] = u
+        return 2.0 * shape.parabola / (1.0 + u * u) ** 1.5
+
+    return kappa0
 
 
 def _shoot(shape: RodShape, pose: BasePose, F: np.ndarray, M0: np.ndarray):
@@ -211,19 +244,39 @@ def _shoot(shape: RodShape, pose: BasePose, F: np.ndarray, M0: np.ndarray):
     m = R^T M. Unique, so it follows the reading's own equilibrium branch even where a load at a
     given point has several. Returns the dense solution s -> (r, q) (7,).
     """
-    p = pose.p
+    px, py, pz = pose.position
+    fx, fy, fz = (float(v) for v in F)
+    mx, my, mz = (float(v) for v in M0)
     nu1 = 1.0 + shape.poisson
+    cone = 1.0 - shape.taper
+    kappa0 = _intrinsic_curvature(shape)
 
-    def rhs(s, y):
-        q = y[3:] / math.sqrt(y[3] ** 2 + y[4] ** 2 + y[5] ** 2 + y[6] ** 2)
-        R = quat_matrix(q)
-        m = R.T @ (M0 - np.cross(y[:3] - p, F))
-        b = float(shape.stiffness(s))
-        kap = (nu1 * m[0] / b, m[1] / b, m[2] / b + float(shape.curvature(s)))
-        dq = 0.5 * quat_multiply(y[3:], (0.0, kap[0], kap[1], kap[2]))
-        return np.concatenate((R[:, 0], dq))
+    def rhs(s, y):  # in floats: it runs a few hundred times per reading
+        x, yy, z, w, a, b, c = y.tolist()
+        norm = math.sqrt(w * w + a * a + b * b + c * c)
+        w, a, b, c = w / norm, a / norm, b / norm, c / norm
+        # R(q)'s columns d1, d2, d3
+        d1 = (w * w + a * a - b * b - c * c, 2 * (a * b + w * c), 2 * (a * c - w * b))
+        d2 = (2 * (a * b - w * c), w * w - a * a + b * b - c * c, 2 * (b * c + w * a))
+        d3 = (2 * (a * c + w * b), 2 * (b * c - w * a), w * w - a * a - b * b + c * c)
+        # M = M0 - (r - p) x F
+        rx, ry, rz = x - px, yy - py, z - pz
+        Mx = mx - (ry * fz - rz * fy)
+        My = my - (rz * fx - rx * fz)
+        Mz = mz - (rx * fy - ry * fx)
+        inv_b = 1.0 / (1.0 - cone * s) ** 4
+        k1 = nu1 * inv_b * (d1[0] * Mx + d1[1] * My + d1[2] * Mz)
+        k2 = inv_b * (d2[0] * Mx + d2[1] * My + d2[2] * Mz)
+        k3 = inv_b * (d3[0] * Mx + d3[1] * My + d3[2] * Mz) + kappa0(s)
+        # q' = 1/2 q * (0, kappa), on the integrated (unnormalised) q
+        w, a, b, c = y[3], y[4], y[5], y[6]
+        return np.array((d1[0], d1[1], d1[2],
+                         0.5 * (-a * k1 - b * k2 - c * k3),
+                         0.5 * (w * k1 + b * k3 - c * k2),
+                         0.5 * (w * k2 - a * k3 + c * k1),
+                         0.5 * (w * k3 + a * k2 - b * k1)))
 
-    y0 = np.concatenate((p, pose.q))
+    y0 = np.concatenate((pose.p, pose.q))
     sol = solve_ivp(rhs, (0.0, 1.0), y0, method="DOP853", rtol=_SHOOT_RTOL,
                     atol=_SHOOT_RTOL, dense_output=True)
     return sol.sol if sol.success else None
@@ -267,12 +320,14 @@ def _refine(fit: _MomentFit, s: float, lo: float, hi: float) -> Tuple[float, np.
         except ConvergenceError:
             break
         dd = float(d @ d)
-        if dd == 0.0:
+        gd = float(g @ d)
+        # the step's predicted decrease of |g|^2 below rounding: converged
+        if dd == 0.0 or gd * gd / dd <= 1e-28 + 1e-12 * size:
             break
-        target = min(max(s - float(g @ d) / dd, lo), hi)
-        for _ in range(40):
-            if target == s:
-                break
+        target = min(max(s - gd / dd, lo), hi)
+        if abs(target - s) <= _S_TOL:  # converged (or pinned at a bound)
+            break
+        for _ in range(_HALVINGS):
             try:
                 g_new = fit.misfit(target)
             except ConvergenceError:
@@ -282,12 +337,7 @@ def _refine(fit: _MomentFit, s: float, lo: float, hi: float) -> Tuple[float, np.
             target = s + 0.5 * (target - s)
         else:
             break
-        if target == s:
-            break
-        moved = abs(target - s)
         s, g, size = target, g_new, float(g_new @ g_new)
-        if moved <= 1e-14:
-            break
     return s, g
 
 
