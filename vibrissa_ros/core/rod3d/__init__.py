@@ -5,6 +5,7 @@ Model, conventions and decisions: doc/mechanics/rod3d.md. Dimensionless like the
 (L = 1, EI_b = 1).
 """
 
+from .inverse import ContactEstimate3D, contact_from_wrench
 from .loads import LoadedRod, tip_loaded_rod
 from .model import RodContactMode, RodEquilibrium, RodSolver
 from .obstacles import Cylinder, Plane, Prism, Sphere, SurfacePoint
@@ -14,7 +15,8 @@ from .shape import DEFAULT_POISSON, RodShape
 from .tracker import RodContact, RodEvent, RodState, RodStepResult, RodTracker
 
 __all__ = [
-    "BasePose", "Cylinder", "DEFAULT_POISSON", "LoadedRod", "Plane", "Prism", "RodContact",
-    "RodContactMode", "RodEquilibrium", "RodEvent", "RodShape", "RodSolver", "RodState",
-    "RodStepResult", "RodTracker", "Scene3D", "Sphere", "SurfacePoint", "tip_loaded_rod",
+    "BasePose", "ContactEstimate3D", "Cylinder", "DEFAULT_POISSON", "LoadedRod", "Plane", "Prism",
+    "RodContact", "RodContactMode", "RodEquilibrium", "RodEvent", "RodShape", "RodSolver",
+    "RodState", "RodStepResult", "RodTracker", "Scene3D", "Sphere", "SurfacePoint",
+    "contact_from_wrench", "tip_loaded_rod",
 ]
