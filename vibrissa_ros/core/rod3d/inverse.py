@@ -9,22 +9,22 @@ force, constant from the base to the contact; the measured moment about the base
 
 with r(s) the load point of the whisker clamped at the pose and loaded by F at arc length s
 (:func:`~.loads.tip_loaded_rod`). Three equations in one unknown s_c: M0 . F = 0 for any contact
-(the consistency condition, measured by |M0 . F| / (|M0| |F|)), the other two fix s_c. The contact
+(the consistency condition, measured by ‖M0 . F‖ / (‖M0‖ ‖F‖)), the other two fix s_c. The contact
 arc length is the least-squares fit
 
-    s_c = argmin_{s in [s_min, 1]} |g(s)|^2,    g(s) = (r(s) - p) x F - M0,
+    s_c = argmin_{s in [s_min, 1]} ‖g(s)‖^2,    g(s) = (r(s) - p) x F - M0,
 
 found in two stages. (1) The shot: between the base and the contact the internal moment is
 M(s) = M0 - (r(s) - p) x F, so the whisker there solves an initial value problem from the base
 alone (the 3D form of the planar general inverse, :mod:`vibrissa_ros.core.general.inverse`),
-integrated with DOP853; |M(s)| = |F| times the distance from r(s) to the force's line of action,
+integrated with DOP853; ‖M(s)‖ = ‖F‖ times the distance from r(s) to the force's line of action,
 and its local minima on a grid of s are the candidate contacts. The shot is unique, so it follows
 the reading's own equilibrium branch where a given load at a given point has several (a strongly
 bent whisker). (2) The fit: from each candidate (its first loaded solve started from the shot,
-the next ones from the nearest solved s), Gauss-Newton on |g(s)|^2 with dg/ds by a difference of
-warm-started loaded solves, kept inside the candidate's basin, each step halved until |g|
+the next ones from the nearest solved s), Gauss-Newton on ‖g(s)‖^2 with dg/ds by a difference of
+warm-started loaded solves, kept inside the candidate's basin, each step halved until ‖g‖
 decreases. Exact data have g(s_c) = 0 and Gauss-Newton converges quadratically (to the forward
-model's 1e-12). Noisy data leave a residual |g(s_c)|; divided by |F| it is the distance [L] by
+model's 1e-12). Noisy data leave a residual ‖g(s_c)‖; divided by ‖F‖ it is the distance [L] by
 which the force's line of action misses the fitted contact point.
 
 Only "no contact couple" is assumed, not the frictionless condition: a side contact with friction
@@ -96,16 +96,16 @@ class ContactEstimate3D:
     fitted_moment : tuple of float
         The moment the fitted contact produces, (point - p) x force (3,) [EI_b / L].
     residual : float
-        |fitted_moment - moment| [EI_b / L]: 0 for exact data; residual / |force| is the
+        ‖fitted_moment - moment‖ [EI_b / L]: 0 for exact data; residual / ‖force‖ is the
         distance [L] by which the force's line of action misses the contact point.
     consistency : float
-        |moment . force| / (|moment| |force|) in [0, 1]: 0 for every single point contact
+        ‖moment . force‖ / (‖moment‖ ‖force‖) in [0, 1]: 0 for every single point contact
         without a contact couple (0 when the moment is 0).
     tangent : tuple of float
         The whisker's unit tangent d1 at the contact (3,): tangent . force = 0 for a
         frictionless side contact.
     moment_slope : float
-        |d fitted_moment / ds| at ``s`` [EI_b / L^2]: a moment error e moves s by about
+        ‖d fitted_moment / ds‖ at ``s`` [EI_b / L^2]: a moment error e moves s by about
         e / moment_slope (0: s is not determined by the reading).
     alternatives : tuple of tuple of float
         (s, residual) of the other local minima of the fit, best first (empty: unique).
@@ -284,7 +284,7 @@ def _shoot(shape: RodShape, pose: BasePose, F: np.ndarray, M0: np.ndarray):
 
 def _basins(s: np.ndarray, size: np.ndarray, most: int) -> List[Tuple[float, float, float]]:
     """
-    Return (s, lo, hi) for the local minima of the sampled |M| and their basins, at most ``most``.
+    Return (s, lo, hi) for the local minima of the sampled ‖M‖ and their basins, at most ``most``.
 
     The basin of a minimum reaches the neighbouring maxima; the minima kept are the lowest, in
     order of s.
@@ -309,7 +309,7 @@ def _basins(s: np.ndarray, size: np.ndarray, most: int) -> List[Tuple[float, flo
 
 
 def _refine(fit: _MomentFit, s: float, lo: float, hi: float) -> Tuple[float, np.ndarray]:
-    """Gauss-Newton on |g|^2 from s, kept in [lo, hi], each step halved until |g| decreases."""
+    """Gauss-Newton on ‖g‖^2 from s, kept in [lo, hi], each step halved until ‖g‖ decreases."""
     g = fit.misfit(s)
     size = float(g @ g)
     for _ in range(_GN_ITERATIONS):
@@ -367,7 +367,7 @@ def contact_from_wrench(shape: RodShape, pose: BasePose, force, moment, frame: s
         sensor at the base reports them (turned into the world by R(q)). The estimate is in
         the world frame either way.
     min_force : float, optional
-        A reading with |force| <= ``min_force`` has no usable contact (e.g. 3 sigma of the
+        A reading with ‖force‖ <= ``min_force`` has no usable contact (e.g. 3 sigma of the
         force's noise).
     n : int, optional
         Chebyshev points of the loaded solves.
