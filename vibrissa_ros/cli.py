@@ -665,7 +665,7 @@ def _cmd_scan(args) -> int:
 
 
 def _refuse_3d_scene(path: str) -> None:
-    """A scene with spheres, cylinders or planes is for the 3D whisker: say how to run it."""
+    """Refuse a scene with spheres, cylinders or planes (3D only), saying how to run it."""
     from .scan.scene_file import is_3d_scene
 
     try:

@@ -36,7 +36,7 @@ _EVENT_LABELS = 24
 
 
 def _picks(states: Sequence, event_steps: Sequence[int], count: int) -> List[int]:
-    """Indices of the drawn shapes: evenly spread, plus the poses of the events' steps."""
+    """Return the indices of the drawn shapes: evenly spread, plus the events' poses."""
     n = len(states)
     picks = set(np.linspace(0, n - 1, min(count, n)).round().astype(int).tolist())
     extra = sorted(set(int(i) for i in event_steps) - picks)
@@ -110,7 +110,7 @@ def _mesh(ax, X, Y, Z, lo, hi, gid: str) -> None:
 
 
 def _line_in_box(point, axis, lo, hi, pad: float):
-    """The parameter range (t0, t1) where point + t axis lies in the box grown by ``pad``."""
+    """Return the range (t0, t1) where point + t axis lies in the box grown by ``pad``."""
     t0, t1 = -math.inf, math.inf
     for k in range(3):
         a, b = lo[k] - pad, hi[k] + pad
@@ -152,7 +152,7 @@ def _draw_cylinder(ax, ob, lo, hi) -> None:
 
 
 def _draw_plane(ax, ob, lo, hi) -> None:
-    """The boundary plane inside the box: the polygon where it cuts the box's edges."""
+    """Draw the boundary plane inside the box: the polygon where it cuts the box's edges."""
     p, n = np.asarray(ob.point, dtype=float), np.asarray(ob.normal, dtype=float)
     corners = np.array([[(lo, hi)[(k >> j) & 1][j] for j in range(3)] for k in range(8)])
     d = (corners - p) @ n
@@ -178,7 +178,7 @@ def _draw_plane(ax, ob, lo, hi) -> None:
 
 
 def _draw_prism(ax, ob, lo, hi) -> None:
-    """A planar obstacle's outline inside the box, extruded over the box's z range."""
+    """Draw a planar obstacle's outline inside the box, extruded over the box's z range."""
     planar, gid = ob.planar, f"obstacle:{ob.name}"
     z0, z1 = float(lo[2]), float(hi[2])
     if getattr(planar, "is_point", False):

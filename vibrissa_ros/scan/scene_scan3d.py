@@ -168,6 +168,7 @@ def plan_scene_scan3d(scene: Scene3D, poses: Sequence[BasePose],
     --------
     >>> import math
     >>> from vibrissa_ros.core.rod3d import BasePose, Scene3D, Sphere
+    >>> from vibrissa_ros.scan.scene_scan3d import plan_scene_scan3d
     >>> scene = Scene3D((Sphere((0.0, 0.6, 0.04), 0.1),))
     >>> turn = (math.cos(math.pi / 4), 0.0, 0.0, math.sin(math.pi / 4))  # whisker along +y
     >>> poses = [BasePose((x, 0.0, 0.0), turn) for x in (0.2, 0.0, -0.2)]
