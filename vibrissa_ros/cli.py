@@ -63,6 +63,22 @@ def _curvature(text: str):
     return (values[0], values[1] if len(values) == 2 else 0.0)
 
 
+def _parabola(text: str) -> float:
+    value = _finite(text)
+    if abs(value) > 10.0:
+        raise argparse.ArgumentTypeError(
+            f"{text!r}: the parabola's coefficient A [1/L] must satisfy |A| <= 10"
+        )
+    return value
+
+
+def _poisson(text: str) -> float:
+    value = _finite(text)
+    if not 0.0 <= value <= 0.5:
+        raise argparse.ArgumentTypeError(f"{text!r}: the Poisson ratio must be in [0, 0.5]")
+    return value
+
+
 def _param(text: str):
     key, sep, value = text.partition("=")
     if not sep or not key:
@@ -166,6 +182,22 @@ def build_parser() -> argparse.ArgumentParser:
         "write --curvature=-1,0 for a negative k0",
     )
     scan.add_argument(
+        "--parabola",
+        type=_parabola,
+        default=None,
+        metavar="A",
+        help="3D run: the unloaded whisker follows the parabola y = A x^2 [1/L] in its own "
+        "plane, |A| <= 10 (instead of --curvature)",
+    )
+    scan.add_argument(
+        "--poisson",
+        type=_poisson,
+        default=None,
+        metavar="NU",
+        help="3D run: Poisson ratio in [0, 0.5] (default 0.38): torsional stiffness "
+        "B/(1+NU)",
+    )
+    scan.add_argument(
         "--solver",
         default="auto",
         choices=("auto", "exact", "numeric"),
@@ -208,7 +240,8 @@ def build_parser() -> argparse.ArgumentParser:
         "--poses",
         metavar="POSES.csv",
         help="foot poses instead of --from/--to/--step: a CSV with columns x,y,heading "
-        "(heading in rad, pi/2 = the paper's set-up), visited in order",
+        "(heading in rad, pi/2 = the paper's set-up), visited in order; with --scene, columns "
+        "x,y,z,qw,qx,qy,qz (base position, unit quaternion scalar first) make a 3D run",
     )
     scan.add_argument("--back", action="store_true", help="append the sweep back to --from")
     scan.add_argument("--csv", required=True, help="output CSV ('-' for standard output)")
@@ -517,7 +550,32 @@ def _elastica_model(args, profile):
     return elastica_model(shape, args.solver, profile)
 
 
+def _is_3d_run(args) -> bool:
+    """Tell whether ``--poses`` is a 3D poses file (columns x,y,z,qw,qx,qy,qz)."""
+    if args.poses is None:
+        return False
+    from .scan.scan_io3d import is_3d_poses_csv
+
+    try:
+        return is_3d_poses_csv(args.poses)
+    except VibrissaError:  # unreadable: the planar reader says so, as it always has
+        return False
+
+
 def _cmd_scan(args) -> int:
+    three_d = _is_3d_run(args)
+    try:
+        if three_d and args.scene is None:
+            raise VibrissaError(f"--poses {args.poses} has 3D poses (columns x,y,z,qw,qx,qy,qz): "
+                                "a 3D run needs --scene SCENE.yaml")
+        if not three_d and (args.parabola is not None or args.poisson is not None):
+            raise VibrissaError("--parabola and --poisson apply to a 3D run (--scene with --poses "
+                                "of columns x,y,z,qw,qx,qy,qz)")
+    except VibrissaError as exc:
+        print(f"vibrissa scan: error: {exc}", file=sys.stderr)
+        return 2
+    if three_d:
+        return _cmd_scan3d(args)
     if args.scene is not None:
         return _cmd_scan_scene(args)
     try:
@@ -606,6 +664,19 @@ def _cmd_scan(args) -> int:
     return 0
 
 
+def _refuse_3d_scene(path: str) -> None:
+    """Refuse a scene with spheres, cylinders or planes (3D only), saying how to run it."""
+    from .scan.scene_file import is_3d_scene
+
+    try:
+        solids = is_3d_scene(path)
+    except VibrissaError:  # unreadable: load_scene says so, as it always has
+        return
+    if solids:
+        raise VibrissaError(f"{path} has 3D obstacles (sphere, cylinder or plane): scan it "
+                            "with --poses P.csv of columns x,y,z,qw,qx,qy,qz (a 3D run)")
+
+
 def _cmd_scan_scene(args) -> int:
     """``vibrissa scan --scene``: several obstacles, several contacts, friction."""
     from .scan.scene_file import load_scene
@@ -617,6 +688,7 @@ def _cmd_scan_scene(args) -> int:
                                 "file places its obstacles)")
         if args.model != "elastica" or args.spring_stiffness is not None:
             raise VibrissaError("--scene needs --model elastica (the rigid model has one contact)")
+        _refuse_3d_scene(args.scene)
         scene = load_scene(args.scene)
         grid, poses = _scan_path(args)
         k0, k1 = args.curvature or (0.0, 0.0)
@@ -659,6 +731,79 @@ def _cmd_scan_scene(args) -> int:
         figure = plot_scene_scan(scene, states, events, title=title,
                                  abscissa="heading" if by_pose and len(
                                      {p.x for p in poses}) == 1 else "x0")
+        figure.save(args.plot, small=args.small_png)
+    return 0
+
+
+def _check_scan3d_options(args) -> None:
+    """Refuse the options a 3D run does not take, saying why (one line)."""
+    if args.profile is not None or args.param or args.place != (0.0, 0.0, 0.0):
+        raise VibrissaError("--scene replaces --profile, --param and --place (the scene file "
+                            "places its obstacles)")
+    if args.model != "elastica" or args.spring_stiffness is not None:
+        raise VibrissaError("a 3D run needs --model elastica (the rigid model is planar)")
+    if args.solver == "exact":
+        raise VibrissaError("--solver exact: the closed forms are planar; a 3D run is numeric "
+                            "(--solver auto or numeric)")
+    if args.friction is not None:
+        raise VibrissaError("--friction: the 3D whisker is frictionless (give a scene without "
+                            "friction, and no --friction)")
+    if args.whisk is not None:
+        raise VibrissaError("give either --poses or --whisk, not both")
+    if any(v is not None for v in (args.x_from, args.x_to, args.step)) or args.back:
+        raise VibrissaError("give either --poses or --from/--to/--step [--back], not both")
+    if args.curvature is not None and args.parabola is not None:
+        raise VibrissaError("give either --curvature K0,K1 or --parabola A (the whisker's "
+                            "intrinsic shape), not both")
+
+
+def _cmd_scan3d(args) -> int:
+    """``vibrissa scan --scene S.yaml --poses P.csv`` with 3D poses: the 3D whisker."""
+    from .core.rod3d import DEFAULT_POISSON, RodShape
+    from .scan.scan_io3d import (read_poses3d_csv, write_contacts3d_jsonl, write_events3d_json,
+                                 write_scan3d_csv)
+    from .scan.scene_file import load_scene3d
+    from .scan.scene_scan3d import plan_scene_scan3d
+
+    try:
+        _check_scan3d_options(args)
+        scene = load_scene3d(args.scene)
+        poses = read_poses3d_csv(args.poses)
+        k0, k1 = args.curvature or (0.0, 0.0)
+        shape = RodShape(1.0 if args.taper is None else args.taper, k0, k1, args.parabola,
+                         DEFAULT_POISSON if args.poisson is None else args.poisson)
+        plan = plan_scene_scan3d(scene, poses.poses, shape, poses.where)
+    except VibrissaError as exc:
+        print(f"vibrissa scan: error: {exc}", file=sys.stderr)
+        return 2
+    try:
+        result = plan.run()
+    except VibrissaError as exc:
+        print(f"vibrissa scan: error: {exc}", file=sys.stderr)
+        return 2 if isinstance(exc, ValueError) else 1
+    names = scene.names
+    if args.csv == "-":
+        write_scan3d_csv(result.states, sys.stdout)
+    else:
+        with open(args.csv, "w", newline="") as stream:
+            write_scan3d_csv(result.states, stream)
+    if args.events:
+        with open(args.events, "w") as stream:
+            write_events3d_json(result.events, stream, names)
+    if args.contacts:
+        with open(args.contacts, "w") as stream:
+            write_contacts3d_jsonl(result.states, stream)
+    if args.plot:
+        try:
+            from .scan.plots3d import plot_scene_scan3d
+        except ImportError as exc:
+            print(f"vibrissa scan: error: --plot needs matplotlib ({exc}); pip install '.[plots]'",
+                  file=sys.stderr)
+            return 2
+        title = (f"3D scene {os.path.basename(args.scene)} ({', '.join(names)}), "
+                 f"{len(result.states)} poses from {os.path.basename(args.poses)}")
+        figure = plot_scene_scan3d(scene, result.states, result.events, result.event_steps,
+                                   title=title)
         figure.save(args.plot, small=args.small_png)
     return 0
 
