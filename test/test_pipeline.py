@@ -131,7 +131,7 @@ ROD3D = {"model": "rod3d", "whisker.length": 0.03, "whisker.youngs_modulus": 3.3
 
 
 def _tilted(y, i):
-    """A 6-DoF pose (position [m], quaternion x, y, z, w) near the ball: tilted and lifted."""
+    """Return a 6-DoF pose (position [m], quaternion x, y, z, w) near the ball, tilted."""
     q = quat_multiply(quat_about((0, 0, 1), 0.1 * math.sin(i / 7)),
                       quat_about((0, 1, 0), 0.05 * math.sin(i / 4)))
     return (0.0, y, 0.0005 * math.sin(i / 5)), (q[1], q[2], q[3], q[0])

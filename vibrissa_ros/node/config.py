@@ -299,12 +299,12 @@ class WhiskerConfig:
 
     @property
     def rod3d(self) -> bool:
-        """Whether the 3D whisker runs (``model`` = rod3d)."""
+        """Tell whether the 3D whisker runs (``model`` = rod3d)."""
         return self.scene3d is not None
 
     @property
     def roll(self) -> float:
-        """The whisker's roll about its own axis relative to the base frame [rad]."""
+        """Return the whisker's roll about its own axis relative to the base frame [rad]."""
         return float(self.values["whisker.roll"])
 
     @property

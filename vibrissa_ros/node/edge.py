@@ -135,7 +135,7 @@ def spatial_pose(position: Sequence[float], quaternion: Sequence[float]
     Raises
     ------
     BadInput
-        ``not_finite`` (a NaN or infinite value) or ``quaternion_not_unit`` (|norm - 1| greater
+        ``not_finite`` (a NaN or infinite value) or ``quaternion_not_unit`` (``|norm - 1|`` greater
         than :data:`QUATERNION_NORM_TOLERANCE`).
 
     """
