@@ -14,7 +14,7 @@ from ros_harness import ROOT, Probe, stamp_of, start_installed_node, stop, write
 from visualization_msgs.msg import Marker
 
 from vibrissa_ros.core.rod3d import BasePose, RodTracker
-from vibrissa_ros.core.rod3d.pose import quat_about, quat_multiply
+from vibrissa_ros.core.rod3d.pose import quat_about, quat_matrix, quat_multiply
 from vibrissa_ros.logs.tools import log_info, resimulate
 from vibrissa_ros.node.config import build_config
 from vibrissa_ros.node.edge import contact_records, set_stamp
@@ -83,8 +83,11 @@ def _expected(values, msgs):
         else:
             result = tracker.step(pose)
             state, events = result.state, result.events
+        # in base_frame, the foot's frame (q_pose): the core's base frame rolled back
         force, moment = state.base_wrench()
-        wrench = tuple(force * F) + tuple(moment * M)
+        c, s = math.cos(values["whisker.roll"]), math.sin(values["whisker.roll"])
+        unroll = np.array(((1.0, 0.0, 0.0), (0.0, c, -s), (0.0, s, c)))
+        wrench = tuple(unroll @ force * F) + tuple(unroll @ moment * M)
         out.append((state, wrench, contact_records(state, cfg.units), events))
     return cfg, out
 
@@ -135,6 +138,20 @@ def run(installed, ros_env, rcl_context, tmp_path_factory):
         code = stop(proc)
     return dict(values=values, msgs=msgs, answers=answers, got=got, alive=alive, code=code,
                 dropped=dropped, contacts_at_drop=in_contact, log=log)
+
+
+def test_the_base_frame_is_the_foot_frame_the_core_frame_is_rolled():
+    """The wrench in base_frame = the world load seen from the foot's orientation (q_pose)."""
+    values = _shipped_values()
+    msgs = _poses()[:12]
+    _, expected = _expected(values, msgs)
+    cfg = build_config(values)
+    state, wrench, _, _ = expected[-1]
+    o = msgs[-1].pose.orientation
+    foot = quat_matrix((o.w, o.x, o.y, o.z))
+    want = (tuple(foot.T @ np.array(state.force) * cfg.units.force)
+            + tuple(foot.T @ np.array(state.moment) * cfg.units.moment))
+    assert state.contacts and wrench == pytest.approx(want, rel=1e-12)
 
 
 def test_the_wrench_has_six_components_equal_to_the_rod_tracker(run):

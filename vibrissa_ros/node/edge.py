@@ -429,7 +429,7 @@ def rod_phase(state: RodState) -> int:
     return 2 if c.kind == "tip" else 1
 
 
-def rod_reading(state: RodState, units: Units) -> RodReading:
+def rod_reading(state: RodState, units: Units, roll: float = 0.0) -> RodReading:
     """
     Convert a 3D state (dimensionless, world frame) to SI and the base frame.
 
@@ -439,14 +439,22 @@ def rod_reading(state: RodState, units: Units) -> RodReading:
         The 3D whisker's state.
     units : Units
         The elastica's units: force EI/L^2, moment EI/L.
+    roll : float, optional
+        The whisker's roll [rad] about its own axis relative to the base frame: the core's base
+        frame (``state.base_wrench()``'s) is the base frame rotated by it about +x.
 
     Returns
     -------
     RodReading
-        ``state.base_wrench()`` times EI/L^2 and EI/L, and the contact nearest the base.
+        rot_x(roll) ``state.base_wrench()`` times EI/L^2 and EI/L (the base frame: that of the
+        foot pose), and the contact nearest the base.
 
     """
     force, moment = state.base_wrench()
+    if roll != 0.0:
+        c, s = math.cos(roll), math.sin(roll)
+        rx = np.array(((1.0, 0.0, 0.0), (0.0, c, -s), (0.0, s, c)))
+        force, moment = rx @ force, rx @ moment
     world = tuple(float(v) * units.force for v in state.force)
     c = state.nearest
     return RodReading(

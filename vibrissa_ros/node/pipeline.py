@@ -124,7 +124,7 @@ class PosePipeline:
         (force x, y, z, torque x, y, z).
         """
         if self.config.rod3d:
-            r = rod_reading(state, self.config.units)
+            r = rod_reading(state, self.config.units, self.config.roll)
             return r, r.wrench
         r = sensor_reading(state, self.config.units)
         return r, self.noise.apply(r.force_base[0], r.force_base[1], r.torque_z)
