@@ -1,10 +1,13 @@
 """The node's parameter contract and what it builds (no ROS needed)."""
 
+import json
 import math
+from pathlib import Path
 
 import pytest
 
 from vibrissa_ros.core import ParameterError, PlacedProfile
+from vibrissa_ros.core.rod3d import Plane, Sphere
 from vibrissa_ros.node.config import PARAMETERS, SPECS, build_config
 
 CONTRACT = [
@@ -143,3 +146,90 @@ def test_new_whisker_and_peg_parameters_are_refused_with_a_reason(values, words)
         build_config(values)
     for word in words:
         assert word in str(err.value)
+
+
+# -- the 3D whisker (model rod3d) -----------------------------------------------------------------
+SPHERE_M = Path(__file__).resolve().parents[1] / "config" / "scene_sphere_m.yaml"
+ROD3D = {"model": "rod3d", "whisker.length": 0.03, "whisker.youngs_modulus": 3.3e9,
+         "whisker.base_radius": 5e-5, "whisker.taper": 0.5, "whisker.parabola": 10.0,
+         "whisker.roll": 0.5, "obstacle.type": "scene", "obstacle.scene_file": str(SPHERE_M)}
+
+
+def test_rod3d_builds_the_3d_whisker_and_scene_in_whisker_lengths():
+    cfg = build_config(ROD3D)
+    assert cfg.rod3d and cfg.profile is None and cfg.scene is None
+    ei = 3.3e9 * math.pi * 5e-5**4 / 4
+    assert cfg.units.force == pytest.approx(ei / 0.03**2, rel=1e-15)
+    assert cfg.units.moment == pytest.approx(ei / 0.03, rel=1e-15)
+    shape = cfg.rod_shape
+    assert (shape.taper, shape.parabola, shape.poisson) == pytest.approx((0.5, 0.3, 0.38),
+                                                                         rel=1e-15)
+    assert shape.k0 == shape.k1 == 0.0 and cfg.roll == 0.5
+    ball, floor = cfg.scene3d
+    assert isinstance(ball, Sphere) and isinstance(floor, Plane)
+    assert ball.center == pytest.approx((0.02 / 0.03, 0.4, 0.002 / 0.03), rel=1e-15)
+    assert ball.r == pytest.approx(0.004 / 0.03, rel=1e-15)
+    assert floor.point[2] == pytest.approx(-0.2) and floor.normal == (0.0, 0.0, 1.0)
+    assert "rod3d" in cfg.describe() and "sphere" in cfg.describe()
+
+
+def test_rod3d_torsional_stiffness_gives_the_poisson_ratio():
+    ei = 3.3e9 * math.pi * 5e-5**4 / 4
+    cfg = build_config(dict(ROD3D, **{"whisker.torsional_stiffness": ei / 1.25}))
+    assert cfg.rod_shape.poisson == pytest.approx(0.25, rel=1e-12)
+    assert build_config(dict(ROD3D, **{"whisker.torsional_stiffness": ei})).rod_shape.poisson == 0
+    curved = build_config(dict(ROD3D, **{"whisker.parabola": 0.0, "whisker.curvature_k0": 20.0,
+                                         "whisker.curvature_k1": -100.0}))
+    assert (curved.rod_shape.k0, curved.rod_shape.k1) == pytest.approx((0.6, -0.09))
+    assert curved.rod_shape.parabola is None
+
+
+def test_rod3d_configuration_round_trips_through_its_record_without_the_file(tmp_path):
+    scene = tmp_path / "sphere.yaml"
+    scene.write_text(SPHERE_M.read_text())
+    cfg = build_config(dict(ROD3D, **{"obstacle.scene_file": str(scene),
+                                      "whisker.poisson": 0.3}))
+    record = json.loads(json.dumps(cfg.record_values))  # as the log stores it
+    scene.unlink()
+    again = build_config(record)
+    assert again.scene3d == cfg.scene3d and again.rod_shape == cfg.rod_shape
+    assert again.units == cfg.units and again.roll == cfg.roll
+    assert again.values == cfg.values
+
+
+@pytest.mark.parametrize(
+    "values, words",
+    [
+        ({"whisker.poisson": 0.3, "whisker.torsional_stiffness": 1e-8},
+         ["whisker.torsional_stiffness", "whisker.poisson", "not both"]),
+        ({"whisker.torsional_stiffness": 1e-9}, ["nu = EI/GJ - 1", "[0, 0.5]"]),
+        ({"whisker.torsional_stiffness": 1e-6}, ["nu = EI/GJ - 1", "[0, 0.5]"]),
+        ({"whisker.curvature_k0": 5.0}, ["whisker.parabola", "whisker.curvature_k0",
+                                         "not both"]),
+        ({"whisker.parabola": 400.0}, ["whisker.parabola = 400.0 1/m", "|A| <= 10"]),
+        ({"whisker.poisson": 0.6}, ["whisker.poisson", "[0.0, 0.5]"]),
+        ({"whisker.roll": math.inf}, ["whisker.roll", "finite"]),
+        ({"obstacle.type": "parabola"}, ["model = 'rod3d' needs obstacle.type 'scene'"]),
+        ({"noise.enabled": True}, ["noise.enabled", "rod3d", "planar"]),
+        ({"model": "elastica"}, ["whisker.parabola = 10.0 1/m", "needs model 'rod3d'"]),
+        ({"model": "elastica", "whisker.parabola": 0.0}, ["whisker.roll = 0.5 rad",
+                                                          "needs model 'rod3d'"]),
+    ],
+)
+def test_bad_rod3d_parameters_are_refused_with_one_clear_message(values, words):
+    with pytest.raises(ParameterError) as err:
+        build_config(dict(ROD3D, **values))
+    message = str(err.value)
+    assert "\n" not in message
+    for word in words:
+        assert word in message
+
+
+def test_rod3d_refuses_a_scene_with_friction_naming_the_file(tmp_path):
+    scene = tmp_path / "sticky.yaml"
+    scene.write_text("obstacles:\n  - {type: sphere, center: [0.02, 0.012, 0.0], r: 0.004, "
+                     "friction: 0.3}\n")
+    with pytest.raises(ParameterError) as err:
+        build_config(dict(ROD3D, **{"obstacle.scene_file": str(scene)}))
+    assert str(err.value).startswith(f"obstacle.scene_file = {str(scene)!r}: ")
+    assert "frictionless" in str(err.value)

@@ -1,11 +1,16 @@
 """The node's pose path without ROS: checks in order, drop reasons, state kept, reset, counting."""
 
 import math
+from pathlib import Path
 
+import numpy as np
 import pytest
 
 from vibrissa_ros.core import ConvergenceError, InvalidPoseError, ModelAssumptionError, run_scan
-from vibrissa_ros.node.edge import BadInput, sensor_reading, yaw_quaternion
+from vibrissa_ros.core.rod3d import BasePose, RodTracker
+from vibrissa_ros.core.rod3d.pose import quat_about, quat_matrix, quat_multiply
+from vibrissa_ros.node.edge import (BadInput, decode_event, encode_event, event_record,
+                                    sensor_reading, yaw_quaternion)
 from vibrissa_ros.node.config import build_config
 from vibrissa_ros.node.pipeline import DROP_REASONS, PosePipeline, PoseStats, drop_reason
 
@@ -117,3 +122,79 @@ def test_stats_count_and_summarize_a_period():
     assert values["poses_received"] == 4 and values["poses_dropped"] == 2
     assert values["dropped_not_finite"] == 2 and values["slowest_step_ms"] == "50.0"
     assert {f"dropped_{r}" for r in DROP_REASONS} <= set(values)
+
+
+# -- the 3D whisker (model rod3d) -----------------------------------------------------------------
+SPHERE_M = Path(__file__).resolve().parents[1] / "config" / "scene_sphere_m.yaml"
+ROD3D = {"model": "rod3d", "whisker.length": 0.03, "whisker.youngs_modulus": 3.3e9,
+         "whisker.base_radius": 5e-5, "whisker.taper": 0.5, "whisker.parabola": 10.0,
+         "whisker.roll": 0.5, "obstacle.type": "scene", "obstacle.scene_file": str(SPHERE_M)}
+
+
+def _tilted(y, i):
+    """Return a 6-DoF pose (position [m], quaternion x, y, z, w) near the ball, tilted."""
+    q = quat_multiply(quat_about((0, 0, 1), 0.1 * math.sin(i / 7)),
+                      quat_about((0, 1, 0), 0.05 * math.sin(i / 4)))
+    return (0.0, y, 0.0005 * math.sin(i / 5)), (q[1], q[2], q[3], q[0])
+
+
+def test_a_6dof_sweep_equals_the_rod_tracker_in_si_with_the_roll_composed():
+    pipe = PosePipeline(build_config(ROD3D))
+    cfg = pipe.config
+    ys = [0.0005 * i for i in range(21)]
+    tracker = None
+    for i, y in enumerate(ys):
+        p, (qx, qy, qz, qw) = _tilted(y, i)
+        state, events = pipe.handle("world", i, p, (qx, qy, qz, qw))
+        core_q = quat_multiply((qw, qx, qy, qz), quat_about((1, 0, 0), 0.5))
+        pose = BasePose(tuple(v / 0.03 for v in p), tuple(core_q))
+        if tracker is None:
+            tracker = RodTracker(cfg.scene3d, pose, shape=cfg.rod_shape)
+            want, want_events = tracker.state, ()
+        else:
+            result = tracker.step(pose)
+            want, want_events = result.state, result.events
+        assert state.pose.quaternion == pytest.approx(pose.quaternion, rel=0, abs=1e-15)
+        # the base frame is the foot's (q_pose): the world load seen in it
+        foot = quat_matrix((qw, qx, qy, qz))
+        force, moment = foot.T @ np.array(want.force), foot.T @ np.array(want.moment)
+        reading, sensed = pipe.reading(state)
+        scale = (cfg.units.force,) * 3 + (cfg.units.moment,) * 3
+        for a, b, unit in zip(sensed, tuple(force * cfg.units.force)
+                              + tuple(moment * cfg.units.moment), scale):
+            assert a == pytest.approx(b, rel=1e-12, abs=1e-14 * unit)
+        assert [e.kind for e in events] == [e.kind for e in want_events]
+    assert reading.phase == 1 and len(state.contacts) == 1 and sensed[2] != 0.0
+
+
+def test_rod3d_takes_any_orientation_but_drops_a_non_unit_quaternion_keeping_the_state():
+    pipe = PosePipeline(build_config(ROD3D))
+    pipe.handle("world", 1, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0))
+    pitched = quat_about((0, 1, 0), 0.3)  # out of the plane: refused by planar models only
+    state, _ = pipe.handle("world", 2, (0.0, 0.0, 0.001),
+                           (pitched[1], pitched[2], pitched[3], pitched[0]))
+    for quaternion, reason in (((0.0, 0.0, 0.0, 1.01), "quaternion_not_unit"),
+                               ((0.0, 0.0, 0.0, 1.0 + 2e-6), "quaternion_not_unit"),
+                               ((0.0, math.nan, 0.0, 1.0), "not_finite")):
+        with pytest.raises(BadInput) as info:
+            pipe.handle("world", 3, (0.0, 0.0, 0.0), quaternion)
+        assert drop_reason(info.value) == reason and pipe.state is state
+    with pytest.raises(BadInput) as info:
+        pipe.handle("world", 3, (0.0, 0.0, 1e5), (0.0, 0.0, 0.0, 1.0))
+    assert drop_reason(info.value) == "out_of_range" and pipe.state is state
+    # within 1e-6 of unit length: normalised and taken
+    state, _ = pipe.handle("world", 3, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0 + 5e-7))
+    assert state.pose.quaternion == pytest.approx(tuple(quat_about((1, 0, 0), 0.5)), abs=1e-15)
+
+
+def test_rod3d_reset_on_request_and_its_event_payload():
+    pipe = PosePipeline(build_config(ROD3D))
+    pipe.handle("world", 1, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0))
+    pipe.request_reset()
+    q = quat_about((0, 0, 1), 0.2)
+    _, events = pipe.handle("world", 2, (0.001, -0.002, 0.0005), (q[1], q[2], q[3], q[0]))
+    assert [e.kind for e in events] == ["reset"]
+    record = decode_event(encode_event(event_record(events[0], pipe.config.units, 0.5)))
+    assert (record.x, record.y, record.z) == pytest.approx((0.001, -0.002, 0.0005), rel=1e-12)
+    assert record.orientation == pytest.approx((q[1], q[2], q[3], q[0]), abs=1e-15)
+    assert record.yaw == pytest.approx(0.2, rel=1e-12) and record.contact is None

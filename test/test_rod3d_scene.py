@@ -16,7 +16,8 @@ from vibrissa_ros.scan.scene_file import dump_scene3d, is_3d_scene, load_scene, 
 CONFIG = Path(__file__).resolve().parents[1] / "config"
 #: the scene files shipped (config/scene_*.yaml holding obstacles; the others are node parameters)
 SCENE_FILES = sorted(p for p in CONFIG.glob("scene_*.yaml")
-                     if "obstacles" in (yaml.safe_load(p.read_text()) or {}))
+                     if "obstacles" in (yaml.safe_load(p.read_text()) or {})
+                     and not is_3d_scene(p))  # the planar ones (scene_sphere_m.yaml is 3D)
 
 MIXED_3D = """\
 obstacles:

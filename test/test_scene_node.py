@@ -68,7 +68,7 @@ def test_contacts_cloud_decodes_to_the_values_it_was_built_from(check_fields):
     cloud = deserialize_message(serialize_message(cloud), PointCloud2)
     assert cloud.header.frame_id == "world"
     assert (cloud.header.stamp.sec, cloud.header.stamp.nanosec) == (5, 123)
-    assert (cloud.height, cloud.width, cloud.point_step, cloud.row_step) == (1, 3, 56, 168)
+    assert (cloud.height, cloud.width, cloud.point_step, cloud.row_step) == (1, 3, 64, 192)
     assert not cloud.is_bigendian and cloud.is_dense
     fields = {f.name: (f.offset, f.datatype, f.count) for f in cloud.fields}
     assert fields == {
@@ -76,7 +76,7 @@ def test_contacts_cloud_decodes_to_the_values_it_was_built_from(check_fields):
         "z": (16, PointField.FLOAT64, 1), "fx": (24, PointField.FLOAT64, 1),
         "fy": (32, PointField.FLOAT64, 1), "s": (40, PointField.FLOAT64, 1),
         "kind": (48, PointField.UINT8, 1), "state": (49, PointField.UINT8, 1),
-        "obstacle": (52, PointField.UINT32, 1)}
+        "obstacle": (52, PointField.UINT32, 1), "fz": (56, PointField.FLOAT64, 1)}
     assert m.decode_contacts(cloud) == contacts  # exact: float64 throughout
     # read as any PointCloud2 consumer does, by the field table (z is 0: the plane of bending)
     raw = bytes(cloud.data)
@@ -86,18 +86,28 @@ def test_contacts_cloud_decodes_to_the_values_it_was_built_from(check_fields):
                                                PointField.UINT32: "<u4"}[kind],
                                    count=1, offset=base + off)[0]
                for name, (off, kind, _) in fields.items()}
-        assert float(row["z"]) == 0.0
+        assert float(row["z"]) == 0.0 and float(row["fz"]) == 0.0
         assert (float(row["x"]), float(row["y"]), float(row["fx"]), float(row["fy"]),
                 float(row["s"])) == (c.x, c.y, c.fx, c.fy, c.s)
         assert (int(row["kind"]), int(row["state"]), int(row["obstacle"])) == (
             c.kind, c.state, c.obstacle)
 
 
+def test_a_3d_contact_round_trips_and_an_old_cloud_without_fz_reads_as_zero(check_fields):
+    contact = ContactRecord(0.02, 0.011, -0.5, 0.25, 0.021, 1, 0, 1, -0.003, 0.125)
+    cloud = deserialize_message(serialize_message(
+        m.contacts_cloud(_stamp(1), "world", (contact,))), PointCloud2)
+    assert m.decode_contacts(cloud) == (contact,)
+    cloud.fields = [f for f in cloud.fields if f.name != "fz"]  # as recorded before fz
+    assert m.decode_contacts(cloud) == (ContactRecord(0.02, 0.011, -0.5, 0.25, 0.021, 1, 0, 1,
+                                                      -0.003, 0.0),)
+
+
 def test_an_empty_cloud_when_free(check_fields):
     cloud = deserialize_message(serialize_message(m.contacts_cloud(_stamp(1), "map", ())),
                                 PointCloud2)
     assert (cloud.width, cloud.height, cloud.row_step, len(cloud.data)) == (0, 1, 0, 0)
-    assert len(cloud.fields) == 9 and m.decode_contacts(cloud) == ()
+    assert len(cloud.fields) == 10 and m.decode_contacts(cloud) == ()
 
 
 def test_a_cloud_without_a_field_is_refused(check_fields):

@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 from typing import Dict, List, Tuple
 
 from ..core.errors import VibrissaError
+from ..core.rod3d import RodState
 from ..core.state import WhiskerState
 from ..node.edge import contact_records, decode_event, encode_event, event_record, header_ns
 from .mcap_log import CONFIGURATION_METADATA, RESET_METADATA, LogError, LogMessage, read_log
@@ -144,9 +145,25 @@ def _relative(a: float, b: float) -> float:
 
 
 #: the compared values of one contact of ``~/contacts`` (one point of its cloud)
-CONTACT_VALUES = ("x", "y", "fx", "fy", "s", "kind", "state", "obstacle")
-#: the compared values of one event of ``~/events`` (None where an event kind has none)
-EVENT_VALUES = ("kind", "from_phase", "to_phase", "x", "y", "obstacle", "contact", "s")
+CONTACT_VALUES = ("x", "y", "z", "fx", "fy", "fz", "s", "kind", "state", "obstacle")
+#: the compared values of one event of ``~/events`` (None where an event kind has none; z: the
+#: 3D whisker's only)
+EVENT_VALUES = ("kind", "from_phase", "to_phase", "x", "y", "z", "obstacle", "contact", "s")
+#: the compared components of ``~/wrench`` (planar models: force z and torque x, y are 0)
+WRENCH_VALUES = ("force.x", "force.y", "force.z", "torque.x", "torque.y", "torque.z")
+
+
+def _wrench6(sensed: Tuple[float, ...]) -> Tuple[float, ...]:
+    """Return the six components of a reported wrench (planar: fx, fy, mz -> 0 elsewhere)."""
+    if len(sensed) == 6:
+        return tuple(sensed)
+    fx, fy, mz = sensed
+    return fx, fy, 0.0, 0.0, 0.0, mz
+
+
+def _xyz(v) -> Tuple[float, ...]:
+    """Return a planar (x, y) or 3D vector as (x, y, z)."""
+    return tuple(v) if len(v) == 3 else (v[0], v[1], 0.0)
 
 
 def _contact_values(contact) -> tuple:
@@ -241,32 +258,33 @@ def resimulate(path: str) -> Resimulation:
         result.events.extend(events)
         result.event_steps.extend([len(result.states) - 1] * len(events))
         r, sensed = pipeline.reading(state)
-        units = pipeline.config.units
-        expected["wrench"].append((stamp, sensed))
+        units, roll = pipeline.config.units, pipeline.config.roll
+        expected["wrench"].append((stamp, _wrench6(sensed)))
         expected["phase"].append((None, (float(r.phase),)))
-        expected["contact_force"].append((stamp, r.force_world))
+        expected["contact_force"].append((stamp, _xyz(r.force_world)))
         expected["contact_force_magnitude"].append((None, (r.force_magnitude,)))
         if r.contact_world is not None:
-            expected["contact_point"].append((stamp, r.contact_world))
+            expected["contact_point"].append((stamp, _xyz(r.contact_world)))
             expected["arc_length"].append((None, (r.s1,)))
         for c in contact_records(state, units):
             expected["contacts"].append((stamp, _contact_values(c)))
         for e in events:
-            expected["events"].append((None, _event_values(event_record(e, units))))
+            expected["events"].append((None, _event_values(event_record(e, units, roll))))
     got = {
         "wrench": [
-            (header_ns(w), (w.wrench.force.x, w.wrench.force.y, w.wrench.torque.z))
+            (header_ns(w), (w.wrench.force.x, w.wrench.force.y, w.wrench.force.z,
+                            w.wrench.torque.x, w.wrench.torque.y, w.wrench.torque.z))
             for w in recorded["wrench"]
         ],
         "phase": [(None, (float(x.data),)) for x in recorded["phase"]],
         "contact_force": [
-            (header_ns(v), (v.vector.x, v.vector.y)) for v in recorded["contact_force"]
+            (header_ns(v), (v.vector.x, v.vector.y, v.vector.z)) for v in recorded["contact_force"]
         ],
         "contact_force_magnitude": [
             (None, (x.data,)) for x in recorded["contact_force_magnitude"]
         ],
         "contact_point": [
-            (header_ns(v), (v.point.x, v.point.y)) for v in recorded["contact_point"]
+            (header_ns(v), (v.point.x, v.point.y, v.point.z)) for v in recorded["contact_point"]
         ],
         "arc_length": [(None, (x.data,)) for x in recorded["arc_length"]],
         "contacts": [(header_ns(cloud), _contact_values(c)) for cloud in recorded["contacts"]
@@ -274,11 +292,11 @@ def resimulate(path: str) -> Resimulation:
         "events": [(None, _event_values(decode_event(e.data))) for e in recorded["events"]],
     }
     names = {
-        "wrench": ("force.x", "force.y", "torque.z"),
+        "wrench": WRENCH_VALUES,
         "phase": ("data",),
-        "contact_force": ("x", "y"),
+        "contact_force": ("x", "y", "z"),
         "contact_force_magnitude": ("data",),
-        "contact_point": ("x", "y"),
+        "contact_point": ("x", "y", "z"),
         "arc_length": ("data",),
         "contacts": CONTACT_VALUES,
         "events": EVENT_VALUES,
@@ -326,8 +344,14 @@ def export_rows(path: str):
     Raises
     ------
     LogError
-        When the log cannot be read or has no recorded configuration.
+        When the log cannot be read or has no recorded configuration, or is a run of the 3D
+        whisker (model rod3d: the rows are the planar scan contract; ``vibrissa resim`` checks
+        such a log).
 
     """
     sim = resimulate(path)
+    if any(isinstance(state, RodState) for _, state in sim.states):
+        raise LogError(f"{path}: a run of the 3D whisker (model rod3d): export and plot write "
+                       "the planar scan contract, which has no 3D columns yet; 'vibrissa resim' "
+                       "re-simulates it, and the log itself holds every topic")
     return [(stamp / 1e9, state) for stamp, state in sim.states], sim

@@ -16,11 +16,14 @@ from ..core.errors import ParameterError
 from ..core.general.model import GeneralWhiskerModel, WhiskerShape
 from ..core.exact.models import make_model
 from ..core.profiles import ConvexProfile, Peg, make_profile
+from ..core.rod3d import DEFAULT_POISSON, RodShape, Scene3D
 from ..core.scenes.scene import Scene
 from .edge import NS_PER_S, Units
 from .parameters import ParameterSpec, nonnegative, positive, validate
 
-MODELS = ("elastica", "rigid")
+MODELS = ("elastica", "rigid", "rod3d")
+#: the 3D whisker (doc/guide/node.md, "3D whisker"): a Kirchhoff rod among obstacles in space
+ROD3D = "rod3d"
 #: obstacle type -> (core parameter name, node parameter name) of its shape parameters
 SHAPE_PARAMETERS = {
     "parabola": (("k", "obstacle.k"),),
@@ -38,6 +41,8 @@ SCENE = "scene"
 SCENE_TEXT = "obstacle.scene_text"
 #: relative tolerance between whisker.bending_stiffness and E pi r^4 / 4 when a file gives both
 EI_TOLERANCE = 1e-6
+#: rounding of nu = EI/GJ - 1 taken as the end of [0, 0.5] it is nearest
+NU_TOLERANCE = 1e-12
 
 
 def _frame(name: str, default: str, description: str) -> ParameterSpec:
@@ -62,6 +67,21 @@ _WHISKER = (
     ParameterSpec("whisker.curvature_k1", 0.0, "rate of change of the intrinsic curvature along "
                   "the whisker (dimensionless k1 L^2)", "1/m^2"),
 )
+#: the 3D whisker's own parameters (model rod3d)
+_WHISKER_3D = (
+    ParameterSpec("whisker.poisson", DEFAULT_POISSON, "rod3d: Poisson ratio nu of the whisker; "
+                  "its torsional stiffness is GJ = EI / (1 + nu) (not with "
+                  "whisker.torsional_stiffness)", minimum=0.0, maximum=0.5),
+    nonnegative("whisker.torsional_stiffness", 0.0, "rod3d: torsional stiffness GJ at the base; "
+                "> 0: nu = EI / GJ - 1, which must be in [0, 0.5] (whisker.poisson then stays at "
+                "its default); 0: from whisker.poisson", "N m^2", maximum=1e9),
+    ParameterSpec("whisker.parabola", 0.0, "rod3d: the unloaded whisker is the parabola "
+                  "y = A x^2 in its own plane (its base at the vertex; dimensionless A L, "
+                  "|A L| <= 10); 0: the curvature k0 + k1 s (not with curvature_k0/k1)", "1/m"),
+    ParameterSpec("whisker.roll", 0.0, "rod3d: the whisker's rotation about its own axis (base "
+                  "frame +x): its plane of curvature is the base frame's x-y plane rolled by this "
+                  "angle", "rad", minimum=-2.0 * math.pi, maximum=2.0 * math.pi),
+)
 _FRAMES = (
     _frame("world_frame", "world", "frame of the foot poses, the obstacle and the contact point"),
     _frame("base_frame", "whisker_base",
@@ -78,11 +98,13 @@ _INPUT = (
 #: whisker_node's parameters
 PARAMETERS: Tuple[ParameterSpec, ...] = (
     _WHISKER
+    + _WHISKER_3D
     + (
         ParameterSpec(
             "model",
             "elastica",
-            "whisker model: 'elastica' (paper §2) or 'rigid' (paper §3)",
+            "whisker model: 'elastica' (paper §2), 'rigid' (paper §3) or 'rod3d' (the 3D "
+            "Kirchhoff whisker among obstacles in space; obstacle.type scene)",
             choices=MODELS,
         ),
         positive(
@@ -107,7 +129,8 @@ PARAMETERS: Tuple[ParameterSpec, ...] = (
             "",
             "scene: a scene YAML file (doc/guide/scenes.md) with lengths in metres; a relative "
             "path is taken from the working directory, package://<package>/<path> from the "
-            "package's share folder",
+            "package's share folder; model rod3d: a 3D scene file (spheres, cylinders, planes "
+            "and every planar type as a prism along z)",
         ),
         positive("obstacle.k", 10.0, "parabola: y = apex_y + k (x - apex_x)^2 / 2", "1/m"),
         positive("obstacle.c", 0.06, "catenary: y = apex_y + c (cosh((x - apex_x)/c) - 1)", "m"),
@@ -252,6 +275,11 @@ class WhiskerConfig:
         The scene's Coulomb coefficients, one per obstacle.
     shape : WhiskerShape, optional
         The whisker's shape (taper, intrinsic curvature) for the scene tracker and the models.
+    scene3d : Scene3D or None, optional
+        ``model`` = rod3d: the 3D scene (whisker lengths); None otherwise.
+    rod_shape : RodShape or None, optional
+        ``model`` = rod3d: the 3D whisker's shape (taper, intrinsic curvature or parabola,
+        Poisson ratio; dimensionless); None otherwise.
 
     """
 
@@ -265,6 +293,19 @@ class WhiskerConfig:
     scene_text: str = ""
     friction: Tuple[float, ...] = ()
     shape: WhiskerShape = WhiskerShape()
+    #: model = rod3d: the 3D scene (whisker lengths) and the 3D whisker's shape
+    scene3d: Optional[Scene3D] = None
+    rod_shape: Optional[RodShape] = None
+
+    @property
+    def rod3d(self) -> bool:
+        """Tell whether the 3D whisker runs (``model`` = rod3d)."""
+        return self.scene3d is not None
+
+    @property
+    def roll(self) -> float:
+        """Return the whisker's roll about its own axis relative to the base frame [rad]."""
+        return float(self.values["whisker.roll"])
 
     @property
     def multi_contact(self) -> bool:
@@ -281,7 +322,7 @@ class WhiskerConfig:
     def record_values(self) -> Dict[str, Any]:
         """Return the parameter values as a log records them (a scene's text included)."""
         values = dict(self.values)
-        if self.scene is not None:
+        if self.scene is not None or self.scene3d is not None:
             values[SCENE_TEXT] = self.scene_text
         return values
 
@@ -307,6 +348,8 @@ class WhiskerConfig:
     def describe(self) -> str:
         """One line: model, length, obstacle and where its apex is."""
         v = self.values
+        if self.scene3d is not None:
+            return self._describe_rod3d()
         if self.scene is not None:
             return self._describe_whisker() + (
                 f", obstacle.scene_file {v['obstacle.scene_file']!r}: "
@@ -321,6 +364,19 @@ class WhiskerConfig:
             f"{self._describe_whisker()}, obstacle "
             f"{v['obstacle.type']} ({shape}) {where} in '{v['world_frame']}'"
         )
+
+    def _describe_rod3d(self) -> str:
+        v, shape = self.values, self.rod_shape
+        ei = self.units.moment * self.units.length
+        if shape.parabola is not None:
+            curve = f"parabola A={v['whisker.parabola']!r} 1/m"
+        else:
+            curve = (f"k0={v['whisker.curvature_k0']!r} 1/m, "
+                     f"k1={v['whisker.curvature_k1']!r} 1/m^2")
+        return (f"rod3d whisker L={v['whisker.length']!r} m, taper={v['whisker.taper']!r}, "
+                f"{curve}, roll={v['whisker.roll']!r} rad, EI={ei!r} N m^2, "
+                f"nu={shape.poisson!r}, obstacle.scene_file {v['obstacle.scene_file']!r}: "
+                f"{self.scene3d.describe()} (lengths in L) in '{v['world_frame']}'")
 
     def _describe_whisker(self) -> str:
         v = self.values
@@ -357,6 +413,9 @@ def build_config(values: Mapping[str, Any]) -> WhiskerConfig:
     recorded_scene = values.get(SCENE_TEXT)
     values = validate(PARAMETERS, values)
     length = values["whisker.length"]
+    if values["model"] == ROD3D:
+        return _rod3d_config(values, recorded_scene)
+    _check_planar(values)
     if values["obstacle.type"] == SCENE:
         return _scene_config(values, recorded_scene)
     if values["obstacle.type"] == "peg":
@@ -444,42 +503,143 @@ def _own_share(package: str) -> Optional[str]:
     return None
 
 
-def _scene_config(values: Dict[str, Any], recorded: Optional[str]) -> WhiskerConfig:
-    """Build the configuration of obstacle.type = scene (``recorded``: a log's scene text)."""
-    from ..scan.scene_file import load_scene
+def _check_planar(values: Mapping[str, Any]) -> None:
+    """Refuse the 3D whisker's shape parameters with a planar model (they would be ignored)."""
+    for name, unit in (("whisker.parabola", "1/m"), ("whisker.roll", "rad")):
+        if values[name] != 0.0:
+            raise ParameterError(
+                f"{name} = {values[name]!r} {unit} is a parameter of the 3D whisker: it needs "
+                f"model 'rod3d' (model is {values['model']!r}; the planar whisker bends in its "
+                "base frame's x-y plane with the curvature curvature_k0 + curvature_k1 s)")
 
-    name = values["obstacle.scene_file"]
-    if values["model"] != "elastica":
-        raise ParameterError("obstacle.type = 'scene' needs model 'elastica' (the rigid model has "
-                             "one obstacle and one contact)")
+
+def _scene_text(values: Mapping[str, Any], recorded: Optional[str]) -> str:
+    """Return the text of obstacle.scene_file (``recorded``: a log's record of it, if any)."""
     if isinstance(recorded, str):
-        text = recorded
-    else:
-        path = resolve_scene_file(name)
-        try:
-            with open(path, encoding="utf-8") as stream:
-                text = stream.read()
-        except (OSError, UnicodeDecodeError) as exc:
-            reason = getattr(exc, "strerror", None) or str(exc)
-            raise ParameterError(f"obstacle.scene_file = {name!r}: cannot read {path!r}: "
-                                 f"{reason}") from None
-    length = values["whisker.length"]
+        return recorded
+    name = values["obstacle.scene_file"]
+    path = resolve_scene_file(name)
+    try:
+        with open(path, encoding="utf-8") as stream:
+            return stream.read()
+    except (OSError, UnicodeDecodeError) as exc:
+        reason = getattr(exc, "strerror", None) or str(exc)
+        raise ParameterError(f"obstacle.scene_file = {name!r}: cannot read {path!r}: "
+                             f"{reason}") from None
+
+
+def _load_scene(loader, values: Mapping[str, Any], text: str):
+    """Read a scene's text with ``loader`` in metres; errors name obstacle.scene_file."""
     try:
         # YAML text (a path never reaches here): the file's lines, or a log's record of them
-        scene = load_scene(text if "\n" in text else text + "\n", length_scale=length)
+        return loader(text if "\n" in text else text + "\n",
+                      length_scale=values["whisker.length"])
     except ParameterError as exc:
         reason = str(exc)
         if reason.startswith("scene text: "):
             reason = reason[len("scene text: "):]
-        raise ParameterError(f"obstacle.scene_file = {name!r}: {reason}") from None
+        raise ParameterError(f"obstacle.scene_file = {values['obstacle.scene_file']!r}: "
+                             f"{reason}") from None
+
+
+def _scene_config(values: Dict[str, Any], recorded: Optional[str]) -> WhiskerConfig:
+    """Build the configuration of obstacle.type = scene (``recorded``: a log's scene text)."""
+    from ..scan.scene_file import load_scene
+
+    if values["model"] != "elastica":
+        raise ParameterError("obstacle.type = 'scene' needs model 'elastica' (the rigid model has "
+                             "one obstacle and one contact)")
+    text = _scene_text(values, recorded)
+    scene = _load_scene(load_scene, values, text)
     shape = whisker_shape(values)
     friction = tuple(scene.mu_of(i) for i in range(len(scene)))
-    units = Units.elastica(length, base_stiffness(values))
+    units = Units.elastica(values["whisker.length"], base_stiffness(values))
     single = scene.single_profile() if not any(friction) else None
     # one profile or peg without friction: the single-contact problem, solved as for pegs and
     # profiles (identical numbers); otherwise the scene tracker (its model: the general one)
     model = whisker_model(shape, single) if single is not None else GeneralWhiskerModel(shape)
     return WhiskerConfig(values, single, model, units, scene, text, friction, shape)
+
+
+def _rod3d_config(values: Dict[str, Any], recorded: Optional[str]) -> WhiskerConfig:
+    """Build the configuration of model = rod3d (``recorded``: a log's scene text)."""
+    from ..scan.scene_file import load_scene3d
+
+    if values["obstacle.type"] != SCENE:
+        raise ParameterError(
+            f"model = 'rod3d' needs obstacle.type 'scene' (it is {values['obstacle.type']!r}): "
+            "the 3D whisker's obstacles come from a scene file in metres (obstacle.scene_file: "
+            "spheres, cylinders, planes, and every planar type as a prism along z)")
+    if values["noise.enabled"]:
+        raise ParameterError("noise.enabled = True is not allowed with model 'rod3d': the "
+                             "sensor-noise model is planar (force x, y and torque z)")
+    ei = base_stiffness(values)
+    shape = rod_shape(values, ei)
+    text = _scene_text(values, recorded)
+    scene = _load_scene(load_scene3d, values, text)
+    units = Units.elastica(values["whisker.length"], ei)
+    return WhiskerConfig(values, None, None, units, scene_text=text, scene3d=scene,
+                         rod_shape=shape)
+
+
+def rod_shape(values: Mapping[str, Any], bending_stiffness: float) -> RodShape:
+    """
+    Return the 3D whisker's shape in whisker lengths from the node's parameters (SI).
+
+    Parameters
+    ----------
+    values : mapping of str to object
+        Validated parameter values (SI): ``whisker.taper``, ``whisker.curvature_k0``,
+        ``whisker.curvature_k1``, ``whisker.parabola``, ``whisker.poisson`` and
+        ``whisker.torsional_stiffness``.
+    bending_stiffness : float
+        EI at the base [N m^2] (:func:`base_stiffness`).
+
+    Returns
+    -------
+    RodShape
+        Taper, k0 L and k1 L^2 or the parabola's A L, and the Poisson ratio (from
+        ``whisker.torsional_stiffness`` GJ > 0: nu = EI / GJ - 1).
+
+    Raises
+    ------
+    ParameterError
+        One line naming the parameters: poisson and torsional_stiffness both given, nu out of
+        [0, 0.5], parabola together with a curvature, or a shape out of the core's range.
+
+    """
+    length = values["whisker.length"]
+    nu, gj = values["whisker.poisson"], values["whisker.torsional_stiffness"]
+    if gj > 0.0:
+        if nu != SPECS["whisker.poisson"].default:
+            raise ParameterError(
+                f"whisker.torsional_stiffness = {gj!r} N m^2 and whisker.poisson = {nu!r} both "
+                "set the torsional stiffness (nu = EI/GJ - 1): give one of the two, not both")
+        nu = bending_stiffness / gj - 1.0
+        if -NU_TOLERANCE <= nu < 0.0 or 0.5 < nu <= 0.5 + NU_TOLERANCE:
+            nu = min(max(nu, 0.0), 0.5)  # rounding of EI / GJ at the ends of the range
+        if not 0.0 <= nu <= 0.5:
+            raise ParameterError(
+                f"whisker.torsional_stiffness = {gj!r} N m^2 gives nu = EI/GJ - 1 = {nu!r} with "
+                f"EI = {bending_stiffness!r} N m^2: nu must be in [0, 0.5], GJ in [EI/1.5, EI] = "
+                f"[{bending_stiffness / 1.5!r}, {bending_stiffness!r}] N m^2")
+    k0, k1, a = (values["whisker.curvature_k0"], values["whisker.curvature_k1"],
+                 values["whisker.parabola"])
+    if a != 0.0 and (k0 != 0.0 or k1 != 0.0):
+        raise ParameterError(
+            f"whisker.parabola = {a!r} 1/m and whisker.curvature_k0 = {k0!r} 1/m, "
+            f"whisker.curvature_k1 = {k1!r} 1/m^2 both give the intrinsic shape: give the "
+            "parabola or the curvature, not both")
+    try:
+        return RodShape(values["whisker.taper"], k0 * length, k1 * length**2,
+                        parabola=a * length if a != 0.0 else None, poisson=nu)
+    except ParameterError as exc:
+        if a != 0.0:
+            what = f"whisker.parabola = {a!r} 1/m (A L = {a * length!r})"
+        else:
+            what = (f"whisker.curvature_k0 = {k0!r} 1/m, whisker.curvature_k1 = {k1!r} 1/m^2 "
+                    f"(k0 L = {k0 * length!r}, k1 L^2 = {k1 * length**2!r})")
+        raise ParameterError(f"{what}: {exc}") from None
 
 
 def base_stiffness(values: Mapping[str, Any]) -> float:
@@ -617,6 +777,7 @@ def build_contour_config(values: Mapping[str, Any]) -> ContourConfig:
                          whisker_shape(values))
 
 
-__all__ = ["PARAMETERS", "SPECS", "SCENE", "SCENE_TEXT", "resolve_scene_file",
+__all__ = ["PARAMETERS", "SPECS", "SCENE", "SCENE_TEXT", "ROD3D", "resolve_scene_file",
+           "rod_shape",
            "CONTOUR_PARAMETERS", "CONTOUR_SPECS", "WhiskerConfig",
            "ContourConfig", "build_config", "build_contour_config", "ParameterError"]

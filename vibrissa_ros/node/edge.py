@@ -5,7 +5,9 @@ No rclpy here: plain numbers and duck-typed message fields in, plain numbers out
 testable without ROS. Every node and tool converts through this module and nowhere else.
 
 * Stamps: ``builtin_interfaces/Time`` <-> integer nanoseconds.
-* Quaternions: a pose's (x, y, z, w) -> yaw, with the unit and planarity checks of the input.
+* Quaternions: a pose's (x, y, z, w) -> yaw, with the unit and planarity checks of the input;
+  for the 3D whisker (model rod3d) -> the core's scalar-first (w, x, y, z), any orientation,
+  composed with the whisker's roll about its own axis.
 * Frames: the world frame (``world_frame``) holds the obstacle and the poses; the base frame
   (``base_frame``, REP 103) has its origin at the whisker's foot, +x along the undeformed whisker
   and z out of the plane of bending. Its yaw in the world is the core's heading; the paper's set-up
@@ -23,7 +25,11 @@ import math
 from dataclasses import dataclass
 from typing import Optional, Sequence, Tuple
 
+import numpy as np
+
 from ..core.errors import VibrissaError
+from ..core.rod3d import BasePose, RodEvent, RodState
+from ..core.rod3d.pose import quat_about, quat_multiply
 from ..core.state import FootPose, WhiskerState
 
 NS_PER_S = 1_000_000_000
@@ -104,6 +110,88 @@ def planar_pose(
             f"{angle_tolerance} rad)",
         )
     return float(position[0]), float(position[1]), yaw
+
+
+def spatial_pose(position: Sequence[float], quaternion: Sequence[float]
+                 ) -> Tuple[Tuple[float, float, float], Tuple[float, float, float, float]]:
+    """
+    Return a 6-DoF pose checked: position [m] and the unit quaternion, scalar first.
+
+    Parameters
+    ----------
+    position : sequence of float
+        (x, y, z) [m].
+    quaternion : sequence of float
+        (x, y, z, w), ROS order (geometry_msgs/Quaternion).
+
+    Returns
+    -------
+    position : tuple of float
+        (x, y, z) [m].
+    quaternion : tuple of float
+        (w, x, y, z), the core's order, normalised (its norm was within
+        :data:`QUATERNION_NORM_TOLERANCE` of 1).
+
+    Raises
+    ------
+    BadInput
+        ``not_finite`` (a NaN or infinite value) or ``quaternion_not_unit`` (``|norm - 1|`` greater
+        than :data:`QUATERNION_NORM_TOLERANCE`).
+
+    """
+    values = tuple(position) + tuple(quaternion)
+    if not all(math.isfinite(v) for v in values):
+        raise BadInput("not_finite", f"pose has a non-finite value: position {tuple(position)}, "
+                       f"orientation {tuple(quaternion)}")
+    qx, qy, qz, qw = quaternion
+    norm = math.sqrt(qx * qx + qy * qy + qz * qz + qw * qw)
+    if not abs(norm - 1.0) <= QUATERNION_NORM_TOLERANCE:  # also catches an overflowing norm
+        raise BadInput(
+            "quaternion_not_unit",
+            f"orientation quaternion (x, y, z, w) = {tuple(quaternion)} has norm {norm!r}; a "
+            f"unit quaternion is required (|norm - 1| <= {QUATERNION_NORM_TOLERANCE})",
+        )
+    x, y, z = (float(v) for v in position)
+    return (x, y, z), (qw / norm, qx / norm, qy / norm, qz / norm)
+
+
+def roll_quaternion(roll: float) -> np.ndarray:
+    """
+    Return the rotation by ``roll`` about the whisker's own axis (base frame +x), scalar first.
+
+    Parameters
+    ----------
+    roll : float
+        The angle [rad], right-handed about +x.
+
+    Returns
+    -------
+    numpy.ndarray
+        (w, x, y, z) (4,).
+
+    """
+    return quat_about((1.0, 0.0, 0.0), float(roll))
+
+
+def foot_quaternion(pose: BasePose, roll: float) -> Tuple[float, float, float, float]:
+    """
+    Return the foot's orientation (x, y, z, w) of a core pose: its roll about +x undone.
+
+    Parameters
+    ----------
+    pose : BasePose
+        The core's base pose (the foot's orientation times the roll).
+    roll : float
+        The whisker's roll [rad].
+
+    Returns
+    -------
+    tuple of float
+        (x, y, z, w), ROS order.
+
+    """
+    w, x, y, z = quat_multiply(pose.q, roll_quaternion(-roll))
+    return float(x), float(y), float(z), float(w)
 
 
 def pose_of(msg, z_tolerance: float, angle_tolerance: float) -> Tuple[float, float, float]:
@@ -201,6 +289,39 @@ class Units:
                            f"(L = {self.length!r} m)")
         return FootPose(fx, fy, yaw)
 
+    def base_pose(self, position: Sequence[float], quaternion: Sequence[float],
+                  roll: float = 0.0) -> BasePose:
+        """
+        Return a checked 6-DoF pose -> the 3D whisker's base pose (lengths in L).
+
+        Parameters
+        ----------
+        position : sequence of float
+            (x, y, z) [m] in the world frame.
+        quaternion : sequence of float
+            (w, x, y, z), unit (:func:`spatial_pose`): the foot's orientation.
+        roll : float, optional
+            The whisker's roll about its own axis [rad]: the core's orientation is
+            q_foot * rot_x(roll).
+
+        Returns
+        -------
+        BasePose
+            Position / L and the composed quaternion.
+
+        Raises
+        ------
+        BadInput
+            ``not_finite`` when the position overflows in whisker lengths.
+
+        """
+        p = tuple(float(v) / self.length for v in position)
+        if not all(math.isfinite(v) for v in p):
+            raise BadInput("not_finite", f"pose {tuple(position)} m is not finite in whisker "
+                           f"lengths (L = {self.length!r} m)")
+        q = quat_multiply(np.asarray(quaternion, dtype=float), roll_quaternion(roll))
+        return BasePose(p, tuple(float(v) for v in q))
+
 
 @dataclass(frozen=True)
 class SensorReading:
@@ -245,6 +366,108 @@ def sensor_reading(state: WhiskerState, units: Units) -> SensorReading:
     )
 
 
+@dataclass(frozen=True)
+class RodReading:
+    """
+    The 3D whisker's sensor reading and contact state, in SI.
+
+    The parameters are the dataclass's fields, kept as attributes of the same names.
+
+    Parameters
+    ----------
+    phase : int
+        0 free, 1 the contact nearest the base is on the side, 2 it is at the tip.
+    force_base : tuple of float
+        (x, y, z) [N], base frame: the force the whisker applies to its base (the follicle
+        sensor's reading), equal to the total contact force on the whisker.
+    torque_base : tuple of float
+        (x, y, z) [N m], base frame: the moment the whisker applies to its base, the contact
+        forces' moment about the base point.
+    force_world : tuple of float
+        The total contact force on the whisker [N], world frame.
+    force_magnitude : float
+        Its magnitude [N].
+    contact_world : tuple of float or None
+        The contact point nearest the base [m], world frame; None when free.
+    s1 : float or None
+        Its arc length [m]; None when free.
+
+    """
+
+    phase: int
+    force_base: Tuple[float, float, float]
+    torque_base: Tuple[float, float, float]
+    force_world: Tuple[float, float, float]
+    force_magnitude: float
+    contact_world: Optional[Tuple[float, float, float]]
+    s1: Optional[float]
+
+    @property
+    def wrench(self) -> Tuple[float, float, float, float, float, float]:
+        """Return (force x, y, z [N], torque x, y, z [N m]), base frame."""
+        return self.force_base + self.torque_base
+
+
+def rod_phase(state: RodState) -> int:
+    """
+    Return the ``~/phase`` code of a 3D state: 0 free, 1 side or 2 tip contact nearest the base.
+
+    Parameters
+    ----------
+    state : RodState
+        The 3D whisker's state.
+
+    Returns
+    -------
+    int
+        The code.
+
+    """
+    c = state.nearest
+    if c is None:
+        return 0
+    return 2 if c.kind == "tip" else 1
+
+
+def rod_reading(state: RodState, units: Units, roll: float = 0.0) -> RodReading:
+    """
+    Convert a 3D state (dimensionless, world frame) to SI and the base frame.
+
+    Parameters
+    ----------
+    state : RodState
+        The 3D whisker's state.
+    units : Units
+        The elastica's units: force EI/L^2, moment EI/L.
+    roll : float, optional
+        The whisker's roll [rad] about its own axis relative to the base frame: the core's base
+        frame (``state.base_wrench()``'s) is the base frame rotated by it about +x.
+
+    Returns
+    -------
+    RodReading
+        rot_x(roll) ``state.base_wrench()`` times EI/L^2 and EI/L (the base frame: that of the
+        foot pose), and the contact nearest the base.
+
+    """
+    force, moment = state.base_wrench()
+    if roll != 0.0:
+        c, s = math.cos(roll), math.sin(roll)
+        rx = np.array(((1.0, 0.0, 0.0), (0.0, c, -s), (0.0, s, c)))
+        force, moment = rx @ force, rx @ moment
+    world = tuple(float(v) * units.force for v in state.force)
+    c = state.nearest
+    return RodReading(
+        phase=rod_phase(state),
+        force_base=tuple(float(v) * units.force for v in force),
+        torque_base=tuple(float(v) * units.moment for v in moment),
+        force_world=world,
+        force_magnitude=math.sqrt(sum(v * v for v in world)),
+        contact_world=None if c is None else tuple(float(v) * units.length for v in c.point),
+        s1=None if c is None else c.s * units.length,
+    )
+
+
 def wrench_to_core(yaw: float, force_x: float, force_y: float, torque_z: float,
                    units: Units) -> Tuple[float, float, float]:
     """Return a base-frame SI wrench -> the core's (fx, fy, m0): world frame, dimensionless."""
@@ -266,7 +489,7 @@ class ContactRecord:
 
     ``s`` [m] is the whisker's arc length at the contact; ``kind`` and ``state`` are the codes of
     :data:`CONTACT_KINDS` and :data:`CONTACT_STATES`; ``obstacle`` the obstacle's index (0 for the
-    one obstacle of a profile or peg).
+    one obstacle of a profile or peg); ``z`` [m] and ``fz`` [N] are 0 but for the 3D whisker.
     """
 
     x: float
@@ -277,6 +500,8 @@ class ContactRecord:
     kind: int
     state: int
     obstacle: int
+    z: float = 0.0
+    fz: float = 0.0
 
 
 def contact_records(state, units: Units) -> Tuple[ContactRecord, ...]:
@@ -288,6 +513,11 @@ def contact_records(state, units: Units) -> Tuple[ContactRecord, ...]:
     """
     contacts = getattr(state, "contacts", None)
     L, F = units.length, units.force
+    if isinstance(state, RodState):  # the 3D whisker: frictionless, side or tip
+        return tuple(ContactRecord(c.point[0] * L, c.point[1] * L, c.force[0] * F,
+                                   c.force[1] * F, c.s * L, CONTACT_KINDS[c.kind],
+                                   CONTACT_STATES["slip"], int(c.obstacle), c.point[2] * L,
+                                   c.force[2] * F) for c in contacts)
     if contacts is not None:
         return tuple(ContactRecord(c.x * L, c.y * L, c.fx * F, c.fy * F, c.s * L,
                                    CONTACT_KINDS[c.report_kind], CONTACT_STATES[c.state],
@@ -314,7 +544,8 @@ class EventRecord:
 
     A single-contact event has ``from_phase`` and ``to_phase``; a scene event has instead
     ``obstacle`` (its index), ``contact`` (side, corner, tip or tip_corner) and the contact's
-    arc length ``s`` [m] where known.
+    arc length ``s`` [m] where known. An event of the 3D whisker is a scene event with the
+    foot's ``z`` [m] and ``orientation`` (x, y, z, w) besides (``yaw``: its heading).
     """
 
     kind: str
@@ -326,14 +557,36 @@ class EventRecord:
     obstacle: Optional[int] = None
     contact: Optional[str] = None
     s: Optional[float] = None
+    z: Optional[float] = None
+    orientation: Optional[Tuple[float, float, float, float]] = None
 
     @property
     def scene(self) -> bool:
         return self.from_phase is None
 
 
-def event_record(event, units: Units) -> EventRecord:
-    """Return the SI payload of a core event (a tracker's Event or a scene's SceneEvent)."""
+def _rod_contact_kind(event: RodEvent) -> Optional[str]:
+    """Return the kind of the contact a 3D event concerns (None: a snap or a reset)."""
+    if event.kind in ("tip", "tangential"):
+        return "tip" if event.kind == "tip" else "side"
+    if event.kind in ("touch", "release") and event.s is not None:
+        return "tip" if event.s >= 1.0 else "side"
+    return None
+
+
+def event_record(event, units: Units, roll: float = 0.0) -> EventRecord:
+    """
+    Return the SI payload of a core event (an Event, a SceneEvent or a 3D RodEvent).
+
+    ``roll`` [rad] is the 3D whisker's roll, undone to give the foot's orientation.
+    """
+    if isinstance(event, RodEvent):
+        (x, y, z), L = event.pose.position, units.length
+        return EventRecord(event.kind, None, None, x * L, y * L, event.pose.heading,
+                           None if event.obstacle is None else int(event.obstacle),
+                           _rod_contact_kind(event),
+                           None if event.s is None else float(event.s) * L, z * L,
+                           foot_quaternion(event.pose, roll))
     x, y, yaw = event.pose.x * units.length, event.pose.y * units.length, event.pose.heading
     if hasattr(event, "from_phase"):
         return EventRecord(event.kind, int(event.from_phase), int(event.to_phase), x, y, yaw)
@@ -349,12 +602,14 @@ def encode_event(record: EventRecord) -> str:
 
     ``{"kind", "from_phase", "to_phase", "x", "y", "yaw"}`` for the single-contact tracker,
     ``{"kind", "x", "y", "yaw", "obstacle", "contact", "s"}`` for a scene (``obstacle`` and ``s``
-    only where known).
+    only where known); the 3D whisker's add ``"z"`` and ``"orientation"`` ([x, y, z, w]).
     """
     data = {"kind": record.kind}
     if not record.scene:
         data.update(from_phase=record.from_phase, to_phase=record.to_phase)
     data.update(x=record.x, y=record.y, yaw=record.yaw)
+    if record.z is not None:
+        data.update(z=record.z, orientation=list(record.orientation))
     if record.scene:
         if record.obstacle is not None:
             data["obstacle"] = record.obstacle
@@ -374,10 +629,17 @@ def decode_event(text: str) -> EventRecord:
                                  int(data["to_phase"]), *where)
             kinds = EVENT_KINDS
         else:
-            obstacle, s = data.get("obstacle"), data.get("s")
+            obstacle, s, z = data.get("obstacle"), data.get("s"), data.get("z")
+            orientation = None
+            if z is not None:
+                z = float(z)
+                orientation = tuple(float(v) for v in data["orientation"])
+                if len(orientation) != 4:
+                    raise ValueError("an orientation has 4 values (x, y, z, w)")
             record = EventRecord(str(data["kind"]), None, None, *where,
                                  None if obstacle is None else int(obstacle),
-                                 str(data["contact"]) or None, None if s is None else float(s))
+                                 str(data["contact"]) or None, None if s is None else float(s),
+                                 z, orientation)
             kinds = SCENE_EVENT_KINDS
     except (ValueError, KeyError, TypeError, AttributeError) as exc:
         raise BadInput("bad_event", f"not an event payload ({exc}): {text!r}") from None

@@ -14,10 +14,12 @@ from typing import List, Optional, Sequence, Tuple
 import numpy as np
 
 from ..core.errors import ConvergenceError, InvalidPoseError, VibrissaError
+from ..core.rod3d import BasePose, RodEvent, RodTracker
 from ..core.scenes.tracker import SceneEvent, SceneTracker
 from ..core.state import Event, FootPose, Phase, WhiskerState
 from ..core.exact.tracker import MAX_POSE_MAGNITUDE, QuasistaticTracker
-from .edge import BadInput, SensorReading, planar_pose, sensor_reading
+from .edge import (BadInput, SensorReading, planar_pose, rod_phase, rod_reading, sensor_reading,
+                   spatial_pose)
 from .config import WhiskerConfig
 from .noise import NoiseSpec, SensorNoise
 
@@ -64,7 +66,8 @@ class PosePipeline:
 
     A step that cannot be followed re-places the whisker when it is free at the new pose (the
     core's recovery: an event ``reset``); :meth:`request_reset` makes the next accepted pose
-    place it, with an event ``reset`` too.
+    place it, with an event ``reset`` too. With ``model`` rod3d the 3D whisker
+    (:class:`~vibrissa_ros.core.rod3d.RodTracker`) takes any 6-DoF pose.
 
     Parameters
     ----------
@@ -91,7 +94,12 @@ class PosePipeline:
         """
         if self._reset_from is None:
             state = self.state
-            self._reset_from = Phase.FREE if state is None else Phase(int(state.phase))
+            if state is None:
+                self._reset_from = Phase.FREE
+            elif self.config.rod3d:
+                self._reset_from = Phase(rod_phase(state))
+            else:
+                self._reset_from = Phase(int(state.phase))
         self.tracker = None
 
     def reconfigure(self, config: WhiskerConfig, reset: bool) -> None:
@@ -106,13 +114,18 @@ class PosePipeline:
             self.tracker = None
         self.noise = SensorNoise(NoiseSpec.from_parameters(config.values))
 
-    def reading(self, state: WhiskerState) -> Tuple[SensorReading, Tuple[float, float, float]]:
+    def reading(self, state: WhiskerState) -> Tuple[SensorReading, Tuple[float, ...]]:
         """
         Return the exact reading of a state (SI, base frame) and the wrench the sensor reports.
 
         The reported wrench has the noise model applied, if enabled: call once per accepted
-        pose, in order.
+        pose, in order. Planar: (force x, force y, torque z); the 3D whisker (a
+        :class:`~vibrissa_ros.node.edge.RodReading`, no noise model): all six components,
+        (force x, y, z, torque x, y, z).
         """
+        if self.config.rod3d:
+            r = rod_reading(state, self.config.units, self.config.roll)
+            return r, r.wrench
         r = sensor_reading(state, self.config.units)
         return r, self.noise.apply(r.force_base[0], r.force_base[1], r.torque_z)
 
@@ -131,7 +144,9 @@ class PosePipeline:
         Check a pose and take the quasistatic step to it.
 
         A scene with several obstacles or friction steps the
-        :class:`~vibrissa_ros.core.scenes.tracker.SceneTracker` (its states and events instead).
+        :class:`~vibrissa_ros.core.scenes.tracker.SceneTracker` (its states and events instead);
+        the 3D whisker (``model`` rod3d) takes any 6-DoF pose (no planarity check) and steps the
+        :class:`~vibrissa_ros.core.rod3d.RodTracker`.
 
         Raises :class:`BadInput` (with a ``reason``) or another :class:`VibrissaError`; the
         pipeline then keeps its state.
@@ -143,13 +158,10 @@ class PosePipeline:
         if self.last_stamp_ns is not None and stamp_ns < self.last_stamp_ns:
             raise BadInput("stamp_backwards", f"stamp {stamp_ns} ns is older than the last "
                            f"accepted {self.last_stamp_ns} ns")
-        x, y, yaw = planar_pose(position, quaternion, cfg.values["input.z_tolerance"],
-                                cfg.values["input.angle_tolerance"])
-        pose = cfg.units.foot_pose(x, y, yaw)
-        if max(abs(pose.x), abs(pose.y)) > MAX_POSE_MAGNITUDE:
-            limit = MAX_POSE_MAGNITUDE * cfg.units.length
-            raise BadInput("out_of_range", f"pose ({x!r}, {y!r}) m is farther than the model "
-                           f"allows from the world origin (|x|, |y| <= {limit:g} m)")
+        if cfg.rod3d:
+            pose = self._base_pose(position, quaternion)
+        else:
+            pose = self._foot_pose(position, quaternion)
         if self.tracker is None:
             tracker = self._place(pose)
             state, events = tracker.state, self._reset_events(pose)
@@ -162,10 +174,35 @@ class PosePipeline:
         self.last_stamp_ns = stamp_ns
         return state, events
 
+    def _base_pose(self, position, quaternion) -> BasePose:
+        """Return the 3D whisker's base pose of a checked 6-DoF pose (any orientation)."""
+        cfg = self.config
+        (x, y, z), q = spatial_pose(position, quaternion)
+        pose = cfg.units.base_pose((x, y, z), q, cfg.roll)
+        if max(abs(v) for v in pose.position) > MAX_POSE_MAGNITUDE:
+            limit = MAX_POSE_MAGNITUDE * cfg.units.length
+            raise BadInput("out_of_range", f"pose ({x!r}, {y!r}, {z!r}) m is farther than the "
+                           f"model allows from the world origin (|x|, |y|, |z| <= {limit:g} m)")
+        return pose
+
+    def _foot_pose(self, position, quaternion) -> FootPose:
+        """Return the planar foot pose of a pose that must lie in the plane."""
+        cfg = self.config
+        x, y, yaw = planar_pose(position, quaternion, cfg.values["input.z_tolerance"],
+                                cfg.values["input.angle_tolerance"])
+        pose = cfg.units.foot_pose(x, y, yaw)
+        if max(abs(pose.x), abs(pose.y)) > MAX_POSE_MAGNITUDE:
+            limit = MAX_POSE_MAGNITUDE * cfg.units.length
+            raise BadInput("out_of_range", f"pose ({x!r}, {y!r}) m is farther than the model "
+                           f"allows from the world origin (|x|, |y| <= {limit:g} m)")
+        return pose
+
     def _reset_events(self, pose: FootPose) -> tuple:
         """Return the event of a requested reset at the pose that places the whisker, if any."""
         if self._reset_from is None:
             return ()
+        if self.config.rod3d:
+            return (RodEvent("reset", pose, reason=RESET_ON_REQUEST),)
         if self.config.multi_contact:
             return (SceneEvent("reset", pose, reason=RESET_ON_REQUEST),)
         return (Event("reset", self._reset_from, Phase.FREE, pose, None, RESET_ON_REQUEST),)
@@ -173,6 +210,8 @@ class PosePipeline:
     def _place(self, pose):
         """Return a new tracker with the whisker unloaded at ``pose`` (it must be free there)."""
         cfg = self.config
+        if cfg.rod3d:
+            return RodTracker(cfg.scene3d, pose, shape=cfg.rod_shape, recover=True)
         if cfg.multi_contact:
             return SceneTracker(list(cfg.scene), pose, shape=cfg.shape, friction=cfg.friction)
         return QuasistaticTracker(cfg.profile, pose, model=cfg.fresh_model())

@@ -7,6 +7,7 @@ builder converts to ``float`` explicitly, as ROS_PYTHON_CHECK_FIELDS requires.
 
 from __future__ import annotations
 
+import copy
 import math
 from typing import Iterable, Mapping, Optional, Sequence, Tuple
 
@@ -20,6 +21,8 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from ..core.errors import VibrissaError
 from ..core.profiles import Peg
+from ..core.rod3d import Cylinder, Plane, Sphere
+from ..core.rod3d.pose import quat_from_matrix
 from ..node.edge import ContactRecord, EventRecord, encode_event, set_stamp, yaw_quaternion
 
 OBSTACLE_COLOR = (0.85, 0.35, 0.1, 1.0)
@@ -39,27 +42,47 @@ def pose_stamped(x: float, y: float, yaw: float, stamp_ns: int, frame: str = "wo
 
 def fill_wrench(msg: WrenchStamped, stamp, frame: str, force: Tuple[float, float],
                 torque_z: float) -> WrenchStamped:
-    """Write a planar wrench [N, N m] into ``msg`` (reused: building one costs a step's time)."""
+    """
+    Write a planar wrench [N, N m] into ``msg`` (reused: building one costs a step's time).
+
+    Force z and torque x, y are 0 (a message that carried a 3D wrench is cleared).
+    """
     msg.header.stamp = stamp
     msg.header.frame_id = frame
     msg.wrench.force.x, msg.wrench.force.y = float(force[0]), float(force[1])
     msg.wrench.torque.z = float(torque_z)
+    msg.wrench.force.z = msg.wrench.torque.x = msg.wrench.torque.y = 0.0
     return msg
 
 
-def vector_stamped(stamp, frame: str, xy: Tuple[float, float]) -> Vector3Stamped:
-    """Return a planar vector (z = 0) in ``frame``."""
+def fill_wrench6(msg: WrenchStamped, stamp, frame: str, force: Sequence[float],
+                 torque: Sequence[float]) -> WrenchStamped:
+    """Write a full wrench, force (x, y, z) [N] and torque (x, y, z) [N m], into ``msg``."""
+    msg.header.stamp = stamp
+    msg.header.frame_id = frame
+    f, t = msg.wrench.force, msg.wrench.torque
+    f.x, f.y, f.z = float(force[0]), float(force[1]), float(force[2])
+    t.x, t.y, t.z = float(torque[0]), float(torque[1]), float(torque[2])
+    return msg
+
+
+def vector_stamped(stamp, frame: str, xy: Sequence[float]) -> Vector3Stamped:
+    """Return a vector (x, y) (z = 0: planar) or (x, y, z) in ``frame``."""
     msg = Vector3Stamped()
     msg.header.stamp, msg.header.frame_id = stamp, frame
     msg.vector.x, msg.vector.y = float(xy[0]), float(xy[1])
+    if len(xy) > 2:
+        msg.vector.z = float(xy[2])
     return msg
 
 
-def point_stamped(stamp, frame: str, xy: Tuple[float, float]) -> PointStamped:
-    """Return a planar point (z = 0) in ``frame``."""
+def point_stamped(stamp, frame: str, xy: Sequence[float]) -> PointStamped:
+    """Return a point (x, y) (z = 0: planar) or (x, y, z) in ``frame``."""
     msg = PointStamped()
     msg.header.stamp, msg.header.frame_id = stamp, frame
     msg.point.x, msg.point.y = float(xy[0]), float(xy[1])
+    if len(xy) > 2:
+        msg.point.z = float(xy[2])
     return msg
 
 
@@ -88,6 +111,27 @@ def centerline_path(stamp, frame: str, points: np.ndarray) -> Path:
         pose.header = path.header
         pose.pose.position.x, pose.pose.position.y = float(x), float(y)
         _, _, pose.pose.orientation.z, pose.pose.orientation.w = yaw_quaternion(float(yaw))
+        path.poses.append(pose)
+    return path
+
+
+def centerline_path3d(stamp, frame: str, points: np.ndarray, frames: np.ndarray) -> Path:
+    """
+    Return the 3D whisker's shape: points (n, 3) [m], foot to tip, with its body frames.
+
+    ``frames`` (n, 3, 3) are the rotations whose columns are (d1, d2, d3): each pose's x axis is
+    the tangent, its y axis the direction the intrinsic curvature bends toward.
+    """
+    path = Path()
+    path.header.stamp, path.header.frame_id = stamp, frame
+    for (x, y, z), R in zip(points, frames):
+        pose = PoseStamped()
+        pose.header = path.header
+        pose.pose.position.x, pose.pose.position.y, pose.pose.position.z = (
+            float(x), float(y), float(z))
+        qw, qx, qy, qz = quat_from_matrix(R)
+        o = pose.pose.orientation
+        o.x, o.y, o.z, o.w = float(qx), float(qy), float(qz), float(qw)
         path.poses.append(pose)
     return path
 
@@ -140,43 +184,125 @@ def scene_markers(scene, length: float, frame: str, stamp,
     ``length`` [m] is the whisker's length (scene lengths are in L).
     """
     window = scene.window(margin=2.0) if window is None else window
+    array = _cleared(frame, stamp)
+    corners = []
+    for index, ob in enumerate(scene):
+        array.markers.append(_outline(ob, index + 1, length, frame, stamp, window, n))
+        corners.extend((v.x, v.y) for v in ob.vertices)
+    array.markers.append(_corners(corners, len(scene) + 1, length, frame, stamp))
+    return array
+
+
+def _cleared(frame: str, stamp) -> MarkerArray:
+    """Return a MarkerArray that starts with a DELETEALL of the namespace ``scene``."""
     array = MarkerArray()
     clear = Marker()
     clear.header.frame_id, clear.header.stamp = frame, stamp
     clear.ns, clear.id, clear.action = "scene", 0, Marker.DELETEALL
     array.markers.append(clear)
-    corners = []
-    for index, ob in enumerate(scene):
-        marker = Marker()
-        marker.header.frame_id, marker.header.stamp = frame, stamp
-        marker.ns, marker.id = "scene", index + 1
-        marker.type, marker.action = Marker.LINE_STRIP, Marker.ADD
-        marker.pose.orientation.w = 1.0
-        marker.scale.x = 0.01 * length
-        marker.color.r, marker.color.g, marker.color.b, marker.color.a = OBSTACLE_COLOR
-        marker.text = ob.name
-        if getattr(ob, "is_point", False):
-            t = np.linspace(0.0, 2.0 * math.pi, 33)
-            lines = [np.column_stack((ob.x + 0.005 * np.cos(t), ob.y + 0.005 * np.sin(t)))]
-        else:
-            lines = list(ob.boundary_lines(n, window))
-        # one strip per obstacle: the pieces of an infinite boundary cut by the window are
-        # joined (the strip may then cross the window's edge once between two pieces)
-        for line in lines:
-            for x, y in line * length:
-                marker.points.append(Point(x=float(x), y=float(y)))
-        array.markers.append(marker)
-        corners.extend((v.x, v.y) for v in ob.vertices)
-    dots = Marker()
-    dots.header.frame_id, dots.header.stamp = frame, stamp
-    dots.ns, dots.id = "scene", len(scene) + 1
-    dots.type, dots.action = Marker.POINTS, Marker.ADD
-    dots.pose.orientation.w = 1.0
+    return array
+
+
+def _scene_marker(kind: int, marker_id: int, name: str, frame: str, stamp) -> Marker:
+    marker = Marker()
+    marker.header.frame_id, marker.header.stamp = frame, stamp
+    marker.ns, marker.id = "scene", marker_id
+    marker.type, marker.action = kind, Marker.ADD
+    marker.pose.orientation.w = 1.0
+    marker.color.r, marker.color.g, marker.color.b, marker.color.a = OBSTACLE_COLOR
+    marker.text = name
+    return marker
+
+
+def _outline(ob, marker_id: int, length: float, frame: str, stamp, window, n: int) -> Marker:
+    """Return a planar obstacle's outline (LINE_STRIP, z = 0) [m]; ``ob`` in L."""
+    marker = _scene_marker(Marker.LINE_STRIP, marker_id, ob.name, frame, stamp)
+    marker.scale.x = 0.01 * length
+    if getattr(ob, "is_point", False):
+        t = np.linspace(0.0, 2.0 * math.pi, 33)
+        lines = [np.column_stack((ob.x + 0.005 * np.cos(t), ob.y + 0.005 * np.sin(t)))]
+    else:
+        lines = list(ob.boundary_lines(n, window))
+    # one strip per obstacle: the pieces of an infinite boundary cut by the window are
+    # joined (the strip may then cross the window's edge once between two pieces)
+    for line in lines:
+        for x, y in line * length:
+            marker.points.append(Point(x=float(x), y=float(y)))
+    return marker
+
+
+def _corners(corners, marker_id: int, length: float, frame: str, stamp) -> Marker:
+    """Return the POINTS marker of corners and point pegs (x, y in L)."""
+    dots = _scene_marker(Marker.POINTS, marker_id, "", frame, stamp)
     dots.scale.x = dots.scale.y = 0.02 * length
-    dots.color.r, dots.color.g, dots.color.b, dots.color.a = OBSTACLE_COLOR
     for x, y in corners:
         dots.points.append(Point(x=float(x * length), y=float(y * length)))
-    array.markers.append(dots)
+    return dots
+
+
+def _orient_z(marker: Marker, direction) -> None:
+    """Turn a marker so that its local z axis points along the unit ``direction``."""
+    z = np.asarray(direction, dtype=float)
+    helper = np.array((1.0, 0.0, 0.0)) if abs(z[0]) < 0.9 else np.array((0.0, 1.0, 0.0))
+    x = np.cross(helper, z)
+    x /= np.linalg.norm(x)
+    qw, qx, qy, qz = quat_from_matrix(np.column_stack((x, np.cross(z, x), z)))
+    o = marker.pose.orientation
+    o.x, o.y, o.z, o.w = float(qx), float(qy), float(qz), float(qw)
+
+
+def _solid_marker(ob, marker_id: int, length: float, size: float, frame: str,
+                  stamp) -> Marker:
+    """Return a SPHERE, CYLINDER or CUBE marker of a 3D solid [m]; ``ob`` and ``size`` in L."""
+    p = np.asarray(ob.center if isinstance(ob, Sphere) else ob.point, dtype=float)
+    if isinstance(ob, Sphere):
+        marker = _scene_marker(Marker.SPHERE, marker_id, ob.name, frame, stamp)
+        marker.scale.x = marker.scale.y = marker.scale.z = float(2.0 * ob.r * length)
+    elif isinstance(ob, Cylinder):
+        marker = _scene_marker(Marker.CYLINDER, marker_id, ob.name, frame, stamp)
+        _orient_z(marker, ob.axis)
+        marker.scale.x = marker.scale.y = float(2.0 * ob.r * length)
+        marker.scale.z = float(size * length)
+    else:  # a plane: a thin slab whose top face is the surface
+        marker = _scene_marker(Marker.CUBE, marker_id, ob.name, frame, stamp)
+        _orient_z(marker, ob.normal)
+        thickness = 0.01
+        p = p - 0.5 * thickness * np.asarray(ob.normal)
+        marker.scale.x = marker.scale.y = float(size * length)
+        marker.scale.z = float(thickness * length)
+    marker.color.a = 0.6
+    marker.pose.position.x, marker.pose.position.y, marker.pose.position.z = (
+        float(v * length) for v in p)
+    return marker
+
+
+def scene3d_markers(scene, length: float, frame: str, stamp, size: float = 4.0,
+                    n: int = 200) -> MarkerArray:
+    """
+    Return every obstacle of a 3D scene as a MarkerArray [m] (latched; model rod3d).
+
+    A DELETEALL first (namespace ``scene``), then per obstacle (id = 1 + its index, ``text`` =
+    its name): a SPHERE; a CYLINDER along its axis, ``size`` whisker lengths long, centred at its
+    ``point``; a plane as a thin CUBE (``size`` L square, 0.01 L thick, its top face the surface,
+    centred below its ``point``); a prism as the planar obstacle's LINE_STRIP in z = 0 (as
+    :func:`scene_markers` draws it); then one POINTS marker of the prisms' corners.
+    ``length`` [m] is the whisker's length (the scene's lengths are in L).
+    """
+    array = _cleared(frame, stamp)
+    prisms = [ob.planar for ob in scene if not isinstance(ob, (Sphere, Cylinder, Plane))]
+    window = None
+    if prisms:
+        boxes = np.array([ob.extent() for ob in prisms])
+        window = (float(boxes[:, 0].min() - 2.0), float(boxes[:, 1].min() - 2.0),
+                  float(boxes[:, 2].max() + 2.0), float(boxes[:, 3].max() + 2.0))
+    corners = []
+    for index, ob in enumerate(scene):
+        if isinstance(ob, (Sphere, Cylinder, Plane)):
+            array.markers.append(_solid_marker(ob, index + 1, length, size, frame, stamp))
+        else:
+            array.markers.append(_outline(ob.planar, index + 1, length, frame, stamp, window, n))
+            corners.extend((v.x, v.y) for v in ob.planar.vertices)
+    array.markers.append(_corners(corners, len(scene) + 1, length, frame, stamp))
     return array
 
 
@@ -198,10 +324,17 @@ def outline_marker(array: MarkerArray) -> Marker:
     Return every LINE_STRIP of a MarkerArray as one LINE_LIST (``~/obstacle`` of a scene).
 
     Each strip's consecutive points become segments; frame, stamp, width and colour are the
-    first strip's.
+    first strip's. A 3D scene without planar outlines (only spheres, cylinders, planes): its
+    first solid's marker instead.
     """
     strips = [mk for mk in array.markers
               if mk.action == Marker.ADD and mk.type == Marker.LINE_STRIP]
+    kinds = (Marker.SPHERE, Marker.CYLINDER, Marker.CUBE)
+    solids = [mk for mk in array.markers if mk.action == Marker.ADD and mk.type in kinds]
+    if solids and not strips:  # a 3D scene of solids only: its first one
+        marker = copy.deepcopy(solids[0])
+        marker.ns, marker.id = "obstacle", 0
+        return marker
     marker = Marker()
     if strips:
         first = strips[0]
@@ -224,9 +357,11 @@ CONTACT_FIELDS = (
     ("z", PointField.FLOAT64, "<f8", 16), ("fx", PointField.FLOAT64, "<f8", 24),
     ("fy", PointField.FLOAT64, "<f8", 32), ("s", PointField.FLOAT64, "<f8", 40),
     ("kind", PointField.UINT8, "u1", 48), ("state", PointField.UINT8, "u1", 49),
-    ("obstacle", PointField.UINT32, "<u4", 52),
+    ("obstacle", PointField.UINT32, "<u4", 52), ("fz", PointField.FLOAT64, "<f8", 56),
 )
-CONTACT_POINT_STEP = 56
+#: fields a cloud may lack (clouds recorded before the 3D whisker): read as 0
+OPTIONAL_CONTACT_FIELDS = ("fz",)
+CONTACT_POINT_STEP = 64
 CONTACT_DTYPE = np.dtype({"names": [f[0] for f in CONTACT_FIELDS],
                           "formats": [f[2] for f in CONTACT_FIELDS],
                           "offsets": [f[3] for f in CONTACT_FIELDS],
@@ -237,15 +372,16 @@ def contacts_cloud(stamp, frame: str, contacts: Sequence[ContactRecord]) -> Poin
     """
     Return every contact of a pose as a PointCloud2 (one point per contact, foot to tip).
 
-    Fields (little-endian; float64 so that nothing is lost to rounding): x, y, z [m] (z = 0),
-    fx, fy [N] (the obstacle's force on the whisker, world frame), s [m] (arc length), kind
-    (uint8: 0 side, 1 tip, 2 corner), state (uint8: 0 slip, 1 stick), obstacle (uint32, its
-    index). No contact: an empty cloud (width 0).
+    Fields (little-endian; float64 so that nothing is lost to rounding): x, y, z [m] (z = 0 but
+    for the 3D whisker), fx, fy [N] (the obstacle's force on the whisker, world frame), s [m]
+    (arc length), kind (uint8: 0 side, 1 tip, 2 corner), state (uint8: 0 slip, 1 stick),
+    obstacle (uint32, its index), fz [N] (0 but for the 3D whisker). No contact: an empty cloud
+    (width 0).
     """
     points = np.zeros(len(contacts), dtype=CONTACT_DTYPE)
     for i, c in enumerate(contacts):
-        points[i] = (float(c.x), float(c.y), 0.0, float(c.fx), float(c.fy), float(c.s),
-                     int(c.kind), int(c.state), int(c.obstacle))
+        points[i] = (float(c.x), float(c.y), float(c.z), float(c.fx), float(c.fy), float(c.s),
+                     int(c.kind), int(c.state), int(c.obstacle), float(c.fz))
     cloud = PointCloud2()
     cloud.header.stamp, cloud.header.frame_id = stamp, frame
     cloud.height, cloud.width = 1, len(contacts)
@@ -263,7 +399,8 @@ def decode_contacts(cloud) -> Tuple[ContactRecord, ...]:
     """
     Read the contacts back from a ``~/contacts`` cloud (by its field table, not by position).
 
-    Raises ValueError if a field is missing or the cloud is not little-endian.
+    Raises ValueError if a field is missing or the cloud is not little-endian (``fz``, which
+    older recordings lack, reads as 0).
     """
     if cloud.is_bigendian:
         raise ValueError("a big-endian contacts cloud")
@@ -271,6 +408,8 @@ def decode_contacts(cloud) -> Tuple[ContactRecord, ...]:
     types = {PointField.FLOAT64: "<f8", PointField.UINT8: "u1", PointField.UINT32: "<u4"}
     by_name = {f.name: f for f in cloud.fields}
     for name, _, _, _ in CONTACT_FIELDS:
+        if name in OPTIONAL_CONTACT_FIELDS and name not in by_name:
+            continue
         if name not in by_name or by_name[name].datatype not in types:
             raise ValueError(f"the contacts cloud has no field {name!r} of a known type")
         names.append(name)
@@ -280,9 +419,11 @@ def decode_contacts(cloud) -> Tuple[ContactRecord, ...]:
                       "itemsize": cloud.point_step})
     n = cloud.width * cloud.height
     points = np.frombuffer(bytes(cloud.data), dtype=dtype, count=n)
+    fz = "fz" in names
     return tuple(ContactRecord(float(p["x"]), float(p["y"]), float(p["fx"]), float(p["fy"]),
                                float(p["s"]), int(p["kind"]), int(p["state"]),
-                               int(p["obstacle"])) for p in points)
+                               int(p["obstacle"]), float(p["z"]),
+                               float(p["fz"]) if fz else 0.0) for p in points)
 
 
 def contour_marker(points: Iterable[Tuple[float, float, int]], frame: str, stamp,

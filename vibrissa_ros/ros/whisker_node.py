@@ -1,7 +1,8 @@
 """
 ROS 2 virtual whisker: foot poses in, the follicle sensor's wrench and the contact state out.
 
-In: ``~/foot_pose`` (geometry_msgs/PoseStamped in ``world_frame``). Out: ``~/wrench`` (base frame),
+In: ``~/foot_pose`` (geometry_msgs/PoseStamped in ``world_frame``; planar models: in z = 0 without
+roll or pitch, model rod3d: any 6-DoF pose). Out: ``~/wrench`` (base frame; rod3d: all six),
 ``~/phase``, ``~/contact_force``, ``~/contact_force_magnitude``, ``~/contact_point``,
 ``~/arc_length``, ``~/contacts``, ``~/events``, ``~/centerline``, ``~/obstacle`` and
 ``~/obstacles`` (latched) and ``/diagnostics``. Service: ``~/reset`` (std_srvs/Trigger: the next
@@ -19,12 +20,13 @@ import math
 import time
 from typing import Dict, Optional
 
+import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseStamped, WrenchStamped
 from rclpy.node import Node
 from std_srvs.srv import Trigger
 
-from ..node.edge import contact_records, event_record, header_ns
+from ..node.edge import contact_records, event_record, header_ns, rod_phase
 from ..logs.mcap_log import LogError
 from ..node.config import PARAMETERS, WhiskerConfig, build_config
 from ..node.pipeline import PosePipeline, PoseStats, drop_reason
@@ -214,8 +216,12 @@ class WhiskerNode(Node):
 
     def _publish_state(self, stamp, state, events, now: int) -> None:
         cfg = self.config
-        reading, (sx, sy, sz) = self._pipeline.reading(state)
-        wrench = m.fill_wrench(self._wrench, stamp, cfg.base_frame, (sx, sy), sz)
+        reading, sensed = self._pipeline.reading(state)
+        if cfg.rod3d:  # all six components
+            wrench = m.fill_wrench6(self._wrench, stamp, cfg.base_frame, sensed[:3], sensed[3:])
+        else:
+            sx, sy, sz = sensed
+            wrench = m.fill_wrench(self._wrench, stamp, cfg.base_frame, (sx, sy), sz)
         self._send("wrench", wrench, now)
         listening = self._listening()
         world = cfg.world_frame
@@ -233,7 +239,7 @@ class WhiskerNode(Node):
                    lambda: m.contacts_cloud(stamp, world, contact_records(state, cfg.units)),
                    now, listening)
         for event in events:
-            record = event_record(event, cfg.units)
+            record = event_record(event, cfg.units, cfg.roll)
             msg = m.event_msg(record)
             self._send("events", msg, now)
             if event.kind == "reset":
@@ -246,16 +252,26 @@ class WhiskerNode(Node):
         if max_rate <= 0.0 or tick - self._last_centerline >= 1.0 / max_rate:
             n = int(cfg.values["centerline.points"])
             self._last_centerline = tick
-            self._emit("centerline",
-                       lambda: m.centerline_path(stamp, world,
-                                                 state.centerline(n) * cfg.units.length),
-                       now, listening)
+            self._emit("centerline", lambda: self._centerline(stamp, state, n), now, listening)
+
+    def _centerline(self, stamp, state, n: int):
+        """Return the ~/centerline of a state: n points [m] (3D: with the body frames)."""
+        cfg = self.config
+        if cfg.rod3d:
+            s = np.linspace(0.0, 1.0, n)
+            return m.centerline_path3d(stamp, cfg.world_frame,
+                                       state.equilibrium.centerline(s) * cfg.units.length,
+                                       state.equilibrium.frames(s))
+        return m.centerline_path(stamp, cfg.world_frame, state.centerline(n) * cfg.units.length)
 
     def _publish_obstacle(self) -> None:
         """Publish the obstacles (latched): all of them, and as one marker for ~/obstacle."""
         cfg = self.config
         stamp = self.get_clock().now().to_msg()
-        if cfg.scene is not None:
+        if cfg.scene3d is not None:
+            array = m.scene3d_markers(cfg.scene3d, cfg.units.length, cfg.world_frame, stamp)
+            marker = m.outline_marker(array)
+        elif cfg.scene is not None:
             array = m.scene_markers(cfg.scene, cfg.units.length, cfg.world_frame, stamp)
             marker = m.outline_marker(array)
         else:
@@ -270,7 +286,10 @@ class WhiskerNode(Node):
         if recorder is not None and recorder.error is not None:
             recorder = None
         state = self._pipeline.state
-        phase = None if state is None else int(state.phase)
+        if state is None:
+            phase = None
+        else:
+            phase = rod_phase(state) if self.config.rod3d else int(state.phase)
         contacts = "" if state is None else len(contact_records(state, self.config.units))
         values = {
             "phase": "none" if phase is None else str(phase),
