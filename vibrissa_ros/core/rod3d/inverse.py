@@ -45,7 +45,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from ..errors import ConvergenceError, ParameterError
-from .model import DEFAULT_SEGMENT_POINTS, RodContactMode, RodSolver
+from .model import RodContactMode, RodSolver
 from .pose import BasePose, quat_matrix
 from .shape import RodShape
 
@@ -342,7 +342,7 @@ def _refine(fit: _MomentFit, s: float, lo: float, hi: float) -> Tuple[float, np.
 
 
 def contact_from_wrench(shape: RodShape, pose: BasePose, force, moment, frame: str = "world",
-                        min_force: float = 0.0, n: int = DEFAULT_SEGMENT_POINTS
+                        min_force: float = 0.0, n: Optional[int] = None
                         ) -> Optional[ContactEstimate3D]:
     """
     Estimate the contact from one base wrench of a known 3D whisker (Huet et al. 2017).
@@ -370,7 +370,8 @@ def contact_from_wrench(shape: RodShape, pose: BasePose, force, moment, frame: s
         A reading with ‖force‖ <= ``min_force`` has no usable contact (e.g. 3 sigma of the
         force's noise).
     n : int, optional
-        Chebyshev points of the loaded solves.
+        Chebyshev points of the loaded solves; default
+        :func:`~vibrissa_ros.core.rod3d.model.points_for` the shape.
 
     Returns
     -------

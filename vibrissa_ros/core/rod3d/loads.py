@@ -14,12 +14,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any, Tuple
+from typing import Any, Optional, Tuple
 
 import numpy as np
 
 from ..errors import ParameterError
-from .model import DEFAULT_SEGMENT_POINTS, RodContactMode, RodSolver
+from .model import RodContactMode, RodSolver
 from .pose import BasePose, quat_matrix
 from .shape import RodShape
 
@@ -126,7 +126,7 @@ def _vector(name: str, value) -> np.ndarray:
 
 
 def tip_loaded_rod(shape: RodShape, pose: BasePose, force, moment=(0.0, 0.0, 0.0),
-                   s: float = 1.0, n: int = DEFAULT_SEGMENT_POINTS) -> LoadedRod:
+                   s: float = 1.0, n: Optional[int] = None) -> LoadedRod:
     """
     Solve the 3D whisker clamped at ``pose`` under a force and a couple at arc length ``s``.
 
@@ -143,7 +143,7 @@ def tip_loaded_rod(shape: RodShape, pose: BasePose, force, moment=(0.0, 0.0, 0.0
     s : float, optional
         Where the load acts, in (0, 1]; 1 is the tip.
     n : int, optional
-        Chebyshev points.
+        Chebyshev points; default :func:`~vibrissa_ros.core.rod3d.model.points_for` the shape.
 
     Returns
     -------
@@ -154,7 +154,7 @@ def tip_loaded_rod(shape: RodShape, pose: BasePose, force, moment=(0.0, 0.0, 0.0
     ------
     ParameterError
         When the load is not three finite numbers each, ``s`` is not in (0, 1], or the load is
-        too large to be ramped up (norm(F) s^2 + norm(M) s > 200).
+        too large to be ramped up (a linear deflection plus rotation above 133).
     ConvergenceError
         When the equilibrium cannot be followed from the unloaded whisker.
 
@@ -164,12 +164,16 @@ def tip_loaded_rod(shape: RodShape, pose: BasePose, force, moment=(0.0, 0.0, 0.0
     s = float(s)
     if not (math.isfinite(s) and 0.0 < s <= 1.0):
         raise ParameterError(f"load arc length s = {s!r} must be in (0, 1]")
-    size = float(np.linalg.norm(F)) * s * s + float(np.linalg.norm(Mt)) * s
-    ramp = 1 + int(math.ceil(2.0 * size))
+    # the load's size in linear theory: deflection [L] + rotation [rad] it would cause
+    bend, turn = shape.compliance(s)
+    size = (float(np.linalg.norm(F)) * bend
+            + float(np.linalg.norm(Mt)) * turn * (1.0 + shape.poisson))
+    ramp = 1 + int(math.ceil(3.0 * size))
     if ramp > _MAX_RAMP:
         raise ParameterError(
-            f"load |F| s^2 + |M| s = {size:.4g} is too large (at most {_MAX_RAMP // 2} in "
-            "units of EI_b/L): more than a few turns of the whisker"
+            f"load too large: in linear theory it would deflect the whisker by {size:.4g} "
+            f"(L + rad), at most {(_MAX_RAMP - 1) / 3:.0f} is followed (many turns of the "
+            "whisker)"
         )
     solver = RodSolver(shape, (), n=n)
     vec = solver.solve_loaded(s, pose, F, Mt, ramp=ramp)

@@ -41,6 +41,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from functools import lru_cache
 from typing import Any, NamedTuple, Optional, Sequence, Tuple
 
 import numpy as np
@@ -51,18 +52,94 @@ from ..general.model import chebyshev_operators
 from .pose import BasePose, quat_matrix, quat_multiply
 from .shape import RodShape
 
-#: Chebyshev points per segment (error ~1e-12 at 16 with the cone map: doc/mechanics/rod3d.md)
+#: the fewest Chebyshev points per segment :func:`points_for` chooses
 DEFAULT_SEGMENT_POINTS = 16
+#: the discretization error :func:`points_for` asks for on its probe load [L]
+POINTS_TOLERANCE = 1e-11
+_POINTS_LADDER = (16, 20, 24, 32, 40, 48)
+_POINTS_REFERENCE = 64
 KINDS = ("side", "tip")
 _E3 = np.array([0.0, 0.0, 1.0])
 _NEWTON_ITERATIONS = 30
 _CHORD_ITERATIONS = 8
 #: convergence: the estimated error of the unknowns (max norm)
 _TOL = 1e-13
+#: Newton steps this small that no longer shrink are rounding noise
+_NOISE = 1e-10
 #: chord iterations stop here; the closing Newton step squares the error
 _CHORD_TOL = 1e-8
 #: how far past the tip the last contact's branch is continued (to locate side -> tip)
 _S_EXTEND = 1.25
+
+
+def _settled(size: float, last: float) -> bool:
+    """
+    Tell whether Newton has converged from its last two step sizes.
+
+    Either quadratic convergence predicts the next step below the tolerance, or the steps have
+    stopped shrinking at the rounding floor (a fine discretization's noise can sit just above
+    1e-13).
+    """
+    if last == math.inf:
+        return False
+    return size ** 3 / last ** 2 <= _TOL or (size <= _NOISE and size > 0.25 * last)
+
+
+def _probe_tip(shape: RodShape, n: int) -> np.ndarray:
+    """
+    Return the tip's position and frame under the probe load.
+
+    The probe bends the whisker across and out of its plane (0.4 L of linear deflection each)
+    and twists it (0.3 rad of linear twist).
+    """
+    solver = RodSolver(shape, (), n=n)
+    pose = BasePose((0.0, 0.0, 0.0))
+    bend, turn = shape.compliance(1.0)
+    f = 0.4 / bend
+    couple = 0.3 / (turn * (1.0 + shape.poisson))
+    vec = solver.solve_loaded(1.0, pose, (0.0, f, f), (couple, 0.0, 0.0), ramp=4)
+    full = np.concatenate((vec, [1.0, 0.0]))
+    modes = (RodContactMode("side", 0),)
+    tip = solver.centerline(modes, full, pose, [1.0])[0]
+    q = solver.quaternions(modes, full, pose, [1.0])[0]
+    return np.concatenate((tip, quat_matrix(q / np.linalg.norm(q)).ravel()))
+
+
+@lru_cache(maxsize=64)
+def points_for(shape: RodShape) -> int:
+    """
+    Return the Chebyshev points per segment that resolve ``shape`` to about 1e-11.
+
+    The whisker under a probe tip load (a force across it and out of its plane, 0.4 L of linear
+    deflection each, and a couple twisting it by 0.3 rad) is solved on 16, 20, 24, ... points and
+    compared with 64 points; the first
+    count whose tip position and frame agree to :data:`POINTS_TOLERANCE` is taken. A uniform or
+    gently tapered whisker needs 16; a thin cone (taper < 0.1) or a strongly curved parabola
+    (the branch points of its curvature, s = +-i/(4A) from the vertex, come close to the base)
+    needs 24 to 48 (doc/mechanics/rod3d.md). Cached per shape.
+
+    Parameters
+    ----------
+    shape : RodShape
+        The whisker.
+
+    Returns
+    -------
+    int
+        Points per segment.
+
+    """
+    try:
+        reference = _probe_tip(shape, _POINTS_REFERENCE)
+    except ConvergenceError:
+        return _POINTS_REFERENCE
+    for n in _POINTS_LADDER:
+        try:
+            if np.max(np.abs(_probe_tip(shape, n) - reference)) <= POINTS_TOLERANCE:
+                return n
+        except ConvergenceError:
+            continue
+    return _POINTS_REFERENCE
 
 
 class Solved(NamedTuple):
@@ -389,7 +466,7 @@ class RodSolver:
     obstacles : sequence
         The scene's 3D obstacles (objects with ``surface(point)`` and ``signed_distance``).
     n : int, optional
-        Chebyshev points per segment.
+        Chebyshev points per segment; default :func:`points_for` the shape.
 
     Raises
     ------
@@ -399,7 +476,9 @@ class RodSolver:
     """
 
     def __init__(self, shape: RodShape, obstacles: Sequence[Any] = (),
-                 n: int = DEFAULT_SEGMENT_POINTS):
+                 n: Optional[int] = None):
+        if n is None:
+            n = points_for(shape)
         if int(n) < 8:
             raise ParameterError(f"collocation points per segment n = {n}: need at least 8")
         self.shape = shape
@@ -740,8 +819,7 @@ class RodSolver:
                 size = self._take(step, max_step)
                 vec = vec - step
                 self._check_breaks(modes, vec)
-                if size <= _TOL or (converged and size <= _CHORD_TOL) or (
-                        last < math.inf and size * size * size / (last * last) <= _TOL):
+                if size <= _TOL or (converged and size <= _CHORD_TOL) or _settled(size, last):
                     return Solved(vec, lu, sens)
                 converged = False
                 last = size
@@ -858,7 +936,7 @@ class RodSolver:
                                            ) from None
                 size = self._take(step, None)
                 vec = vec - step
-                if size <= _TOL or (last < math.inf and size ** 3 / last ** 2 <= _TOL):
+                if size <= _TOL or _settled(size, last):
                     break
                 last = size
             else:

@@ -22,8 +22,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from functools import lru_cache
+from typing import Tuple
 
 import numpy as np
+from scipy.integrate import quad
 
 from ..errors import ParameterError
 
@@ -297,6 +299,31 @@ class RodShape:
             half = 0.5 * (sb - s_a)
             out[i] = half * (w @ np.cos(th)), half * (w @ np.sin(th))
         return out
+
+    def compliance(self, s: float = 1.0) -> Tuple[float, float]:
+        """
+        Return the small-load compliances at arc length ``s``.
+
+        They are the deflection per unit transverse force, int_0^s (s - u)^2 / B(u) du
+        [L^3/EI_b], and the rotation per unit couple about a bending axis, int_0^s 1 / B(u) du
+        [L/EI_b] (times 1 + nu for a twisting couple).
+
+        Parameters
+        ----------
+        s : float, optional
+            Where the load acts [L].
+
+        Returns
+        -------
+        tuple of float
+            (deflection compliance, rotation compliance).
+
+        """
+        s = float(s)
+        return (float(quad(lambda u: (s - u) ** 2 / float(self.stiffness(u)), 0.0, s,
+                           epsabs=0.0, epsrel=1e-10, limit=200)[0]),
+                float(quad(lambda u: 1.0 / float(self.stiffness(u)), 0.0, s, epsabs=0.0,
+                           epsrel=1e-10, limit=200)[0]))
 
     def free_centerline(self, s) -> np.ndarray:
         """

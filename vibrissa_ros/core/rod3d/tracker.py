@@ -51,7 +51,7 @@ from ..errors import (
     ParameterError,
     VibrissaError,
 )
-from .model import DEFAULT_SEGMENT_POINTS, RodContactMode, RodSolver
+from .model import RodContactMode, RodSolver
 from .pose import BasePose, quat_conjugate, quat_matrix, quat_multiply
 from .shape import RodShape
 
@@ -310,7 +310,8 @@ class RodTracker:
     shape : RodShape, optional
         The whisker (default: uniform, straight, nu = 0.38).
     n : int, optional
-        Chebyshev points per segment.
+        Chebyshev points per segment; default
+        :func:`~vibrissa_ros.core.rod3d.model.points_for` the shape.
     max_evaluations : int, optional
         Budget of solver evaluations per step.
     recover : bool, optional
@@ -325,7 +326,7 @@ class RodTracker:
     """
 
     def __init__(self, obstacles: Sequence[Any], pose: BasePose,
-                 shape: Optional[RodShape] = None, n: int = DEFAULT_SEGMENT_POINTS,
+                 shape: Optional[RodShape] = None, n: Optional[int] = None,
                  max_evaluations: int = 20000, recover: bool = True):
         self.shape = RodShape() if shape is None else shape
         self.obstacles = tuple(getattr(obstacles, "obstacles", obstacles))
