@@ -65,7 +65,7 @@ _CHORD_ITERATIONS = 8
 #: convergence: the estimated error of the unknowns (max norm)
 _TOL = 1e-13
 #: Newton steps this small that no longer shrink are rounding noise
-_NOISE = 1e-10
+_NOISE = 1e-12
 #: chord iterations stop here; the closing Newton step squares the error
 _CHORD_TOL = 1e-8
 #: how far past the tip the last contact's branch is continued (to locate side -> tip)
@@ -496,6 +496,8 @@ class RodSolver:
         self._sp = None if shape.taper == 1.0 else 1.0 / (1.0 - shape.taper)
         self.evaluations = 0
         self._free_tip_cache = None
+        self._chord_rate = 1.0
+        self._identity_columns = {}
 
     # -- operators ----------------------------------------------------------------------------
     def _template(self, k: int) -> np.ndarray:
@@ -660,7 +662,10 @@ class RodSolver:
                 o += m.size
         if sens is not None:
             sens[:4 * N, :3] = -(G @ np.matmul(PRt, dM_dp).reshape(N, 12)).reshape(4 * N, 3)
-            sens[:4 * N, 3:] = -np.tile(np.eye(4), (N, 1))
+            cols = self._identity_columns.get(N)
+            if cols is None:
+                cols = self._identity_columns[N] = -np.tile(np.eye(4), (N, 1))
+            sens[:4 * N, 3:] = cols
         return res, J, sens
 
     def _stiffness(self, s):
@@ -750,7 +755,7 @@ class RodSolver:
 
     # -- solving ------------------------------------------------------------------------------
     def solve(self, modes: Sequence[RodContactMode], pose: BasePose, guess: np.ndarray,
-              start: Optional["Solved"] = None,
+              start: Optional["Solved"] = None, exact_jacobian: bool = False,
               max_iterations: int = _NEWTON_ITERATIONS,
               max_step: Optional[float] = None) -> "Solved":
         """
@@ -771,6 +776,9 @@ class RodSolver:
             The starting unknown vector.
         start : Solved, optional
             A nearby solution whose Jacobian the chord iterations use.
+        exact_jacobian : bool, optional
+            Evaluate the Jacobian and sensitivities at the converged solution itself (one more
+            evaluation): for locating where det J vanishes to rounding.
         max_iterations : int, optional
             Bound on the iterations.
         max_step : float or None, optional
@@ -801,11 +809,17 @@ class RodSolver:
                     size = self._take(step, max_step)
                     vec = vec - step
                     self._check_breaks(modes, vec)
-                    rate = size / last if last < math.inf else 1.0
-                    # near enough for the closing Newton step to square the error away
+                    # the contraction rate: measured, or at the first step the last solve's
+                    rate = size / last if last < math.inf else self._chord_rate
+                    # near enough for the closing Newton step to square the error away (that
+                    # step's size is checked below: a wrong guess only costs an iteration)
                     if size <= _TOL or (rate < 0.5 and size * rate / (1.0 - rate) <= _CHORD_TOL):
                         converged = True
+                        if last < math.inf:
+                            self._chord_rate = rate
                         break
+                    if last < math.inf:
+                        self._chord_rate = rate
                     if last < math.inf and rate > 0.5:
                         break
                     last = size
@@ -820,6 +834,9 @@ class RodSolver:
                 vec = vec - step
                 self._check_breaks(modes, vec)
                 if size <= _TOL or (converged and size <= _CHORD_TOL) or _settled(size, last):
+                    if exact_jacobian:
+                        _, J, sens = self.residual(modes, vec, pose, pose_sensitivity=True)
+                        lu = sla.lu_factor(J, check_finite=True)
                     return Solved(vec, lu, sens)
                 converged = False
                 last = size

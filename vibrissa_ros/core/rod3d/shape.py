@@ -165,21 +165,37 @@ class RodShape:
         s = np.asarray(s, dtype=float)
         target = 4.0 * abs(a) * s
         grid, table = self._u_table()
-        # linear interpolation is within ~1e-6 of the root; F is convex and increasing, so
-        # Newton converges quadratically: three steps reach rounding (checked in the tests)
+        if s.ndim == 0:
+            return math.copysign(1.0, a) * self._u_one(float(s), float(target), grid, table)
+        # linear interpolation on the fine table is within ~1e-7 of the root; F is convex and
+        # increasing, so Newton converges quadratically: two steps reach rounding (tested)
         u = np.interp(s, grid, table, right=np.nan)
         u = np.where(np.isnan(u), 0.5 * target, u)   # beyond the table: from above, as there
-        steps = 3 if np.all(s <= grid[-1]) else _NEWTON_STEPS
+        steps = 2 if np.all(s <= grid[-1]) else _NEWTON_STEPS
         for _ in range(steps):
             root = np.sqrt(1.0 + u * u)
             u = u - (u * root + np.arcsinh(u) - target) / (2.0 * root)
         return math.copysign(1.0, a) * u
 
+    @staticmethod
+    def _u_one(s, target, grid, table):
+        """The same for one arc length, in plain floats."""
+        if s > grid[-1]:
+            u = 0.5 * target
+            steps = _NEWTON_STEPS
+        else:
+            u = float(np.interp(s, grid, table))
+            steps = 2
+        for _ in range(steps):
+            root = math.sqrt(1.0 + u * u)
+            u -= (u * root + math.asinh(u) - target) / (2.0 * root)
+        return u
+
     def _u_table(self):
-        """u(s) on 257 arc lengths in [0, 1.5], solved to rounding (cached)."""
+        """u(s) on 2049 arc lengths in [0, 1.5], solved to rounding (cached)."""
         table = self.__dict__.get("_table")
         if table is None:
-            grid = np.linspace(0.0, 1.5, 257)
+            grid = np.linspace(0.0, 1.5, 2049)
             target = 4.0 * abs(self.parabola) * grid
             u = 0.5 * target      # above the root: Newton decreases monotonically to it
             for _ in range(_NEWTON_STEPS):

@@ -587,7 +587,8 @@ class RodTracker:
         tan = self.solver.tangent(solved, path.rate(pose))
         guess = solved.vec + (t_new - t) * tan
         pose_new = path.pose(t_new)
-        return self.solver.solve(self._modes, pose_new, guess, start=solved, max_step=0.5)
+        return self.solver.solve(self._modes, pose_new, guess, start=solved, max_step=0.5,
+                                 exact_jacobian=True)
 
     def _event_values(self, path, t, vec, lu):
         """Named inequality values (>= 0 admissible) of the configuration at (t, vec)."""

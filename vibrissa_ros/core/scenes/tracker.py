@@ -71,6 +71,8 @@ _NUMERICAL_ERRORS = (ArithmeticError, ValueError, np.linalg.LinAlgError)
 _FAR = 0.1
 #: geometric switches of one contact; two at one pose mean neither configuration goes on
 _SWITCHES = ("tip", "tangential", "end_min", "end_max", "edge_in", "edge_out")
+#: how far along the path [L] a switch's new configuration is probed (see _switch_goes_back)
+_SWITCH_PROBE = 1e-7
 
 
 @dataclass(frozen=True)
@@ -520,6 +522,16 @@ class SceneTracker:
                     modes, vec, ev = self._transition(modes, vec_star, path, t_star, what, dpose)
                     last_switch = ((t_star, what[1][1]) if what[0] == "event"
                                    and what[1][0] in _SWITCHES else None)
+                    if last_switch and self._switch_goes_back(modes, vec, path, t_star, dpose,
+                                                              what[1][1]):
+                        # the new configuration's own switch back is violated at once: a corner
+                        # of the branch, decided a fixed distance along the path (not by the
+                        # sub-step's length): neither configuration goes on, a snap
+                        if ev is not None:
+                            events.append(ev)
+                        modes, vec, ev = self._snap(modes, vec, path, t_star, dpose,
+                                                    only=what[1][1])
+                        last_switch = None
                 if ev is not None:
                     events.append(ev)
                 t = t_star
@@ -547,6 +559,26 @@ class SceneTracker:
             self._forget()
         self._clear_end = clear  # (a function of the state: kept for a free whisker too)
         return SceneStepResult(state, tuple(events), substeps, self._spent())
+
+    def _switch_goes_back(self, modes, vec, path, t, dpose, c) -> bool:
+        """
+        Tell whether contact c's geometric switches are violated just past a switch at t.
+
+        At a switch (side -> tip, tip -> side, ...) the new configuration's switch back starts
+        at zero; its sign a fixed 1e-7 L along the path decides whether the new configuration
+        goes on. Judging it at the next sub-step instead made the outcome depend on the
+        sub-step's length (a long step could pass over the brief violation).
+        """
+        if path.length == 0.0 or t >= 1.0:
+            return False
+        t_probe = min(1.0, t + _SWITCH_PROBE / path.length)
+        try:
+            probe = self._solve_at(modes, vec, path, t, t_probe, dpose)
+        except ConvergenceError:
+            return False   # a fold just past the switch: the step loop handles it
+        values = self._event_values(modes, probe, path.pose(t_probe), dpose)
+        return any(v < 0.0 for (kind, k), v in values.items()
+                   if k == c and kind in _SWITCHES)
 
     def _advance(self, modes, vec, path, t, t_new, dpose):
         """Predictor-corrector from (t, vec) to t_new; the sub-step's change is bounded."""
