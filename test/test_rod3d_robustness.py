@@ -76,7 +76,7 @@ def obstacles(draw, index):
 
 @st.composite
 def moves(draw):
-    """A new base pose relative to the last: a nudge, a turn, a roll or a far jump."""
+    """Draw a new base pose relative to the last: a nudge, a turn, a roll or a far jump."""
     kind = draw(st.sampled_from(["nudge", "nudge", "nudge", "turn", "roll", "jump"]))
     d = np.array([draw(unit), draw(unit), draw(unit)])
     return kind, d, draw(st.floats(-math.pi, math.pi))

@@ -179,7 +179,7 @@ class RodShape:
 
     @staticmethod
     def _u_one(s, target, grid, table):
-        """The same for one arc length, in plain floats."""
+        """Return u for one arc length, in plain floats (as :meth:`_u`)."""
         if s > grid[-1]:
             u = 0.5 * target
             steps = _NEWTON_STEPS
