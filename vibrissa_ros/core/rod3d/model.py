@@ -45,7 +45,7 @@ from functools import lru_cache
 from typing import Any, NamedTuple, Optional, Sequence, Tuple
 
 import numpy as np
-import scipy.linalg as sla
+from scipy.linalg.lapack import dgetrf as _getrf, dgetrs as _getrs
 
 from ..errors import ConvergenceError, ParameterError
 from ..general.model import chebyshev_operators
@@ -70,6 +70,28 @@ _NOISE = 1e-12
 _CHORD_TOL = 1e-8
 #: how far past the tip the last contact's branch is continued (to locate side -> tip)
 _S_EXTEND = 1.25
+
+
+def _lu_factor(J: np.ndarray):
+    """
+    Return the LU factorization (lu, piv) of J, as scipy.linalg.lu_factor gives it.
+
+    LAPACK's getrf directly: scipy.linalg's wrappers cost more than the factorization of these
+    small matrices. A non-finite J raises ValueError; an exactly singular one
+    numpy.linalg.LinAlgError.
+    """
+    if not np.all(np.isfinite(J)):
+        raise ValueError("the Jacobian has non-finite entries")
+    lu, piv, info = _getrf(J)
+    if info > 0:
+        raise np.linalg.LinAlgError(f"the Jacobian is singular (pivot {info})")
+    return lu, piv
+
+
+def _lu_solve(lu, b: np.ndarray) -> np.ndarray:
+    """Return J^-1 b from the factorization of :func:`_lu_factor` (LAPACK getrs)."""
+    x, info = _getrs(lu[0], lu[1], b)
+    return x
 
 
 def _settled(size: float, last: float) -> bool:
@@ -805,7 +827,7 @@ class RodSolver:
                 lu = start.lu
                 for it in range(1, _CHORD_ITERATIONS + 1):
                     res, _, _ = self.residual(modes, vec, pose, jacobian=False)
-                    step = sla.lu_solve(lu, res, check_finite=False)
+                    step = _lu_solve(lu, res)
                     size = self._take(step, max_step)
                     vec = vec - step
                     self._check_breaks(modes, vec)
@@ -828,15 +850,15 @@ class RodSolver:
                 # at a converged chord solution this evaluation gives the Jacobian and the
                 # sensitivities there; its Newton step is one more (tiny) correction
                 res, J, sens = self.residual(modes, vec, pose, pose_sensitivity=True)
-                lu = sla.lu_factor(J, check_finite=True)
-                step = sla.lu_solve(lu, res, check_finite=False)
+                lu = _lu_factor(J)
+                step = _lu_solve(lu, res)
                 size = self._take(step, max_step)
                 vec = vec - step
                 self._check_breaks(modes, vec)
                 if size <= _TOL or (converged and size <= _CHORD_TOL) or _settled(size, last):
                     if exact_jacobian:
                         _, J, sens = self.residual(modes, vec, pose, pose_sensitivity=True)
-                        lu = sla.lu_factor(J, check_finite=True)
+                        lu = _lu_factor(J)
                     return Solved(vec, lu, sens)
                 converged = False
                 last = size
@@ -993,7 +1015,7 @@ class RodSolver:
             The tangent (size,).
 
         """
-        return -sla.lu_solve(solved.lu, solved.sens @ dpose, check_finite=False)
+        return -_lu_solve(solved.lu, solved.sens @ dpose)
 
     def _free_tip(self):
         """Return the unloaded whisker's tip and tip frame in its base frame (cached)."""

@@ -41,7 +41,6 @@ from dataclasses import dataclass, field
 from typing import Any, List, Optional, Sequence, Tuple
 
 import numpy as np
-import scipy.linalg as sla
 from scipy.optimize import brentq, minimize_scalar
 
 from ..errors import (
@@ -51,7 +50,7 @@ from ..errors import (
     ParameterError,
     VibrissaError,
 )
-from .model import RodContactMode, RodSolver
+from .model import RodContactMode, RodSolver, _lu_solve
 from .pose import BasePose, quat_conjugate, quat_matrix, quat_multiply
 from .shape import RodShape
 
@@ -958,7 +957,7 @@ def _null_vector(lu) -> np.ndarray:
     n = lu[0].shape[0]
     v = np.ones(n) / math.sqrt(n)
     for _ in range(3):
-        w = sla.lu_solve(lu, v, check_finite=False)
+        w = _lu_solve(lu, v)
         norm = float(np.linalg.norm(w))
         if not math.isfinite(norm) or norm == 0.0:
             break
