@@ -196,3 +196,21 @@ def test_the_parabola_shape_is_the_parabola():
         length = quad(lambda u: math.sqrt(1 + (1.4 * u) ** 2), 0.0, x, epsabs=1e-14)[0]
         assert length == pytest.approx(si, abs=1e-13)
     assert shape.intrinsic_slope(1.0) == pytest.approx(math.atan(1.4 * pts[-1, 0]), abs=1e-15)
+
+
+@pytest.mark.parametrize(
+    "load, w, u",
+    [(1, 0.30172, 0.05643), (2, 0.49346, 0.16064), (5, 0.71379, 0.38763), (10, 0.81061, 0.55500)],
+)
+@pytest.mark.parametrize("plane", ["y", "z"])
+def test_the_published_cantilever_table_in_either_plane_of_a_rolled_whisker(load, w, u, plane):
+    """Bisshopp & Drucker (1945), Mattiasson (1981): 5 published digits, in 3D."""
+    roll = quat_about((1.0, 0.0, 0.0), 0.7)
+    pose = BasePose((0.1, -0.2, 0.3), tuple(roll))
+    across = pose.rotation[:, 1 if plane == "y" else 2]
+    rod = tip_loaded_rod(RodShape(), pose, load * across)
+    tip = np.array(rod.tip) - pose.p
+    axis = pose.rotation[:, 0]
+    assert tip @ across == pytest.approx(w, abs=5e-6)
+    assert 1.0 - tip @ axis == pytest.approx(u, abs=5e-6)
+    assert abs(tip @ np.cross(axis, across)) < 1e-13
