@@ -279,6 +279,16 @@ def _right_pure(K: np.ndarray) -> np.ndarray:
     return padded[:, idx] * sgn
 
 
+def _tangents(Q: np.ndarray) -> np.ndarray:
+    """Return d1 = R(q) e1 (N, 3) of quaternions (N, 4): R's first column only."""
+    w, x, y, z = Q[:, 0], Q[:, 1], Q[:, 2], Q[:, 3]
+    out = np.empty((Q.shape[0], 3))
+    out[:, 0] = w * w + x * x - y * y - z * z
+    out[:, 1] = 2.0 * (x * y + w * z)
+    out[:, 2] = 2.0 * (x * z - w * y)
+    return out
+
+
 def _rotations(Q: np.ndarray) -> np.ndarray:
     """R(q) (N, 3, 3) of quaternions (N, 4) (the unit-quaternion formula)."""
     w, x, y, z = Q[:, 0], Q[:, 1], Q[:, 2], Q[:, 3]
@@ -1200,7 +1210,7 @@ class RodSolver:
             lay = _Layout(self, breaks)
             Q = vec[:4 * lay.N].reshape(lay.N, 4)
             R = _rotations(Q[lay.ends])
-            r_ends = p + lay.G[lay.ends] @ _rotations(Q)[:, :, 0]
+            r_ends = p + lay.G[lay.ends] @ _tangents(Q)
             pts = r_ends
             forces = np.array([f * np.asarray(self.obstacles[m.obstacle].surface(x).normal)
                                for m, f, x in zip(modes, fs, pts)])
@@ -1208,9 +1218,8 @@ class RodSolver:
             frame = R[-1] / np.linalg.norm(Q[-1]) ** 2
             tip = r_ends[-1]
             if end < 1.0:
-                off = self.shape.intrinsic_offset(end, [1.0])[0]
+                off, phi = self.shape.tail(end)
                 tip = tip + off[0] * frame[:, 0] + off[1] * frame[:, 1]
-                phi = float(self.shape.intrinsic_slope(1.0) - self.shape.intrinsic_slope(end))
                 c, sn = math.cos(phi), math.sin(phi)
                 frame = np.column_stack((c * frame[:, 0] + sn * frame[:, 1],
                                          -sn * frame[:, 0] + c * frame[:, 1], frame[:, 2]))

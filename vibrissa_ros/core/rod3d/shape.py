@@ -316,6 +316,45 @@ class RodShape:
             out[i] = half * (w @ np.cos(th)), half * (w @ np.sin(th))
         return out
 
+    def tail(self, s_a: float) -> Tuple[Tuple[float, float], float]:
+        """
+        Return the unloaded part from s_a to the tip: its offset and its turn.
+
+        Parameters
+        ----------
+        s_a : float
+            Where the unloaded part starts [L], in [0, 1].
+
+        Returns
+        -------
+        tuple
+            ((dx, dy), phi): the tip's offset from s_a in the (d1, d2) components of the frame
+            at s_a [L], and the slope the unloaded part turns through [rad].
+
+        """
+        s_a = float(s_a)
+        if self.is_straight:
+            return (1.0 - s_a, 0.0), 0.0
+        if self.parabola is not None:
+            a = self.parabola
+            u_a, u_b = float(self._u(s_a)), self._tip_u()
+            dx = (u_b - u_a) / (2.0 * a)
+            dy = (u_b * u_b - u_a * u_a) / (4.0 * a)
+            root = math.sqrt(1.0 + u_a * u_a)
+            c, sn = 1.0 / root, u_a / root
+            return (c * dx + sn * dy, -sn * dx + c * dy), math.atan(u_b) - math.atan(u_a)
+        off = self.intrinsic_offset(s_a, [1.0])[0]
+        turn = float(self.intrinsic_slope(1.0) - self.intrinsic_slope(s_a))
+        return (float(off[0]), float(off[1])), turn
+
+    def _tip_u(self) -> float:
+        """u at the tip (cached)."""
+        u = self.__dict__.get("_u_tip")
+        if u is None:
+            u = float(self._u(1.0))
+            object.__setattr__(self, "_u_tip", u)
+        return u
+
     def compliance(self, s: float = 1.0) -> Tuple[float, float]:
         """
         Return the small-load compliances at arc length ``s``.

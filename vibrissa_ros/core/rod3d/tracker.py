@@ -264,13 +264,19 @@ class _Path:
         self.axis = v / sin_half if sin_half > 0.0 else np.zeros(3)
         #: bound on the speed of any point of the whisker per unit t
         self.speed = float(np.linalg.norm(self.dp)) + self.angle
+        self._cache = {}
 
     def pose(self, t: float) -> BasePose:
         if t == 0.0:
             return self.a
         if t == 1.0:
             return self.b
-        return self.a.at(self.b, t)
+        cached = self._cache.get(t)
+        if cached is None:
+            if len(self._cache) > 8:
+                self._cache.clear()
+            cached = self._cache[t] = self.a.at(self.b, t)
+        return cached
 
     def rate(self, pose: BasePose) -> np.ndarray:
         """(dp/dt, dq/dt) (7,) at ``pose`` on the path."""
@@ -707,7 +713,7 @@ class RodTracker:
         o = 4 * self.solver.n * len(self._modes)
         for m in self._modes:
             o += m.size
-            w[o - 1] = 1.0 / (1.0 + abs(self._vec[o - 1]))
+            w[o - 1] = 1.0 / (1.0 + abs(float(self._vec[o - 1])))
         return w
 
     def _first_event(self, path, t_a, t_b, crossed, events) -> float:
@@ -943,13 +949,13 @@ class RodTracker:
     def _make_state(self) -> RodState:
         eq = self.solver.equilibrium(self._modes, self._vec, self._pose)
         contacts = []
-        for m, s, f, x, F in zip(eq.modes, eq.s, eq.f, eq.points, eq.forces):
+        for m, s, f, x, F in zip(eq.modes, eq.s, eq.f, eq.points.tolist(), eq.forces.tolist()):
             name = getattr(self.obstacles[m.obstacle], "name", f"obstacle{m.obstacle}")
-            contacts.append(RodContact(m.kind, m.obstacle, name, float(s), float(f),
-                                       tuple(float(v) for v in x), tuple(float(v) for v in F)))
-        return RodState(self._pose, tuple(contacts), tuple(float(v) for v in eq.force),
-                        tuple(float(v) for v in eq.moment), tuple(float(v) for v in eq.tip),
-                        tuple(float(v) for v in eq.tip_frame[:, 0]), eq)
+            contacts.append(RodContact(m.kind, m.obstacle, name, float(s), float(f), tuple(x),
+                                       tuple(F)))
+        return RodState(self._pose, tuple(contacts), tuple(eq.force.tolist()),
+                        tuple(eq.moment.tolist()), tuple(eq.tip.tolist()),
+                        tuple(eq.tip_frame[:, 0].tolist()), eq)
 
 
 def _null_vector(lu) -> np.ndarray:
