@@ -68,6 +68,8 @@ _TOL = 1e-13
 _NOISE = 1e-12
 #: chord iterations stop here; the closing Newton step squares the error
 _CHORD_TOL = 1e-8
+#: the longest closing Newton step after a trusted guess (its error is ~C 1e-14)
+_TRUSTED_STEP = 1e-7
 #: how far past the tip the last contact's branch is continued (to locate side -> tip)
 _S_EXTEND = 1.25
 
@@ -687,10 +689,13 @@ class RodSolver:
             o += m.size
         if jacobian:
             o = 4 * N
+            shared = None
             for c, m in enumerate(modes):
                 if m.kind == "side":
-                    J[:, o] = self._break_column(lay, c, modes, Q, R, D1, r, M, F, fs, Hs, ns,
-                                                 kinv, g, PRt, Lv)
+                    if shared is None:
+                        shared = self._moving_nodes(lay, R, M, kinv, Lv)
+                    J[:, o] = self._break_column(lay, c, modes, D1, r, F, fs, Hs, ns, g, PRt,
+                                                 shared)
                 o += m.size
         if sens is not None:
             sens[:4 * N, :3] = -(G @ np.matmul(PRt, dM_dp).reshape(N, 12)).reshape(4 * N, 3)
@@ -754,9 +759,8 @@ class RodSolver:
         dg[idx, :, idx, :] += diag
         return dg
 
-    def _break_column(self, lay, c, modes, Q, R, D1, r, M, F, fs, Hs, ns, kinv, g, PRt, Lv):
+    def _break_column(self, lay, c, modes, D1, r, F, fs, Hs, ns, g, PRt, shared):
         """Return d residual / d s_c (analytic: moving nodes and integration weights)."""
-        sh = self.shape
         N = lay.N
         dG = lay.dG(self, c)
         ds = lay.ds(c)
@@ -767,13 +771,8 @@ class RodSolver:
             drc = dr[lay.ends[cp]]
             dF = fs[cp] * (Hs[cp] @ drc)
             dM[:e] += _cross(drc - dr[:e], F[cp]) + _cross(r[lay.ends[cp]] - r[:e], dF)
-        mb = np.einsum("iab,ia->ib", R, M)
-        dkinv = -sh.stiffness_slope(lay.s) * ds * kinv[:, 1] ** 2
-        dkap = np.einsum("iab,ia->ib", R, dM) * kinv
-        dkap[:, 0] += self._nu1 * dkinv * mb[:, 0]
-        dkap[:, 1] += dkinv * mb[:, 1]
-        dkap[:, 2] += dkinv * mb[:, 2] + sh.curvature_slope(lay.s) * ds
-        dg = 0.5 * np.einsum("iab,ib->ia", Lv, dkap)
+        # the moment's change (through P R^T) and the stiffness' and curvature's at moved nodes
+        dg = np.matmul(PRt, dM[:, :, None])[:, :, 0] + shared * ds[:, None]
         col = np.empty(self.size(modes))
         col[:4 * N] = -(dG @ g + lay.G @ dg).ravel()
         o = 4 * N
@@ -785,9 +784,21 @@ class RodSolver:
             o += m.size
         return col
 
+    def _moving_nodes(self, lay, R, M, kinv, Lv):
+        """Return dg/ds at the nodes with M held (B and kappa0 at a moved node), (N, 4)."""
+        sh = self.shape
+        mb = np.matmul(M[:, None, :], R)[:, 0, :]
+        dkinv = -sh.stiffness_slope(lay.s) * kinv[:, 1] ** 2
+        dkap = np.empty_like(mb)
+        dkap[:, 0] = self._nu1 * dkinv * mb[:, 0]
+        dkap[:, 1] = dkinv * mb[:, 1]
+        dkap[:, 2] = dkinv * mb[:, 2] + sh.curvature_slope(lay.s)
+        return 0.5 * np.matmul(Lv, dkap[:, :, None])[:, :, 0]
+
     # -- solving ------------------------------------------------------------------------------
     def solve(self, modes: Sequence[RodContactMode], pose: BasePose, guess: np.ndarray,
               start: Optional["Solved"] = None, exact_jacobian: bool = False,
+              trusted: bool = False,
               max_iterations: int = _NEWTON_ITERATIONS,
               max_step: Optional[float] = None) -> "Solved":
         """
@@ -811,6 +822,9 @@ class RodSolver:
         exact_jacobian : bool, optional
             Evaluate the Jacobian and sensitivities at the converged solution itself (one more
             evaluation): for locating where det J vanishes to rounding.
+        trusted : bool, optional
+            The guess is within ~1e-7 (an extrapolated pose stream): Newton at once, no chord
+            iterations, and one step of at most 1e-7 converges it (its error is then ~1e-14).
         max_iterations : int, optional
             Bound on the iterations.
         max_step : float or None, optional
@@ -833,7 +847,7 @@ class RodSolver:
         it = 0
         try:
             converged = False
-            if start is not None:
+            if start is not None and not trusted:
                 lu = start.lu
                 for it in range(1, _CHORD_ITERATIONS + 1):
                     res, _, _ = self.residual(modes, vec, pose, jacobian=False)
@@ -865,7 +879,8 @@ class RodSolver:
                 size = self._take(step, max_step)
                 vec = vec - step
                 self._check_breaks(modes, vec)
-                if size <= _TOL or (converged and size <= _CHORD_TOL) or _settled(size, last):
+                if (size <= _TOL or (converged and size <= _CHORD_TOL) or _settled(size, last)
+                        or (trusted and it == 0 and size <= _TRUSTED_STEP)):
                     if exact_jacobian:
                         _, J, sens = self.residual(modes, vec, pose, pose_sensitivity=True)
                         lu = _lu_factor(J)
