@@ -70,6 +70,8 @@ _NOISE = 1e-12
 _CHORD_TOL = 1e-8
 #: the longest closing Newton step after a trusted guess (its error is ~C 1e-14)
 _TRUSTED_STEP = 1e-7
+#: up to here a first step from a trusted guess is followed by chord steps on its Jacobian
+_TRUSTED_CHORD = 1e-4
 #: how far past the tip the last contact's branch is continued (to locate side -> tip)
 _S_EXTEND = 1.25
 
@@ -625,7 +627,7 @@ class RodSolver:
         R = _rotations(Q)
         D1 = R[:, :, 0]
         r = pose.p + G @ D1
-        kinv, kap0 = self._stiffness(lay.s)
+        kinv, kap0, kap0_slope = self._stiffness(lay.s, slopes=jacobian)
         fs, surf, F = [], [], []
         o = 4 * N
         for c, m in enumerate(modes):
@@ -693,7 +695,7 @@ class RodSolver:
             for c, m in enumerate(modes):
                 if m.kind == "side":
                     if shared is None:
-                        shared = self._moving_nodes(lay, R, M, kinv, Lv)
+                        shared = self._moving_nodes(lay, R, M, kinv, Lv, kap0_slope)
                     J[:, o] = self._break_column(lay, c, modes, D1, r, F, fs, Hs, ns, g, PRt,
                                                  shared)
                 o += m.size
@@ -705,14 +707,17 @@ class RodSolver:
             sens[:4 * N, 3:] = cols
         return res, J, sens
 
-    def _stiffness(self, s):
-        """(1/C, 1/B, 1/B) (N, 3) and kappa0 (N,) at arc lengths s."""
+    def _stiffness(self, s, slopes: bool = False):
+        """(1/C, 1/B, 1/B) (N, 3) and kappa0 (N,) at arc lengths s (and d kappa0/ds)."""
         B = self.shape.stiffness(s)
         kinv = np.empty((s.size, 3))
         kinv[:, 1] = 1.0 / B
         kinv[:, 2] = kinv[:, 1]
         kinv[:, 0] = self._nu1 * kinv[:, 1]
-        return kinv, self.shape.curvature(s)
+        if slopes:
+            kap0, slope = self.shape.curvature_and_slope(s)
+            return kinv, kap0, slope
+        return kinv, self.shape.curvature(s), None
 
     @staticmethod
     def _moments(r, ends, F, tip_moment=None):
@@ -784,7 +789,7 @@ class RodSolver:
             o += m.size
         return col
 
-    def _moving_nodes(self, lay, R, M, kinv, Lv):
+    def _moving_nodes(self, lay, R, M, kinv, Lv, kap0_slope):
         """Return dg/ds at the nodes with M held (B and kappa0 at a moved node), (N, 4)."""
         sh = self.shape
         mb = np.matmul(M[:, None, :], R)[:, 0, :]
@@ -792,7 +797,7 @@ class RodSolver:
         dkap = np.empty_like(mb)
         dkap[:, 0] = self._nu1 * dkinv * mb[:, 0]
         dkap[:, 1] = dkinv * mb[:, 1]
-        dkap[:, 2] = dkinv * mb[:, 2] + sh.curvature_slope(lay.s)
+        dkap[:, 2] = dkinv * mb[:, 2] + kap0_slope
         return 0.5 * np.matmul(Lv, dkap[:, :, None])[:, :, 0]
 
     # -- solving ------------------------------------------------------------------------------
@@ -879,6 +884,12 @@ class RodSolver:
                 size = self._take(step, max_step)
                 vec = vec - step
                 self._check_breaks(modes, vec)
+                if trusted and it == 0 and _TRUSTED_STEP < size <= _TRUSTED_CHORD:
+                    # a good guess, not quite good enough: chord steps on this fresh Jacobian
+                    # contract by ~size each (no second Jacobian)
+                    done, vec = self._polish(modes, vec, pose, lu, max_step)
+                    if done:
+                        return Solved(vec, lu, sens)
                 if (size <= _TOL or (converged and size <= _CHORD_TOL) or _settled(size, last)
                         or (trusted and it == 0 and size <= _TRUSTED_STEP)):
                     if exact_jacobian:
@@ -892,6 +903,18 @@ class RodSolver:
         raise ConvergenceError(
             f"3D whisker: Newton did not converge in {max_iterations} iterations"
         )
+
+    def _polish(self, modes, vec, pose, lu, max_step):
+        """Return (converged, vec) after at most two chord steps with a fresh factorization."""
+        for _ in range(2):
+            res, _, _ = self.residual(modes, vec, pose, jacobian=False)
+            step = _lu_solve(lu, res)
+            size = self._take(step, max_step)
+            vec = vec - step
+            self._check_breaks(modes, vec)
+            if size <= _CHORD_TOL * 1e-2:
+                return True, vec
+        return False, vec
 
     @staticmethod
     def _take(step, max_step) -> float:
@@ -937,7 +960,7 @@ class RodSolver:
         R = _rotations(Q)
         D1 = R[:, :, 0]
         r = pose.p + G @ D1
-        kinv, kap0 = self._stiffness(lay.s)
+        kinv, kap0, _ = self._stiffness(lay.s)
         F = [np.asarray(force, dtype=float)]
         M = self._moments(r, ends, F, np.asarray(moment, dtype=float))
         kap, Lv, g = self._curvature(Q, R, M, kinv, kap0)

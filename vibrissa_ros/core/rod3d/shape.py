@@ -250,6 +250,28 @@ class RodShape:
         u = self._u(s)
         return -12.0 * self.parabola ** 2 * u / (1.0 + u * u) ** 3
 
+    def curvature_and_slope(self, s):
+        """
+        Return kappa0(s) and d kappa0 / ds together (one parabola inversion for both).
+
+        Parameters
+        ----------
+        s : array_like
+            Arc lengths [L].
+
+        Returns
+        -------
+        tuple of numpy.ndarray
+            (kappa0 [1/L], d kappa0 / ds [1/L^2]) at ``s``.
+
+        """
+        s = np.asarray(s, dtype=float)
+        if self.parabola is None:
+            return self.k0 + self.k1 * s, self.k1 + 0.0 * s
+        u = self._u(s)
+        w = 1.0 + u * u
+        return 2.0 * self.parabola / w ** 1.5, -12.0 * self.parabola ** 2 * u / w ** 3
+
     def intrinsic_slope(self, s):
         """
         Return the unloaded whisker's slope in its plane, int_0^s kappa0 [rad].
