@@ -370,7 +370,7 @@ class RodShape:
         return (float(off[0]), float(off[1])), turn
 
     def _tip_u(self) -> float:
-        """u at the tip (cached)."""
+        """Return u at the tip (cached)."""
         u = self.__dict__.get("_u_tip")
         if u is None:
             u = float(self._u(1.0))
