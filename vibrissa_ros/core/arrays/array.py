@@ -188,14 +188,15 @@ class WhiskerSpec:
                       "give either parabola or the curvature k0/k1, not both")
             if abs(self.parabola * self.length) > 10.0:
                 _fail(name, "parabola", self.parabola,
-                      f"|parabola * length| must be <= 10 (here {self.parabola * self.length:.6g})")
+                      "|parabola * length| must be <= 10 "
+                      f"(here {self.parabola * self.length:.6g})")
         elif abs(self.k0 * self.length) + abs(self.k1 * self.length ** 2) > 20.0:
             _fail(name, "k0", self.k0, "|k0 length| + |k1 length^2| must be <= 20 (the whisker "
                   "would curl more than about three turns)")
 
     @property
     def shape(self) -> RodShape:
-        """The dimensionless :class:`RodShape` (A L, k0 L, k1 L^2, taper, poisson)."""
+        """Return the dimensionless :class:`RodShape` (A L, k0 L, k1 L^2, taper, poisson)."""
         L = self.length
         if self.parabola is not None:
             return RodShape(taper=self.taper, parabola=self.parabola * L, poisson=self.poisson)
@@ -348,7 +349,7 @@ class WhiskerArray:
 
     @property
     def names(self) -> Tuple[str, ...]:
-        """The whiskers' names, in order."""
+        """Return the whiskers' names, in order."""
         return tuple(w.name for w in self.whiskers)
 
     def __getitem__(self, key: Union[int, str]) -> WhiskerSpec:
@@ -491,4 +492,3 @@ class WhiskerArray:
             description = ""
         return cls(tuple(WhiskerSpec.from_dict(e, i) for i, e in enumerate(entries)),
                    description)
-
