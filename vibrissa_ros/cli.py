@@ -431,7 +431,42 @@ def build_parser() -> argparse.ArgumentParser:
     )
     batch.add_argument("--quiet", action="store_true", help="no progress bar")
     batch.set_defaults(func=_cmd_batch)
+    array = sub.add_parser(
+        "array", help="write a whisker-array file (the rat's, from the published morphology)",
+        description="Write a whisker array as YAML: every whisker's base point and orientation "
+        "in the head frame, arc length, shape, radius, taper and material, in SI units.",
+    )
+    kinds = array.add_subparsers(dest="kind", required=True, parser_class=_Parser)
+    rat = kinds.add_parser(
+        "rat", help="the rat's mystacial pad (Belli et al. 2018 or Towal et al. 2011)",
+        description="Generate the rat's whisker array from the published equations (Belli et "
+        "al. 2018: 30 whiskers per side; Towal et al. 2011: 31) and write it as YAML.",
+    )
+    rat.add_argument("--side", choices=("left", "right", "both"), default="both",
+                     help="which side of the face (default: both)")
+    rat.add_argument("--model", choices=("belli2018", "towal2011"), default="belli2018",
+                     help="which published model (default: belli2018)")
+    rat.add_argument("-o", "--output", metavar="OUT.yaml",
+                     help="the file written (default: standard output)")
+    rat.set_defaults(func=_cmd_array_rat)
     return parser
+
+
+def _cmd_array_rat(args) -> int:
+    from .scan.array_file import write_rat_array
+
+    try:
+        text = write_rat_array(args.side, args.model, args.output)
+    except OSError as exc:
+        print(f"vibrissa array rat: error: {args.output}: {exc.strerror or exc}",
+              file=sys.stderr)
+        return 2
+    except VibrissaError as exc:
+        print(f"vibrissa array rat: error: {exc}", file=sys.stderr)
+        return 2
+    if args.output is None:
+        sys.stdout.write(text)
+    return 0
 
 
 def _cmd_batch(args) -> int:
