@@ -109,7 +109,7 @@ def dump_array(array: WhiskerArray, path: Optional[Union[str, os.PathLike]] = No
     path : str or path-like, optional
         The file written (UTF-8); None: only the text is returned.
     header : str, optional
-        Comment lines written first (each prefixed with ``# ``).
+        Comment lines written first (each prefixed with a hash and a space).
 
     Returns
     -------

@@ -105,12 +105,6 @@ class WhiskerSpec:
         base frame (leaves along +x, curves toward +y) into the head frame.
     length : float
         Arc length S [m], > 0.
-    parabola : float or None, optional
-        A [1/m] of the parabola y = A x^2 the unloaded whisker follows from its base (the
-        morphology papers' shape); |A length| <= 10. Not with ``k0``/``k1``.
-    k0, k1 : float, optional
-        Intrinsic curvature kappa0(s) = k0 + k1 s, k0 [1/m], k1 [1/m^2];
-        |k0 length| + |k1 length^2| <= 20. Not with ``parabola``.
     base_radius : float
         Radius at the base [m], > 0.
     taper : float
@@ -119,6 +113,12 @@ class WhiskerSpec:
         E [Pa], > 0.
     poisson : float
         Poisson ratio nu in [0, 0.5].
+    parabola : float or None, optional
+        A [1/m] of the parabola y = A x^2 the unloaded whisker follows from its base (the
+        morphology papers' shape); abs(A length) <= 10. Not with ``k0``/``k1``.
+    k0, k1 : float, optional
+        Intrinsic curvature kappa0(s) = k0 + k1 s, k0 [1/m], k1 [1/m^2];
+        abs(k0 length) + abs(k1 length^2) <= 20. Not with ``parabola``.
 
     Raises
     ------
