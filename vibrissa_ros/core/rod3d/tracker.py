@@ -72,6 +72,10 @@ _HALF_SPACING = 0.5 / 80.0
 #: clearance below which the distance is refined by a minimisation in s
 _NEAR = 0.05
 _NUMERICAL_ERRORS = (ArithmeticError, ValueError, np.linalg.LinAlgError)
+#: where the unloaded tail beyond a side contact is checked (fractions of its length)
+_TAIL_SAMPLES = np.linspace(0.125, 1.0, 8)
+#: a tail this far inside the obstacle it slides on is refused [L]
+_TAIL_CUT = -1e-9
 #: the last step continues this one when their pose increments' angle has this cosine or more
 _LINE_COSINE = 0.999
 #: a pose stream is extrapolated when its poses' fourth difference is below this part of a step
@@ -680,6 +684,7 @@ class RodTracker:
         else:
             raise ConvergenceError("the continuation step could not be shortened enough")
         self._check_features(self._modes, solved.vec, path.pose(t_new))
+        self._check_tail(self._modes, solved.vec, path.pose(t_new))
         values = self._event_values(path, t_new, solved.vec, solved.lu)
         gap = self._contact_gap(path, t_new, solved.vec)[0]
         crossed = [key for key, v in values.items() if v < 0.0]
@@ -961,6 +966,31 @@ class RodTracker:
             if k not in skip:
                 best = min(best, float(np.min(ob.signed_distance(pts))))
         return best
+
+    def _check_tail(self, modes, vec, pose):
+        """
+        Refuse an unloaded tail that cuts the obstacle its last contact touches.
+
+        New touches are looked for on the other obstacles only; a whisker whose intrinsic
+        curvature hooks its tail into the obstacle it slides on would need a second contact on
+        that obstacle (not modelled): refused rather than returned inadmissible.
+        """
+        last = modes[-1]
+        end = self.solver.breaks_of(modes, vec)[-1]
+        if last.kind != "side" or end >= 1.0:
+            return
+        s = end + (1.0 - end) * _TAIL_SAMPLES
+        pts = self.solver.centerline(modes, vec, pose, s)
+        ob = self.obstacles[last.obstacle]
+        depth = float(np.min(ob.signed_distance(pts)))
+        if depth < _TAIL_CUT:
+            name = getattr(ob, "name", f"obstacle {last.obstacle}")
+            raise ModelAssumptionError(
+                f"at base {tuple(round(float(v), 6) for v in pose.position)} the whisker's "
+                f"unloaded tail beyond its contact at s = {end:.4g} would cut {name} "
+                f"({-depth:.3g} L deep): a second contact on the obstacle already touched is "
+                "not modelled by the 3D whisker"
+            )
 
     def _check_touch_feature(self, k, point):
         if self.obstacles[k].surface(point).feature == "edge":
