@@ -283,6 +283,15 @@ def _right_pure(K: np.ndarray) -> np.ndarray:
     return padded[:, idx] * sgn
 
 
+def _turns_about_d3(phi) -> np.ndarray:
+    """Return the quaternions (m, 4) of turns by angles phi (m,) about the body's d3 axis."""
+    phi = np.atleast_1d(np.asarray(phi, dtype=float))
+    rot = np.zeros((phi.size, 4))
+    rot[:, 0] = np.cos(0.5 * phi)
+    rot[:, 3] = np.sin(0.5 * phi)
+    return rot
+
+
 def _tangents(Q: np.ndarray) -> np.ndarray:
     """Return d1 = R(q) e1 (N, 3) of quaternions (N, 4): R's first column only."""
     w, x, y, z = Q[:, 0], Q[:, 1], Q[:, 2], Q[:, 3]
@@ -1068,8 +1077,8 @@ class RodSolver:
     def _free_tip(self):
         """Return the unloaded whisker's tip and tip frame in its base frame (cached)."""
         if self._free_tip_cache is None:
-            off = self.shape.free_centerline([1.0])[0]
-            phi = float(self.shape.intrinsic_slope(1.0))
+            (dx, dy), phi = self.shape.tail(0.0)
+            off = np.array([dx, dy, 0.0])
             c, sn = math.cos(phi), math.sin(phi)
             frame = np.array([[c, -sn, 0.0], [sn, c, 0.0], [0.0, 0.0, 1.0]])
             off.setflags(write=False)
@@ -1095,11 +1104,8 @@ class RodSolver:
             q(s) = q_base * (rotation about d3 by the intrinsic slope).
 
         """
-        phi = np.atleast_1d(self.shape.intrinsic_slope(np.asarray(s, dtype=float)))
-        rot = np.zeros((phi.size, 4))
-        rot[:, 0] = np.cos(0.5 * phi)
-        rot[:, 3] = np.sin(0.5 * phi)
-        return quat_multiply(np.array(pose.quaternion), rot)
+        phi = self.shape.intrinsic_slope(np.asarray(s, dtype=float))
+        return quat_multiply(pose.q, _turns_about_d3(phi))
 
     def guess(self, modes: Sequence[RodContactMode], breaks: Sequence[float],
               forces: Sequence[float], quaternions) -> np.ndarray:
@@ -1169,10 +1175,7 @@ class RodSolver:
             out[inside] = self._interpolate(lay, Q, s[inside])
         if not np.all(inside):
             phi = self.shape.intrinsic_slope(s[~inside]) - self.shape.intrinsic_slope(end)
-            rot = np.zeros((phi.size, 4))
-            rot[:, 0] = np.cos(0.5 * phi)
-            rot[:, 3] = np.sin(0.5 * phi)
-            out[~inside] = quat_multiply(Q[-1], rot)
+            out[~inside] = quat_multiply(Q[-1], _turns_about_d3(phi))
         return out
 
     def centerline(self, modes, vec, pose: BasePose, s) -> np.ndarray:

@@ -318,14 +318,7 @@ class RodShape:
             out[:, 0] = s_b - s_a
             return out
         if self.parabola is not None:
-            u_a = self._u(s_a)
-            u_b = self._u(s_b)
-            a = self.parabola
-            dx = (u_b - u_a) / (2.0 * a)
-            dy = (u_b * u_b - u_a * u_a) / (4.0 * a)
-            c, sn = 1.0 / math.sqrt(1.0 + u_a * u_a), u_a / math.sqrt(1.0 + u_a * u_a)
-            out[:, 0] = c * dx + sn * dy
-            out[:, 1] = -sn * dx + c * dy
+            out[:, 0], out[:, 1] = self._parabola_offset(float(self._u(s_a)), self._u(s_b))
             return out
         x, w = _gauss()
         phi_a = float(self.intrinsic_slope(s_a))
@@ -358,16 +351,20 @@ class RodShape:
         if self.is_straight:
             return (1.0 - s_a, 0.0), 0.0
         if self.parabola is not None:
-            a = self.parabola
             u_a, u_b = float(self._u(s_a)), self._tip_u()
-            dx = (u_b - u_a) / (2.0 * a)
-            dy = (u_b * u_b - u_a * u_a) / (4.0 * a)
-            root = math.sqrt(1.0 + u_a * u_a)
-            c, sn = 1.0 / root, u_a / root
-            return (c * dx + sn * dy, -sn * dx + c * dy), math.atan(u_b) - math.atan(u_a)
+            return self._parabola_offset(u_a, u_b), math.atan(u_b) - math.atan(u_a)
         off = self.intrinsic_offset(s_a, [1.0])[0]
         turn = float(self.intrinsic_slope(1.0) - self.intrinsic_slope(s_a))
         return (float(off[0]), float(off[1])), turn
+
+    def _parabola_offset(self, u_a: float, u_b):
+        """Return the chord from u_a to u_b on the parabola in the frame at u_a: (dx, dy)."""
+        a = self.parabola
+        dx = (u_b - u_a) / (2.0 * a)
+        dy = (u_b * u_b - u_a * u_a) / (4.0 * a)
+        root = math.sqrt(1.0 + u_a * u_a)
+        c, sn = 1.0 / root, u_a / root
+        return c * dx + sn * dy, -sn * dx + c * dy
 
     def _tip_u(self) -> float:
         """Return u at the tip (cached)."""
