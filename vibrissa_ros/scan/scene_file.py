@@ -38,69 +38,11 @@ from typing import Any, Dict, Optional, Union
 import yaml
 
 from ..core.errors import ParameterError
-from ..core.profiles import PROFILE_PARAMETERS
 from ..core.rod3d.scene import Scene3D, has_solids
 from ..core.scenes.scene import Scene
-
-#: shape keys measured in 1/length (all other shape keys are lengths)
-INVERSE_LENGTH_KEYS = ("k",)
-#: keys that are neither lengths nor inverse lengths
-UNITLESS_KEYS = ("type", "name", "friction", "side", "rotation", "rotation_deg")
-#: direction keys of the 3D obstacles: no unit (normalised), never scaled
-DIRECTION_KEYS = ("axis", "normal")
-
-
-def _scale(value: Any, factor: float, into_l: bool) -> Any:
-    """Convert a number, or every number of nested lists (anything else is kept)."""
-    if isinstance(value, bool):
-        return value
-    if isinstance(value, str):  # YAML 1.1 reads 1e-3 (no dot) as a string
-        try:
-            value = float(value)
-        except ValueError:
-            return value
-    if isinstance(value, (int, float)):
-        # into metres (written for people): 15 significant digits, no trailing rounding noise
-        return value / factor if into_l else float(f"{value * factor:.15g}")
-    if isinstance(value, (list, tuple)):
-        return [_scale(v, factor, into_l) for v in value]
-    return value
-
-
-def convert_lengths(data: Any, length_scale: float, into_l: bool = True) -> Any:
-    """
-    Return a scene mapping with its lengths converted from metres to L (or back: ``into_l``).
-
-    ``length_scale`` [m] is the whisker's length; 1/length keys (the parabola's k) convert the
-    other way. Malformed entries are passed on unchanged, for the scene's validation to name.
-    """
-    factor = float(length_scale)
-    if not isinstance(data, dict) or factor == 1.0:
-        return data
-    out = dict(data)
-    entries = data.get("obstacles")
-    if not isinstance(entries, list):
-        return out
-    converted = []
-    for entry in entries:
-        if not isinstance(entry, dict):
-            converted.append(entry)
-            continue
-        new: Dict[str, Any] = {}
-        family = entry.get("type") in PROFILE_PARAMETERS
-        for key, value in entry.items():
-            if key in UNITLESS_KEYS or key in DIRECTION_KEYS:
-                new[key] = value
-            elif key == "placement" and isinstance(value, dict):
-                new[key] = {k: (_scale(v, factor, into_l) if k in ("x", "y") else v)
-                            for k, v in value.items()}
-            elif family and key in INVERSE_LENGTH_KEYS:
-                new[key] = _scale(value, factor, not into_l)
-            else:
-                new[key] = _scale(value, factor, into_l)
-        converted.append(new)
-    out["obstacles"] = converted
-    return out
+from ..core.units import (  # noqa: F401 (re-exported: scene files' units)
+    DIRECTION_KEYS, INVERSE_LENGTH_KEYS, UNITLESS_KEYS, convert_lengths,
+)
 
 
 def _read(source: Union[str, os.PathLike]):

@@ -42,7 +42,8 @@ ROWS = ("A", "B", "C", "D", "E")
 COLUMNS = tuple(range(7))
 #: the keys of one whisker's mapping (the array file's), in the order written
 WHISKER_KEYS = ("name", "side", "row", "column", "base_position", "base_quaternion", "length",
-                "parabola", "k0", "k1", "base_radius", "taper", "youngs_modulus", "poisson")
+                "parabola", "k0", "k1", "base_radius", "taper", "youngs_modulus", "poisson",
+                "whisking")
 #: the keys a whisker's mapping must have
 REQUIRED_KEYS = ("name", "side", "row", "column", "base_position", "base_quaternion", "length",
                  "base_radius", "taper", "youngs_modulus", "poisson")
@@ -119,6 +120,9 @@ class WhiskerSpec:
     k0, k1 : float, optional
         Intrinsic curvature kappa0(s) = k0 + k1 s, k0 [1/m], k1 [1/m^2];
         abs(k0 length) + abs(k1 length^2) <= 20. Not with ``parabola``.
+    whisking : tuple of float, optional
+        (dphi/dtheta, dzeta/dtheta): how elevation and roll follow protraction
+        (:mod:`.whisking`); finite, each within [-5, 5]; default (0, 0).
 
     Raises
     ------
@@ -141,6 +145,7 @@ class WhiskerSpec:
     parabola: Optional[float] = None
     k0: float = 0.0
     k1: float = 0.0
+    whisking: Tuple[float, float] = (0.0, 0.0)
 
     def __post_init__(self):
         name = self.name
@@ -180,6 +185,12 @@ class WhiskerSpec:
             if not ok(value):
                 _fail(name, key, getattr(self, key), allowed)
             put(self, key, value)
+        slopes = _vector(name, "whisking", self.whisking, 2,
+                         "whisking is [dphi/dtheta, dzeta/dtheta], finite, each within [-5, 5]")
+        if any(abs(v) > 5.0 for v in slopes):
+            _fail(name, "whisking", list(slopes),
+                  "whisking is [dphi/dtheta, dzeta/dtheta], each within [-5, 5]")
+        put(self, "whisking", slopes)
         if self.parabola is not None:
             put(self, "parabola", _real(name, "parabola", self.parabola,
                                         "parabola is a finite A [1/m] (y = A x^2)"))
@@ -215,7 +226,8 @@ class WhiskerSpec:
         Returns
         -------
         dict
-            Keys of :data:`WHISKER_KEYS`; ``parabola`` or ``k0``/``k1`` (the one in use).
+            Keys of :data:`WHISKER_KEYS`; ``parabola`` or ``k0``/``k1`` (the one in use);
+            ``whisking`` when not (0, 0).
 
         """
         out: Dict[str, Any] = {}
@@ -225,6 +237,8 @@ class WhiskerSpec:
                 continue
             if key in ("k0", "k1") and (self.parabola is not None
                                         or (self.k0 == 0.0 and self.k1 == 0.0)):
+                continue
+            if key == "whisking" and value == (0.0, 0.0):
                 continue
             out[key] = list(value) if isinstance(value, tuple) else value
         return out
@@ -237,7 +251,7 @@ class WhiskerSpec:
         Parameters
         ----------
         data : mapping
-            Keys of :data:`WHISKER_KEYS` (``parabola``, ``k0``, ``k1`` optional).
+            Keys of :data:`WHISKER_KEYS` (``parabola``, ``k0``, ``k1``, ``whisking`` optional).
         index : int, optional
             Its place in the array (0-based), to name it when it has no usable name.
 

@@ -47,6 +47,7 @@ import numpy as np
 from ..errors import ParameterError
 from ..rod3d.pose import quat_from_matrix
 from .array import ROWS, WhiskerArray, WhiskerSpec
+from .whisking import ROW_SLOPES
 
 MODELS = ("belli2018", "towal2011")
 SIDES = ("left", "right", "both")
@@ -272,7 +273,8 @@ def _whisker(side: str, row: str, column: int, model: str) -> WhiskerSpec:
         base_quaternion=tuple(float(v) for v in quat_from_matrix(R)),
         length=length_mm * _MM, parabola=a_mm / _MM,
         base_radius=0.5 * base_diameter(length_mm, r, column) * _MM,
-        taper=1.0 / TAPER_RATIO, youngs_modulus=YOUNGS_MODULUS, poisson=POISSON)
+        taper=1.0 / TAPER_RATIO, youngs_modulus=YOUNGS_MODULUS, poisson=POISSON,
+        whisking=ROW_SLOPES[row])
 
 
 def rat_array(side: str = "both", model: str = "belli2018") -> WhiskerArray:
@@ -324,6 +326,7 @@ def rat_array(side: str = "both", model: str = "belli2018") -> WhiskerArray:
         what = ("rat whisker array, Towal et al. 2011 arc lengths and curvatures on Belli et "
                 "al. 2018 base points and angles of emergence")
     description = (f"{what}; base diameter Belli et al. 2017; taper 1/15; E {YOUNGS_MODULUS:g} "
-                   f"Pa; nu {POISSON:g}; head frame x lateral (right), y rostral, z dorsal [m]; "
+                   f"Pa; nu {POISSON:g}; whisking slopes per row Knutsen et al. 2008 as RatMap "
+                   "and WHISKiT use them; head frame x lateral (right), y rostral, z dorsal [m]; "
                    "left = right mirrored in x = 0")
     return WhiskerArray(whiskers, description)

@@ -1,0 +1,226 @@
+"""The whole array in one call: whisking, the clearance test, per-whisker equality."""
+
+import math
+
+import numpy as np
+import pytest
+
+from vibrissa_ros.core.arrays import WhiskerArray
+from vibrissa_ros.core.arrays.rat import emergence_rotation, mirror_rotation, rat_array
+from vibrissa_ros.core.arrays.tracker import ArrayTracker, describe, quats_from_matrices
+from vibrissa_ros.core.arrays.whisking import (
+    ROW_SLOPES, CosineWhisk, Whisking, emergence_angles,
+)
+from vibrissa_ros.core.errors import ConvergenceError, InvalidPoseError, ParameterError
+from vibrissa_ros.core.rod3d import BasePose, Cylinder, RodTracker, Scene3D, Sphere
+from vibrissa_ros.core.rod3d.pose import quat_about, quat_from_matrix
+
+RIGHT = rat_array("right")
+#: a vertical peg that the right pad's whiskers of columns 0-2 hit while whisking
+PEG = Cylinder((0.03, -0.016, 0.0), (0, 0, 1), 0.0015, "peg")
+HEAD = BasePose((0.0, 0.0, 0.0))
+
+
+def _subset(array, names):
+    return WhiskerArray(tuple(array[n] for n in names), "subset")
+
+
+def test_emergence_angles_invert_the_rest_orientation():
+    for theta, phi, zeta in ((32.79, 51.60, 43.56), (120.0, -10.0, -70.0), (90.0, 0.0, 0.0)):
+        R = emergence_rotation(theta, phi, zeta)
+        got = np.degrees(emergence_angles(R, "right"))
+        assert got == pytest.approx((theta, phi, zeta), abs=1e-12)
+        assert np.degrees(emergence_angles(mirror_rotation(R), "left")) == pytest.approx(
+            (theta, phi, zeta), abs=1e-12)
+    with pytest.raises(ParameterError, match="side"):
+        emergence_angles(np.eye(3), "top")
+
+
+def test_zero_protraction_is_the_rest_orientation_on_both_sides():
+    both = rat_array("both")
+    w = Whisking([r.pose.rotation for r in both.rods()], [s.side for s in both],
+                 [s.whisking for s in both])
+    R = w.rotations(0.0)
+    for Ri, spec in zip(R, both):
+        assert np.abs(Ri - BasePose((0, 0, 0), spec.base_quaternion).rotation).max() < 1e-14
+
+
+def test_protraction_turns_the_tangent_rostrally_and_follows_the_row_slopes():
+    both = rat_array("both")
+    w = Whisking([r.pose.rotation for r in both.rods()], [s.side for s in both],
+                 [s.whisking for s in both])
+    h = 1e-6
+    R0, R1 = w.rotations(0.0), w.rotations(h)
+    for spec, a, b in zip(both, R0, R1):
+        assert b[1, 0] > a[1, 0]  # the base tangent gains +y (rostral) on both sides
+        side = spec.side
+        d = (np.array(emergence_angles(b, side)) - np.array(emergence_angles(a, side))) / h
+        assert d == pytest.approx((1.0, *ROW_SLOPES[spec.row]), abs=1e-6)
+    # the left side is the mirror image of the right at every protraction
+    k = len(both) // 2
+    for th in (-0.3, 0.2):
+        R = w.rotations(th)
+        for i in range(k):
+            assert np.abs(R[k + i] - mirror_rotation(R[i])).max() < 1e-14
+
+
+def test_protraction_is_checked():
+    w = Whisking([np.eye(3)], ["right"], [(0.0, 0.0)])
+    for bad in (math.nan, [0.1, 0.2], math.inf):
+        with pytest.raises(ParameterError, match="protraction"):
+            w.rotations(bad)
+    with pytest.raises(ParameterError, match="one of each"):
+        Whisking([np.eye(3)], ["right", "left"], [(0.0, 0.0)])
+
+
+def test_cosine_whisk():
+    w = CosineWhisk(frequency=8.0, retraction=-0.3, protraction=0.5)
+    assert w.angle(0.0) == pytest.approx(-0.3)
+    assert w.angle(1 / 16) == pytest.approx(0.5)
+    assert w.angle(1 / 32) == pytest.approx(0.1)
+    for kwargs, key in (({"frequency": 0.0}, "frequency"), ({"frequency": math.nan}, "frequency"),
+                        ({"retraction": 0.6, "protraction": 0.5}, "protraction"),
+                        ({"start": "x"}, "start")):
+        with pytest.raises(ParameterError, match=key):
+            CosineWhisk(**kwargs)
+
+
+def test_vectorized_quaternions_equal_the_scalar_ones():
+    rng = np.random.default_rng(3)
+    q = rng.normal(size=(200, 4))
+    q /= np.linalg.norm(q, axis=1)[:, None]
+    R = np.array([BasePose((0, 0, 0), tuple(v)).rotation for v in q])
+    got = quats_from_matrices(R)
+    want = np.array([quat_from_matrix(r) for r in R])
+    assert np.abs(got - want).max() < 1e-15
+
+
+def test_whisking_key_of_the_array_file():
+    spec = RIGHT["RC1"].to_dict()
+    assert spec["whisking"] == list(ROW_SLOPES["C"])
+    for bad in ([0.1], [0.1, math.nan], [0.0, 7.0], "x"):
+        with pytest.raises(ParameterError, match="whisker RC1: whisking"):
+            WhiskerArray.from_dict({"whiskers": [dict(spec, whisking=bad)]})
+    plain = dict(spec)
+    del plain["whisking"]
+    assert WhiskerArray.from_dict({"whiskers": [plain]})[0].whisking == (0.0, 0.0)
+    assert "whisking" not in WhiskerArray.from_dict({"whiskers": [plain]})[0].to_dict()
+
+
+def _whisk_run(names, ticks, dt=1e-3):
+    array = _subset(RIGHT, names)
+    whisk = CosineWhisk(8.0)
+    tracker = ArrayTracker(array, Scene3D((PEG,)), HEAD, whisk.angle(0.0))
+    return array, whisk, tracker, [tracker.step(HEAD, whisk.angle(k * dt))
+                                   for k in range(1, ticks)]
+
+
+def test_every_whisker_equals_the_single_whisker_solver():
+    names = ("RA1", "RB1", "RC1", "RD1", "RE1", "RC5", "RB2")
+    array, whisk, tracker, steps = _whisk_run(names, 60)
+    assert max(s.in_contact for s in steps) >= 3
+    assert sum(s.solved.sum() for s in steps) < len(names) * len(steps)  # some were skipped
+    scenes = [Scene3D((Cylinder((0.03 / L, -0.016 / L, 0.0), (0, 0, 1), 0.0015 / L, "peg"),))
+              for L in (w.length for w in array)]
+    for i, spec in enumerate(array):
+        rod = array.rod(i)
+        single = RodTracker(scenes[i], tracker.whisker_poses(HEAD, whisk.angle(0.0))[i],
+                            shape=rod.shape)
+        kinds = []
+        for k, step in enumerate(steps, start=1):
+            result = single.step(tracker.whisker_poses(HEAD, whisk.angle(k * 1e-3))[i])
+            st = result.state
+            kinds += [e.kind for e in result.events]
+            fs, ms = rod.bending_stiffness / rod.length ** 2, rod.bending_stiffness / rod.length
+            scale_f = max(1e-12, np.abs(step.force).max())
+            assert step.contacts[i] == len(st.contacts)
+            assert np.abs(step.force[i] - np.array(st.force) * fs).max() <= 1e-12 * scale_f
+            assert np.abs(step.moment[i] - np.array(st.moment) * ms).max() <= (
+                1e-12 * max(1e-15, np.abs(step.moment).max()))
+            assert np.abs(step.tip[i] - np.array(st.tip) * rod.length).max() <= 1e-12 * rod.length
+            if st.contacts:
+                assert step.contact_s[i] == pytest.approx(st.contacts[0].s * rod.length,
+                                                          abs=1e-12 * rod.length)
+                assert step.contact_kind[i] == st.contacts[0].kind
+                assert step.contact_obstacle[i] == "peg"
+                Rb = step.base_rotation[i]
+                assert np.abs(Rb @ step.force_base[i] - step.force[i]).max() <= 1e-15 * scale_f
+        array_kinds = [e.kind for s in steps for e in s.events if e.whisker == spec.name]
+        assert array_kinds == kinds, spec.name
+    assert "whiskers in contact" in describe(steps[-1])
+
+
+def test_free_whiskers_are_skipped_and_unloaded():
+    far = Sphere((1.0, 1.0, 1.0), 0.01, "far")
+    tracker = ArrayTracker(RIGHT, Scene3D((far,)), HEAD)
+    step = tracker.step(BasePose((0.001, 0.0, 0.0), tuple(quat_about((0, 0, 1), 0.01))), 0.1)
+    assert not step.solved.any() and step.in_contact == 0
+    assert not step.force.any() and not step.moment_base.any()
+    poses = tracker.whisker_poses(BasePose((0.001, 0.0, 0.0), tuple(quat_about((0, 0, 1), 0.01))),
+                                  0.1)
+    for i, spec in enumerate(RIGHT):
+        rod = RIGHT.rod(i)
+        free = RodTracker(Scene3D((Sphere((1 / rod.length,) * 3, 0.01 / rod.length),)), poses[i],
+                          shape=rod.shape)
+        assert np.abs(step.tip[i] - np.array(free.state.tip) * rod.length).max() < 1e-15
+        assert np.abs(step.base_quaternion[i] - np.array(poses[i].quaternion)
+                      * np.sign(poses[i].quaternion[0])).max() < 1e-15
+    lines = tracker.centerlines(5)
+    assert lines.shape == (len(RIGHT), 5, 3)
+    assert np.abs(lines[:, -1] - step.tip).max() < 1e-15
+    assert np.abs(lines[:, 0] - step.base_position).max() < 1e-15
+    assert step.in_contact == 0 and "0 of 30 whiskers in contact" in describe(step)
+
+
+def test_one_failing_whisker_does_not_stop_the_others(monkeypatch):
+    names = ("RB1", "RC1", "RD1")
+    array = _subset(RIGHT, names)
+    whisk = CosineWhisk(8.0)
+    tracker = ArrayTracker(array, Scene3D((PEG,)), HEAD, whisk.angle(0.0))
+    steps = [tracker.step(HEAD, whisk.angle(k * 1e-3)) for k in range(1, 36)]
+    assert steps[-1].contacts.all(), steps[-1].contacts
+    broken = tracker.tracker("RC1")
+    kept = broken.state
+
+    def fail(pose):
+        raise ConvergenceError("the step failed on purpose")
+
+    monkeypatch.setattr(broken, "step", fail)
+    step = tracker.step(HEAD, whisk.angle(36e-3))
+    assert [e.whisker for e in step.errors] == ["RC1"]
+    assert "on purpose" in step.errors[0].message
+    i = step.index("RC1")
+    fs = array.rod(i).bending_stiffness / array.rod(i).length ** 2
+    assert np.abs(step.force[i] - np.array(kept.force) * fs).max() == 0.0
+    others = [step.index(n) for n in ("RB1", "RD1")]
+    assert step.solved[others].all() and step.contacts[others].all()
+    assert not np.allclose(step.force[others], steps[-1].force[others])
+    monkeypatch.undo()
+    again = tracker.step(HEAD, whisk.angle(37e-3))
+    assert not again.errors and again.contacts[i] == 1
+
+
+def test_bad_input():
+    tracker = ArrayTracker(_subset(RIGHT, ("RC1", "RC2")), Scene3D((PEG,)), HEAD,
+                           -math.radians(20.0))
+    with pytest.raises(ParameterError, match="protraction"):
+        tracker.step(HEAD, [0.1, 0.2, 0.3])
+    with pytest.raises(InvalidPoseError, match="head pose"):
+        tracker.step((0.0, 0.0, 0.0))
+    with pytest.raises(KeyError, match="RZ9"):
+        tracker.state.index("RZ9")
+    with pytest.raises(ParameterError, match="samples"):
+        ArrayTracker(RIGHT, Scene3D((PEG,)), samples=3)
+    with pytest.raises(ParameterError, match="WhiskerArray"):
+        ArrayTracker([RIGHT["RC1"]], Scene3D((PEG,)))
+    # a whisker placed inside an obstacle is named (here: the peg at rest protraction)
+    with pytest.raises(InvalidPoseError, match="whisker RC1: .*inside peg"):
+        ArrayTracker(_subset(RIGHT, ("RC2", "RC1")), Scene3D((PEG,)), HEAD)
+    inside = Sphere(tuple(np.array(RIGHT["RC1"].base_position) + 0.004 * quat_dir("RC1")), 0.002)
+    with pytest.raises(InvalidPoseError, match="whisker RC1"):
+        ArrayTracker(_subset(RIGHT, ("RC1",)), Scene3D((inside,)), HEAD)
+
+
+def quat_dir(name):
+    """Return the whisker's base tangent in the head frame."""
+    return BasePose((0, 0, 0), RIGHT[name].base_quaternion).rotation[:, 0]

@@ -1,0 +1,616 @@
+"""
+The whole array in one call: every whisker's quasistatic equilibrium at a head pose and whisk.
+
+Each whisker has its own bounded 3D tracker (:class:`~vibrissa_ros.core.rod3d.tracker.RodTracker`)
+in its own units (its length L and base stiffness EI_b); the scene, the head pose and the results
+are in SI units (metres, newtons) in the world frame, plus each whisker's wrench in its own base
+frame.
+
+A tick (:meth:`ArrayTracker.step`):
+
+1. Whisking and the head pose give every whisker's base frame in the world (vectorized,
+   :class:`~.whisking.Whisking`).
+2. Clearance test, vectorized over the whole array: the unloaded whisker, sampled at
+   ``samples`` points equally spaced in arc length, is placed at the new base frame and its
+   distance d to the scene is taken. Every point of the continuous centerline lies within
+   h = L / (2 (samples - 1)) of a sample, and every point of the whisker moves by at most
+   m = norm(dp) + angle(dR) L between the previous tick and this one (the straight pose path a
+   tracker follows). A whisker that was free at the previous tick and has d > h + m is free
+   along the whole path: its result is the unloaded whisker (zero wrench), exactly what its
+   tracker would return, and its tracker is not called.
+3. Every other whisker's tracker steps from the previous tick's pose (a tracker skipped before is
+   first re-placed unloaded at the last pose where it was certified clear: a free whisker has no
+   history, so the result is the same as stepping it every tick).
+
+One failing whisker never stops the others: its error is reported in the tick's ``errors``, its
+tracker keeps its state (the wrench it reports is that state's) and the next tick steps on from
+there.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import List, Optional, Tuple
+
+import numpy as np
+
+from ..errors import InvalidPoseError, ParameterError, VibrissaError
+from ..rod3d.pose import BasePose, quat_from_matrix
+from ..rod3d.scene import Scene3D
+from ..rod3d.tracker import RodStepResult, RodTracker
+from ..units import convert_lengths
+from .array import WhiskerArray
+from .whisking import Whisking
+
+#: default number of samples of the unloaded whisker in the clearance test
+CLEARANCE_SAMPLES = 65
+
+
+@dataclass(frozen=True)
+class WhiskerEvent:
+    """
+    An event of one whisker during a tick (touch, release, tip, tangential, snap, reset).
+
+    The parameters are the dataclass's fields, kept as attributes of the same names.
+
+    Parameters
+    ----------
+    whisker : str
+        The whisker's name.
+    kind : str
+        As :class:`~vibrissa_ros.core.rod3d.tracker.RodEvent`'s.
+    obstacle : str or None
+        The obstacle's name, when one is concerned.
+    s : float or None
+        The contact's arc length [m], when one is concerned.
+    contacts_before, contacts_after : int
+        The whisker's number of contacts before and after.
+    reason : str
+        Why a snap or a reset happened.
+
+    """
+
+    whisker: str
+    kind: str
+    obstacle: Optional[str]
+    s: Optional[float]
+    contacts_before: int
+    contacts_after: int
+    reason: str = ""
+
+
+@dataclass(frozen=True)
+class WhiskerError:
+    """
+    A whisker whose step failed in a tick (it kept its state; the others went on).
+
+    The parameters are the dataclass's fields, kept as attributes of the same names.
+
+    Parameters
+    ----------
+    whisker : str
+        The whisker's name.
+    message : str
+        The error's one line (what was wrong, what is allowed).
+
+    """
+
+    whisker: str
+    message: str
+
+
+def _frozen(a) -> np.ndarray:
+    a = np.array(a, dtype=float)
+    a.flags.writeable = False
+    return a
+
+
+@dataclass(frozen=True)
+class ArrayStep:
+    """
+    One tick of the whole array: every whisker's base wrench and contact state (SI units).
+
+    Arrays have one row per whisker, in the array's order, and are read-only. Forces are the
+    total contact force on the whisker [N]; moments those of the contact forces about the
+    whisker's base point [N m] (the follicle's reaction is their opposite). The parameters are
+    the dataclass's fields, kept as attributes of the same names.
+
+    Parameters
+    ----------
+    names : tuple of str
+        The whiskers' names.
+    head : BasePose
+        The head pose in the world (position [m]).
+    protraction : numpy.ndarray
+        (k,) each whisker's protraction angle [rad].
+    base_position : numpy.ndarray
+        (k, 3) base points in the world [m].
+    base_rotation : numpy.ndarray
+        (k, 3, 3) base frames in the world (columns: the base frame's axes); the quaternions
+        are :attr:`base_quaternion`.
+    contacts : numpy.ndarray
+        (k,) number of contacts (int).
+    force, moment : numpy.ndarray
+        (k, 3) in the world frame [N], [N m].
+    force_base, moment_base : numpy.ndarray
+        (k, 3) the same in each whisker's base frame.
+    tip : numpy.ndarray
+        (k, 3) tip positions in the world [m].
+    contact_point : numpy.ndarray
+        (k, 3) the contact nearest the base [m] (zeros where there is none).
+    contact_s : numpy.ndarray
+        (k,) its arc length from the base [m] (0 where there is none).
+    contact_f : numpy.ndarray
+        (k,) its normal force [N] (0 where there is none).
+    contact_kind : tuple of str
+        ``side``, ``tip`` or ``""`` (free).
+    contact_obstacle : tuple of str
+        The obstacle's name or ``""``.
+    solved : numpy.ndarray
+        (k,) bool: the whisker's tracker stepped (False: certified free by the clearance test).
+    events : tuple of WhiskerEvent
+        Events of this tick, whisker by whisker.
+    errors : tuple of WhiskerError
+        Whiskers whose step failed in this tick.
+
+    """
+
+    names: Tuple[str, ...]
+    head: BasePose
+    protraction: np.ndarray
+    base_position: np.ndarray
+    base_rotation: np.ndarray
+    contacts: np.ndarray
+    force: np.ndarray
+    moment: np.ndarray
+    force_base: np.ndarray
+    moment_base: np.ndarray
+    tip: np.ndarray
+    contact_point: np.ndarray
+    contact_s: np.ndarray
+    contact_f: np.ndarray
+    contact_kind: Tuple[str, ...]
+    contact_obstacle: Tuple[str, ...]
+    solved: np.ndarray
+    events: Tuple[WhiskerEvent, ...] = ()
+    errors: Tuple[WhiskerError, ...] = ()
+
+    @property
+    def base_quaternion(self) -> np.ndarray:
+        """Return the base frames as unit quaternions (k, 4), (qw, qx, qy, qz), qw >= 0."""
+        return quats_from_matrices(self.base_rotation)
+
+    @property
+    def in_contact(self) -> int:
+        """Return the number of whiskers with at least one contact."""
+        return int(np.count_nonzero(self.contacts))
+
+    def index(self, name: str) -> int:
+        """
+        Return a whisker's row.
+
+        Parameters
+        ----------
+        name : str
+            The whisker's name.
+
+        Returns
+        -------
+        int
+            Its index.
+
+        Raises
+        ------
+        KeyError
+            When no whisker has that name.
+
+        """
+        try:
+            return self.names.index(name)
+        except ValueError:
+            raise KeyError(f"no whisker named {name!r}") from None
+
+
+def quats_from_matrices(R) -> np.ndarray:
+    """
+    Return the unit quaternions of rotation matrices, vectorized, with qw >= 0.
+
+    Parameters
+    ----------
+    R : array_like
+        Rotation matrices (k, 3, 3).
+
+    Returns
+    -------
+    numpy.ndarray
+        (k, 4), scalar first; the same as
+        :func:`~vibrissa_ros.core.rod3d.pose.quat_from_matrix` row by row.
+
+    """
+    R = np.asarray(R, dtype=float).reshape(-1, 3, 3)
+    t = R[:, 0, 0] + R[:, 1, 1] + R[:, 2, 2]
+    cands = np.stack((1.0 + t, 1.0 + 2 * R[:, 0, 0] - t, 1.0 + 2 * R[:, 1, 1] - t,
+                      1.0 + 2 * R[:, 2, 2] - t), axis=1)
+    k = np.argmax(cands, axis=1)
+    r = 0.5 * np.sqrt(np.maximum(cands[np.arange(len(R)), k], 0.0))
+    f = 0.25 / r
+    a = (R[:, 2, 1] - R[:, 1, 2]) * f
+    b = (R[:, 0, 2] - R[:, 2, 0]) * f
+    c = (R[:, 1, 0] - R[:, 0, 1]) * f
+    xy = (R[:, 0, 1] + R[:, 1, 0]) * f
+    xz = (R[:, 0, 2] + R[:, 2, 0]) * f
+    yz = (R[:, 1, 2] + R[:, 2, 1]) * f
+    q = np.empty((len(R), 4))
+    rows = (np.stack((r, a, b, c), 1), np.stack((a, r, xy, xz), 1),
+            np.stack((b, xy, r, yz), 1), np.stack((c, xz, yz, r), 1))
+    for j in range(4):
+        q[k == j] = rows[j][k == j]
+    q[q[:, 0] < 0.0] *= -1.0
+    return q
+
+
+def _scene_in_metres(scene) -> Scene3D:
+    if isinstance(scene, Scene3D):
+        return scene
+    try:
+        return Scene3D(tuple(scene))
+    except TypeError:
+        raise ParameterError(f"scene = {scene!r} is not allowed; a scene is a Scene3D (metres) "
+                             "or a sequence of 3D obstacles") from None
+
+
+def _as_head(head) -> BasePose:
+    if head is None:
+        return BasePose((0.0, 0.0, 0.0))
+    if isinstance(head, BasePose):
+        return head
+    raise InvalidPoseError(f"head pose = {head!r} is not allowed; it is a BasePose (position [m], "
+                           "unit quaternion)")
+
+
+class ArrayTracker:
+    """
+    Every whisker of an array against one 3D scene, stepped together (see the module).
+
+    Parameters
+    ----------
+    array : WhiskerArray
+        The whiskers (SI units, head frame).
+    scene : Scene3D or sequence
+        The obstacles in the world frame, lengths in metres.
+    head : BasePose, optional
+        The initial head pose in the world (position [m]); default: the world's origin.
+    protraction : float or array_like, optional
+        The initial protraction [rad] (one for all, or one per whisker).
+    samples : int, optional
+        Points of the unloaded whisker in the clearance test, >= 9.
+    max_evaluations : int, optional
+        Each whisker tracker's budget of solver evaluations per step.
+
+    Raises
+    ------
+    InvalidPoseError
+        When an unloaded whisker cuts an obstacle at the initial pose (naming the whisker).
+    ParameterError
+        When an argument is not allowed.
+
+    """
+
+    def __init__(self, array: WhiskerArray, scene, head: Optional[BasePose] = None,
+                 protraction=0.0, samples: int = CLEARANCE_SAMPLES,
+                 max_evaluations: int = 20000):
+        if not isinstance(array, WhiskerArray):
+            raise ParameterError(f"array = {array!r} is not allowed; it is a WhiskerArray")
+        samples = int(samples)
+        if samples < 9:
+            raise ParameterError(f"samples = {samples} is not allowed; the clearance test needs "
+                                 ">= 9 points")
+        self.array = array
+        self.scene = _scene_in_metres(scene)
+        self.names = array.names
+        rods = array.rods()
+        self._rods = rods
+        self._length = np.array([w.length for w in array])
+        self._force_scale = np.array([r.bending_stiffness / r.length ** 2 for r in rods])
+        self._moment_scale = np.array([r.bending_stiffness / r.length for r in rods])
+        self._base_head = np.array([w.base_position for w in array])
+        self.whisking = Whisking([r.pose.rotation for r in rods], [w.side for w in array],
+                                 [w.whisking for w in array])
+        s = np.linspace(0.0, 1.0, samples)
+        self._free = np.array([r.shape.free_centerline(s) * r.length for r in rods])
+        self._free_tip = self._free[:, -1, :].copy()
+        self._reach = 0.5 * self._length / (samples - 1)
+        scene_dict = self.scene.to_dict()
+        self._scenes = [Scene3D.from_dict(convert_lengths(scene_dict, r.length)) for r in rods]
+        head = _as_head(head)
+        R, p = self._frames(head, protraction)
+        self._trackers: List[RodTracker] = []
+        for i, rod in enumerate(rods):
+            try:
+                self._trackers.append(RodTracker(self._scenes[i], self._pose(R, p, i),
+                                                 shape=rod.shape,
+                                                 max_evaluations=max_evaluations))
+            except InvalidPoseError as exc:
+                raise InvalidPoseError(f"whisker {rod.name}: {exc}") from None
+        self._R, self._p = R, p
+        # True: skipped by the clearance test since the tick before the last (its tracker sits
+        # at an older pose; the previous tick's pose is certified clear)
+        self._stale = np.zeros(len(rods), bool)
+        self._state = self._collect(head, self._protraction(protraction), R, p,
+                                    np.ones(len(rods), bool), (), ())
+
+    def __len__(self) -> int:
+        """Return the number of whiskers."""
+        return len(self._rods)
+
+    @property
+    def state(self) -> ArrayStep:
+        """Return the last tick's result (the initial state before the first step)."""
+        return self._state
+
+    def tracker(self, name: str) -> RodTracker:
+        """
+        Return the single-whisker tracker of one whisker (in that whisker's own units).
+
+        Parameters
+        ----------
+        name : str
+            The whisker's name.
+
+        Returns
+        -------
+        RodTracker
+            Its tracker; its pose lags the array's while the clearance test skips it.
+
+        """
+        return self._trackers[self._state.index(name)]
+
+    # -- kinematics ---------------------------------------------------------------------------
+    def _protraction(self, protraction) -> np.ndarray:
+        theta = np.asarray(protraction, dtype=float)
+        return np.full(len(self._rods), float(theta)) if theta.ndim == 0 else theta.copy()
+
+    def _frames(self, head: BasePose, protraction) -> Tuple[np.ndarray, np.ndarray]:
+        R_head = head.rotation
+        R = R_head @ self.whisking.rotations(protraction)
+        p = np.asarray(head.position) + self._base_head @ R_head.T
+        return R, p
+
+    def _pose(self, R, p, i) -> BasePose:
+        return BasePose(tuple((p[i] / self._length[i]).tolist()),
+                        tuple(quat_from_matrix(R[i]).tolist()))
+
+    def whisker_poses(self, head: BasePose, protraction=0.0) -> Tuple[BasePose, ...]:
+        """
+        Return every whisker's base pose in its own units, as its tracker receives it.
+
+        Parameters
+        ----------
+        head : BasePose
+            The head pose (position [m]).
+        protraction : float or array_like, optional
+            [rad], one for all or one per whisker.
+
+        Returns
+        -------
+        tuple of BasePose
+            Position [L of that whisker], world orientation.
+
+        """
+        R, p = self._frames(_as_head(head), protraction)
+        return tuple(self._pose(R, p, i) for i in range(len(self._rods)))
+
+    # -- the tick -------------------------------------------------------------------------------
+    def clearance(self, R: np.ndarray, p: np.ndarray) -> np.ndarray:
+        """
+        Return each unloaded whisker's sampled distance to the scene at the given base frames.
+
+        Parameters
+        ----------
+        R : numpy.ndarray
+            (k, 3, 3) base frames in the world.
+        p : numpy.ndarray
+            (k, 3) base points in the world [m].
+
+        Returns
+        -------
+        numpy.ndarray
+            (k,) the smallest signed distance of the samples [m]; the continuous whisker is
+            at least this minus L / (2 (samples - 1)) away.
+
+        """
+        pts = p[:, None, :] + self._free @ R.transpose(0, 2, 1)
+        d = self.scene.signed_distances(pts.reshape(-1, 3)).min(axis=0)
+        return d.reshape(len(self._rods), -1).min(axis=1)
+
+    def step(self, head: BasePose, protraction=0.0) -> ArrayStep:
+        """
+        Move the head and the whiskers' protraction, and follow every whisker's equilibrium.
+
+        Parameters
+        ----------
+        head : BasePose
+            The new head pose in the world (position [m]).
+        protraction : float or array_like, optional
+            The new protraction [rad]: one angle for every whisker, or one per whisker.
+
+        Returns
+        -------
+        ArrayStep
+            The tick's result; whiskers whose step failed are listed in ``errors`` and report
+            the state they kept.
+
+        Raises
+        ------
+        InvalidPoseError
+            When the head pose is not a BasePose.
+        ParameterError
+            When the protraction is not finite or has the wrong length (nothing moved).
+
+        """
+        head = _as_head(head)
+        theta = self._protraction(protraction)
+        R, p = self._frames(head, theta)
+        dp = np.linalg.norm(p - self._p, axis=1)
+        cos = 0.5 * ((self._R * R).sum(axis=(1, 2)) - 1.0)
+        motion = dp + np.arccos(np.clip(cos, -1.0, 1.0)) * self._length
+        clear = self.clearance(R, p) > self._reach + motion + 1e-12 * self._length
+        events: List[WhiskerEvent] = []
+        errors: List[WhiskerError] = []
+        solved = np.zeros(len(self._rods), bool)
+        for i, tracker in enumerate(self._trackers):
+            if clear[i] and not tracker.state.contacts:
+                self._stale[i] = True
+                continue
+            solved[i] = True
+            try:
+                if self._stale[i]:  # skipped at the previous tick: clear there, unloaded
+                    tracker.reset(self._pose(self._R, self._p, i),
+                                  reason="clearance test: the whisker is followed again")
+                    self._stale[i] = False
+                result = tracker.step(self._pose(R, p, i))
+            except VibrissaError as exc:
+                errors.append(WhiskerError(self.names[i], str(exc)))
+                continue
+            self._events(i, result, events)
+        self._R, self._p = R, p
+        self._state = self._collect(head, theta, R, p, solved, tuple(events), tuple(errors))
+        return self._state
+
+    def _events(self, i: int, result: RodStepResult, out: List[WhiskerEvent]) -> None:
+        scene = self._scenes[i]
+        for ev in result.events:
+            out.append(WhiskerEvent(
+                self.names[i], ev.kind,
+                None if ev.obstacle is None else scene.obstacles[ev.obstacle].name,
+                None if ev.s is None else float(ev.s * self._length[i]),
+                ev.contacts_before, ev.contacts_after, ev.reason))
+
+    def _collect(self, head, theta, R, p, solved, events, errors) -> ArrayStep:
+        k = len(self._rods)
+        force = np.zeros((k, 3))
+        moment = np.zeros((k, 3))
+        tip = p + (R @ self._free_tip[:, :, None])[:, :, 0]
+        point = np.zeros((k, 3))
+        arc = np.zeros(k)
+        normal = np.zeros(k)
+        contacts = np.zeros(k, dtype=int)
+        kind = [""] * k
+        obstacle = [""] * k
+        p = p.copy()
+        Rb = R.copy()
+        for i in np.flatnonzero(~self._stale):
+            state = self._trackers[i].state
+            L = self._length[i]
+            if solved[i] and state.pose is not None:  # stepped, or failed and kept its state
+                Rb[i] = state.pose.rotation
+                p[i] = np.asarray(state.pose.position) * L
+                tip[i] = np.asarray(state.tip) * L
+            if not state.contacts:
+                continue
+            contacts[i] = len(state.contacts)
+            force[i] = np.asarray(state.force) * self._force_scale[i]
+            moment[i] = np.asarray(state.moment) * self._moment_scale[i]
+            c = state.contacts[0]
+            point[i] = np.asarray(c.point) * L
+            arc[i] = c.s * L
+            normal[i] = c.f * self._force_scale[i]
+            kind[i] = c.kind
+            obstacle[i] = c.name
+        Rt = Rb.transpose(0, 2, 1)
+        force_base = (Rt @ force[:, :, None])[:, :, 0]
+        moment_base = (Rt @ moment[:, :, None])[:, :, 0]
+        contacts.flags.writeable = False
+        solved = solved.copy()
+        solved.flags.writeable = False
+        return ArrayStep(self.names, head, _frozen(theta), _frozen(p), _frozen(Rb), contacts,
+                         _frozen(force), _frozen(moment), _frozen(force_base),
+                         _frozen(moment_base), _frozen(tip), _frozen(point), _frozen(arc),
+                         _frozen(normal), tuple(kind), tuple(obstacle), solved, events, errors)
+
+    def centerlines(self, n: int = 21) -> np.ndarray:
+        """
+        Return every whisker's centerline at the last tick, world frame.
+
+        Parameters
+        ----------
+        n : int, optional
+            Points per whisker, >= 2, equally spaced in arc length.
+
+        Returns
+        -------
+        numpy.ndarray
+            (k, n, 3) [m].
+
+        Raises
+        ------
+        ParameterError
+            When ``n`` < 2.
+
+        """
+        n = int(n)
+        if n < 2:
+            raise ParameterError(f"centerline points n = {n}: need at least 2")
+        s = np.linspace(0.0, 1.0, n)
+        out = np.empty((len(self._rods), n, 3))
+        for i, tracker in enumerate(self._trackers):
+            st = tracker.state
+            if st.contacts and not self._stale[i]:
+                out[i] = st.centerline(n) * self._length[i]
+            else:
+                free = self._rods[i].shape.free_centerline(s) * self._length[i]
+                out[i] = self._p[i] + free @ self._R[i].T
+        return out
+
+    def reset(self) -> ArrayStep:
+        """
+        Re-place every whisker unloaded at the last tick's pose, forgetting its history.
+
+        Returns
+        -------
+        ArrayStep
+            The unloaded array (whiskers that cannot be placed there keep their state and are
+            listed in ``errors``).
+
+        """
+        errors: List[WhiskerError] = []
+        events: List[WhiskerEvent] = []
+        for i, tracker in enumerate(self._trackers):
+            try:
+                result = tracker.reset(self._pose(self._R, self._p, i))
+            except VibrissaError as exc:
+                errors.append(WhiskerError(self.names[i], str(exc)))
+                continue
+            self._stale[i] = False
+            self._events(i, result, events)
+        head = self._state.head
+        self._state = self._collect(head, np.asarray(self._state.protraction), self._R,
+                                    self._p.copy(), np.ones(len(self._rods), bool),
+                                    tuple(events), tuple(errors))
+        return self._state
+
+
+def describe(step: ArrayStep) -> str:
+    """
+    Return one line about a tick: whiskers in contact, the largest force, errors.
+
+    Parameters
+    ----------
+    step : ArrayStep
+        The tick.
+
+    Returns
+    -------
+    str
+        E.g. ``3 of 30 whiskers in contact (RC1 2 contacts ...); largest force 1.2e-4 N (RC1)``.
+
+    """
+    norms = np.linalg.norm(step.force, axis=1)
+    parts = [f"{step.in_contact} of {len(step.names)} whiskers in contact"]
+    if step.in_contact:
+        j = int(np.argmax(norms))
+        parts.append(f"largest force {norms[j]:.4g} N ({step.names[j]})")
+    if step.errors:
+        parts.append(f"{len(step.errors)} error(s): "
+                     + "; ".join(f"{e.whisker}: {e.message}" for e in step.errors[:3]))
+    return "; ".join(parts)
