@@ -814,7 +814,7 @@ class RodSolver:
               start: Optional["Solved"] = None, exact_jacobian: bool = False,
               trusted: bool = False,
               max_iterations: int = _NEWTON_ITERATIONS,
-              max_step: Optional[float] = None) -> "Solved":
+              max_step: Optional[float] = None, fail_fast: bool = False) -> "Solved":
         """
         Solve a configuration's equilibrium from ``guess``: chord iterations, then Newton.
 
@@ -843,6 +843,11 @@ class RodSolver:
             Bound on the iterations.
         max_step : float or None, optional
             Refuse (ConvergenceError) an iteration step longer than this (max norm).
+        fail_fast : bool, optional
+            Give up (ConvergenceError) as soon as a Newton step, from the third on, is longer
+            than 0.9 times the one before: for trial steps of a continuation, where a shorter
+            step is the remedy (past a fold Newton wanders and would spend every iteration; at a
+            singular solution, a bifurcation, it still contracts by about 1/2 per step).
 
         Returns
         -------
@@ -884,6 +889,7 @@ class RodSolver:
                         break
                     last = size
                 last = math.inf
+            newton = 0
             for it in range(it, max_iterations):
                 # at a converged chord solution this evaluation gives the Jacobian and the
                 # sensitivities there; its Newton step is one more (tiny) correction
@@ -905,6 +911,9 @@ class RodSolver:
                         _, J, sens = self.residual(modes, vec, pose, pose_sensitivity=True)
                         lu = _lu_factor(J)
                     return Solved(vec, lu, sens)
+                newton += 1
+                if fail_fast and newton >= 3 and size > 0.9 * last:
+                    raise ConvergenceError("3D whisker: Newton is not contracting")
                 converged = False
                 last = size
         except (ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:

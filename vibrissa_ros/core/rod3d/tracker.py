@@ -78,6 +78,8 @@ _TAIL_SAMPLES = np.linspace(0.125, 1.0, 8)
 _TAIL_CUT = -1e-9
 #: the last step continues this one when their pose increments' angle has this cosine or more
 _LINE_COSINE = 0.999
+#: the reason of a snap at a fold of the branch
+_FOLDS = "the equilibrium branch folds (no solution beyond this pose)"
 #: a pose stream is extrapolated when its poses' fourth difference is below this part of a step
 _STREAM_TOLERANCE = 0.01
 
@@ -379,6 +381,7 @@ class RodTracker:
         self._solved = None
         self._sign = 1.0
         self._gap_cache = None
+        self._fold_prev = None
         self._last_step = None
         self._history = []
         self._state = self._make_state()
@@ -661,6 +664,8 @@ class RodTracker:
         dt = min(1.0 - t, h, _MAX_MOVE / path.speed)
         if big > 0.0:
             dt = min(dt, _MAX_CHANGE / big)
+        limited = self._fold_limit(path, t, tan, dt)
+        near_fold, dt = limited < dt, limited
         stream = self._extrapolate(path) if t == 0.0 and dt == 1.0 else None
         curve = self._second_order(path, t, tan) if stream is None else None
         for _ in range(64):
@@ -673,13 +678,16 @@ class RodTracker:
                 guess = stream
             try:
                 solved = sol.solve(self._modes, path.pose(t_new), guess, start=self._solved,
-                                   max_step=0.5, trusted=stream is not None and t_new == 1.0)
+                                   max_step=0.5, trusted=stream is not None and t_new == 1.0,
+                                   fail_fast=near_fold)
                 break
             except ConvergenceError:
+                if near_fold and dt * 0.25 < _H_MIN:
+                    near_fold = False  # before it is called a fold: one solve in full
+                    continue
                 dt *= 0.25
                 if dt < _H_MIN:
-                    self._snap(path, t, events, "the equilibrium branch folds (no solution "
-                               "beyond this pose)")
+                    self._snap(path, t, events, _FOLDS)
                     return t, 1.0
         else:
             raise ConvergenceError("the continuation step could not be shortened enough")
@@ -694,6 +702,31 @@ class RodTracker:
             self._accept(solved, path.pose(t_new))
             return t_new, min(1.0, 2.0 * dt)
         return self._first_event(path, t, t_new, crossed, events), 1.0
+
+    def _fold_limit(self, path: _Path, t: float, tan: np.ndarray, dt: float) -> float:
+        """
+        Return the sub-step shortened to stay short of a fold the tangent announces.
+
+        Near a fold the solution goes like v_f + a sqrt(t_f - t), so 1 / norm(dv/dt)^2 falls
+        linearly to 0 at t_f: two sub-steps of the same configuration along the same path give
+        t_f. Aiming at 90% of the way there, the fold is approached by a factor 10 per sub-step
+        instead of being found by quartering failed steps, and the trial steps there give up as
+        soon as Newton stops contracting (past a fold it wanders and would spend every
+        iteration). Only the sub-step length changes: the fold is still located to _H_MIN by a
+        failed step, and every accepted sub-step is an ordinary converged solve.
+        """
+        g = 1.0 / max(float(tan @ tan), 1e-300)
+        prev = self._fold_prev
+        self._fold_prev = (path, self._modes, t, g)
+        if prev is None or prev[0] is not path or prev[1] != self._modes or not prev[2] < t:
+            return dt
+        t_prev, g_prev = prev[2], prev[3]
+        if not g < 0.5 * g_prev:  # the tangent must grow markedly
+            return dt
+        left = g * (t - t_prev) / (g_prev - g)
+        if left >= dt:
+            return dt
+        return 0.9 * left if 0.9 * left >= _H_MIN else 4.0 * _H_MIN
 
     def _extrapolate(self, path: _Path) -> Optional[np.ndarray]:
         """
@@ -878,7 +911,10 @@ class RodTracker:
         null = _null_vector(self._solved.lu)
         for amp in (1e-3, -1e-3, 1e-2, -1e-2, 1e-1, -1e-1):
             try:
-                solved = sol.solve(old_modes, pose_after, old_vec + amp * null, max_step=0.5)
+                # past a fold (no solution beyond) a nearby branch of the same contacts
+                # converges fast if it is there; at a loss of stability it may converge slowly
+                solved = sol.solve(old_modes, pose_after, old_vec + amp * null, max_step=0.5,
+                                   fail_fast=reason == _FOLDS)
             except ConvergenceError:
                 continue
             vec = solved.vec
