@@ -224,3 +224,23 @@ def test_bad_input():
 def quat_dir(name):
     """Return the whisker's base tangent in the head frame."""
     return BasePose((0, 0, 0), RIGHT[name].base_quaternion).rotation[:, 0]
+
+
+def test_reset_and_centerlines_in_contact():
+    names = ("RB1", "RC1", "RC5")
+    array, whisk, tracker, steps = _whisk_run(names, 36)
+    last = steps[-1]
+    i = last.index("RC1")
+    assert last.contacts[i] == 1
+    lines = tracker.centerlines(41)
+    single = tracker.tracker("RC1").state.centerline(41) * array["RC1"].length
+    assert np.abs(lines[i] - single).max() == 0.0
+    assert np.abs(lines[:, -1] - last.tip).max() < 1e-15
+    # the pressed whiskers cannot be placed unloaded there (they would cut the peg): they keep
+    # their state and are named; the free one is re-placed
+    after = tracker.reset()
+    assert {e.whisker for e in after.errors} == {n for n in names if last.contacts[last.index(n)]}
+    assert all("inside peg" in e.message for e in after.errors)
+    assert after.contacts[i] == 1 and np.array_equal(after.force[i], last.force[i])
+    with pytest.raises(ParameterError, match="n = 1"):
+        tracker.centerlines(1)
