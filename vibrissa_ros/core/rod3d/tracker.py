@@ -69,6 +69,10 @@ _CUT = -1e-10
 #: the whisker's sample points for the clearance (and the bound on the distance between them)
 _SAMPLES = np.linspace(0.0, 1.0, 81)
 _HALF_SPACING = 0.5 / 80.0
+#: the unloaded whisker's samples (it is drawn, not solved: finer samples are cheap and keep the
+#: exact minimum, a bounded search, to where the whisker is within 0.5/320 L of an obstacle)
+_FREE_SAMPLES = np.linspace(0.0, 1.0, 321)
+_FREE_HALF_SPACING = 0.5 / 320.0
 #: clearance below which the distance is refined by a minimisation in s
 _NEAR = 0.05
 _NUMERICAL_ERRORS = (ArithmeticError, ValueError, np.linalg.LinAlgError)
@@ -78,6 +82,8 @@ _TAIL_SAMPLES = np.linspace(0.125, 1.0, 8)
 _TAIL_CUT = -1e-9
 #: the last step continues this one when their pose increments' angle has this cosine or more
 _LINE_COSINE = 0.999
+#: a touch this near a prism's edge [L] is a touch of the edge
+_EDGE_NEAR = 1e-6
 #: the reason of a snap at a fold of the branch
 _FOLDS = "the equilibrium branch folds (no solution beyond this pose)"
 #: a pose stream is extrapolated when its poses' fourth difference is below this part of a step
@@ -354,7 +360,7 @@ class RodTracker:
         self.max_evaluations = int(max_evaluations)
         self.recover = bool(recover)
         self._nested = False
-        self._free_points = self.shape.free_centerline(_SAMPLES)
+        self._free_points = self.shape.free_centerline(_FREE_SAMPLES)
         # only prisms have edges (a polygon's corners, a point peg)
         self._edges = any(getattr(ob, "planar", None) is not None for ob in self.obstacles)
         pose = _as_pose(pose)
@@ -526,16 +532,24 @@ class RodTracker:
                              self.solver.evaluations - self._start)
 
     # -- the free whisker ---------------------------------------------------------------------
-    def _free_gap(self, pose: BasePose, exact: bool = False, skip=()):
-        """(clearance, obstacle, s): a lower bound of the free whisker's distance, exact near."""
+    def _free_gap(self, pose: BasePose, exact: bool = False, skip=(), certify: bool = False):
+        """
+        (clearance, obstacle, s): a lower bound of the free whisker's distance, exact near.
+
+        With ``certify`` a positive lower bound (the samples' distance less half their spacing)
+        is returned as it is, without the exact minimum: enough to size a free sub-step and to
+        know there is no touch; the exact minimum is taken only where the bound is not positive.
+        """
         pts = np.array(pose.position) + self._free_points @ pose.rotation.T
-        return self._gap_of_points(pts, lambda s: self._free_point(pose, s), exact, skip)
+        return self._gap_of_points(pts, lambda s: self._free_point(pose, s), exact, skip,
+                                   certify, _FREE_SAMPLES, _FREE_HALF_SPACING)
 
     def _free_point(self, pose: BasePose, s: float) -> np.ndarray:
         off = self.shape.free_centerline([s])[0]
         return np.array(pose.position) + pose.rotation @ off
 
-    def _gap_of_points(self, pts, point_at, exact, skip):
+    def _gap_of_points(self, pts, point_at, exact, skip, certify=False, samples=_SAMPLES,
+                       half=_HALF_SPACING):
         best = (math.inf, -1, 0.0)
         for k, ob in enumerate(self.obstacles):
             if k in skip:
@@ -543,25 +557,25 @@ class RodTracker:
             d = ob.signed_distance(pts)
             j = int(np.argmin(d))
             dmin = float(d[j])
-            if dmin > _NEAR and not exact:
-                value, s = dmin - _HALF_SPACING, float(_SAMPLES[j])
+            if (dmin > _NEAR and not exact) or (certify and dmin - half > 0.0):
+                value, s = dmin - half, float(samples[j])
             else:
-                value, s = self._refine(ob, point_at, j, dmin)
+                value, s = self._refine(ob, point_at, j, dmin, samples)
             if value < best[0]:
                 best = (value, k, s)
         return best
 
-    def _refine(self, ob, point_at, j, dmin):
+    def _refine(self, ob, point_at, j, dmin, samples=_SAMPLES):
         """Return the distance's minimum over s near sample j (bounded Brent in s)."""
-        lo = float(_SAMPLES[max(j - 1, 0)])
-        hi = float(_SAMPLES[min(j + 1, _SAMPLES.size - 1)])
+        lo = float(samples[max(j - 1, 0)])
+        hi = float(samples[min(j + 1, samples.size - 1)])
 
         def d(s):
             return float(ob.signed_distance(point_at(s)[None, :])[0])
 
         res = minimize_scalar(d, bounds=(lo, hi), method="bounded",
                               options={"xatol": 1e-12, "maxiter": 200})
-        cands = [(dmin, float(_SAMPLES[j])), (float(res.fun), float(res.x))]
+        cands = [(dmin, float(samples[j])), (float(res.fun), float(res.x))]
         for s_end in (lo, hi):
             cands.append((d(s_end), s_end))
         return min(cands)
@@ -578,7 +592,7 @@ class RodTracker:
             t_new = min(1.0, t + move / path.speed)
             pose_new = path.pose(t_new)
             gap_new, k, s = self._free_gap(pose_new, exact=gap - 2 * path.speed * (t_new - t)
-                                           < _NEAR)
+                                           < _NEAR, certify=True)
             if gap_new < _CUT:
                 return self._free_touch(path, t, t_new, events)
             t, gap = t_new, gap_new
@@ -1029,8 +1043,16 @@ class RodTracker:
             )
 
     def _check_touch_feature(self, k, point):
-        if self.obstacles[k].surface(point).feature == "edge":
+        """Refuse a touch on an edge, or within _EDGE_NEAR of one (where it is located)."""
+        ob = self.obstacles[k]
+        near = ob.surface(point)
+        if near.feature == "edge":
             self._refuse_edge(k, point)
+        # the touch's arc length is a minimum's location, known to ~1e-7: a touch that close
+        # to a corner is the corner's
+        for v in getattr(getattr(ob, "planar", None), "vertices", ()):
+            if v.convex and math.hypot(near.point[0] - v.x, near.point[1] - v.y) <= _EDGE_NEAR:
+                self._refuse_edge(k, point)
 
     def _refuse_edge(self, k, x):
         name = getattr(self.obstacles[k], "name", f"obstacle {k}")
