@@ -913,6 +913,7 @@ class RodTracker:
 
     def _snap(self, path, t, events, reason):
         """Find where the whisker goes when its equilibrium is lost at t, and go there."""
+        self._fold_prev = None  # the tangent before the jump says nothing about the branch after
         sol = self.solver
         pose = path.pose(t)
         before = len(self._modes)
@@ -921,14 +922,12 @@ class RodTracker:
         forces = sol.forces_of(old_modes, old_vec)
         t_after = min(1.0, t + 1e-6)
         pose_after = path.pose(t_after)
-        # 1. a stable equilibrium of the same contacts, off the lost one (a bifurcated branch)
+        # 1. a stable equilibrium of the same contacts, off the lost one (a bifurcated branch);
+        # not at a fold, where the branch of these contacts turns back (unstable) and ends
         null = _null_vector(self._solved.lu)
-        for amp in (1e-3, -1e-3, 1e-2, -1e-2, 1e-1, -1e-1):
+        for amp in (() if reason == _FOLDS else (1e-3, -1e-3, 1e-2, -1e-2, 1e-1, -1e-1)):
             try:
-                # past a fold (no solution beyond) a nearby branch of the same contacts
-                # converges fast if it is there; at a loss of stability it may converge slowly
-                solved = sol.solve(old_modes, pose_after, old_vec + amp * null, max_step=0.5,
-                                   fail_fast=reason == _FOLDS)
+                solved = sol.solve(old_modes, pose_after, old_vec + amp * null, max_step=0.5)
             except ConvergenceError:
                 continue
             vec = solved.vec
