@@ -244,3 +244,14 @@ def test_reset_and_centerlines_in_contact():
     assert after.contacts[i] == 1 and np.array_equal(after.force[i], last.force[i])
     with pytest.raises(ParameterError, match="n = 1"):
         tracker.centerlines(1)
+
+
+def test_whisking_in_the_air():
+    for scene in (None, ()):
+        tracker = ArrayTracker(_subset(RIGHT, ("RA0", "RE6")), scene, HEAD)
+        step = tracker.step(HEAD, 0.3)
+        assert not step.solved.any() and not step.force.any()
+        R = tracker.whisking.rotations(0.3)
+        assert np.abs(step.base_rotation - R).max() < 1e-15
+    with pytest.raises(ParameterError, match="scene"):
+        ArrayTracker(_subset(RIGHT, ("RA0",)), 3.0, HEAD)

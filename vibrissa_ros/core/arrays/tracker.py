@@ -249,14 +249,15 @@ def quats_from_matrices(R) -> np.ndarray:
     return q
 
 
-def _scene_in_metres(scene) -> Scene3D:
-    if isinstance(scene, Scene3D):
+def _scene_in_metres(scene) -> Optional[Scene3D]:
+    if scene is None or isinstance(scene, Scene3D):
         return scene
     try:
-        return Scene3D(tuple(scene))
+        obstacles = tuple(scene)
     except TypeError:
-        raise ParameterError(f"scene = {scene!r} is not allowed; a scene is a Scene3D (metres) "
-                             "or a sequence of 3D obstacles") from None
+        raise ParameterError(f"scene = {scene!r} is not allowed; a scene is a Scene3D (metres), "
+                             "a sequence of 3D obstacles, or None (no obstacle)") from None
+    return Scene3D(obstacles) if obstacles else None
 
 
 def _as_head(head) -> BasePose:
@@ -276,8 +277,9 @@ class ArrayTracker:
     ----------
     array : WhiskerArray
         The whiskers (SI units, head frame).
-    scene : Scene3D or sequence
-        The obstacles in the world frame, lengths in metres.
+    scene : Scene3D, sequence or None
+        The obstacles in the world frame, lengths in metres; None or an empty sequence: no
+        obstacle (whisking in the air).
     head : BasePose, optional
         The initial head pose in the world (position [m]); default: the world's origin.
     protraction : float or array_like, optional
@@ -320,8 +322,12 @@ class ArrayTracker:
         self._free = np.array([r.shape.free_centerline(s) * r.length for r in rods])
         self._free_tip = self._free[:, -1, :].copy()
         self._reach = 0.5 * self._length / (samples - 1)
-        scene_dict = self.scene.to_dict()
-        self._scenes = [Scene3D.from_dict(convert_lengths(scene_dict, r.length)) for r in rods]
+        if self.scene is None:  # whisking in the air
+            self._scenes = [()] * len(rods)
+        else:
+            scene_dict = self.scene.to_dict()
+            self._scenes = [Scene3D.from_dict(convert_lengths(scene_dict, r.length))
+                            for r in rods]
         head = _as_head(head)
         R, p = self._frames(head, protraction)
         self._trackers: List[RodTracker] = []
@@ -416,9 +422,11 @@ class ArrayTracker:
         -------
         numpy.ndarray
             (k,) the smallest signed distance of the samples [m]; the continuous whisker is
-            at least this minus L / (2 (samples - 1)) away.
+            at least this minus L / (2 (samples - 1)) away (inf without obstacles).
 
         """
+        if self.scene is None:
+            return np.full(len(self._rods), np.inf)
         pts = p[:, None, :] + self._free @ R.transpose(0, 2, 1)
         d = self.scene.signed_distances(pts.reshape(-1, 3)).min(axis=0)
         return d.reshape(len(self._rods), -1).min(axis=1)
