@@ -49,6 +49,7 @@ from scipy.linalg.lapack import dgetrf as _getrf, dgetrs as _getrs
 
 from ..errors import ConvergenceError, ParameterError
 from ..general.model import chebyshev_operators
+from . import _jit
 from .pose import BasePose, quat_matrix, quat_multiply
 from .shape import RodShape
 
@@ -543,6 +544,15 @@ class RodSolver:
         self._free_tip_cache = None
         self._chord_rate = 1.0
         self._identity_columns = {}
+        # the compiled kernels' view of the shape (vibrissa_ros.core.rod3d._jit)
+        self._kinds = {}
+        self._jit_sp = -1.0 if self._sp is None else float(self._sp)
+        if shape.parabola is not None:
+            self._jit_grid, self._jit_table = shape._u_table()
+        else:
+            self._jit_grid = self._jit_table = np.zeros(2)
+        self._jit_shape = np.array((shape.taper, self._nu1, shape.k0, shape.k1,
+                                    shape.parabola or 0.0, float(shape.parabola is not None)))
 
     # -- operators ----------------------------------------------------------------------------
     def _template(self, k: int) -> np.ndarray:
@@ -628,6 +638,45 @@ class RodSolver:
             (residual, Jacobian or None, pose sensitivity or None).
 
         """
+        if _jit.ENABLED:
+            return self._residual_compiled(modes, vec, pose, jacobian, pose_sensitivity)
+        return self._residual_numpy(modes, vec, pose, jacobian, pose_sensitivity)
+
+    def _kinds_of(self, modes) -> np.ndarray:
+        """Return the contacts' kinds as the kernels take them (1 side, 0 tip), cached."""
+        key = tuple(m.kind for m in modes)
+        kinds = self._kinds.get(key)
+        if kinds is None:
+            kinds = self._kinds[key] = np.array([m.kind == "side" for m in modes],
+                                                dtype=np.int64)
+        return kinds
+
+    def _residual_compiled(self, modes, vec, pose, jacobian, pose_sensitivity):
+        """:meth:`residual` by the compiled kernels (:mod:`._jit`)."""
+        self.evaluations += 1
+        n = self.n
+        k = len(modes)
+        kinds = self._kinds_of(modes)
+        vec = np.ascontiguousarray(vec, dtype=float)
+        T = self._template(k)
+        s, w, ds, dw, kinv, kap0, slope, dkinv, r = _jit.prepare(
+            vec, n, kinds, self._tau, self._jit_sp, T, pose.p, self._jit_shape, self._jit_grid,
+            self._jit_table)
+        dist = np.empty(k)
+        normal = np.empty((k, 3))
+        hess = np.empty((k, 3, 3))
+        for c, m in enumerate(modes):
+            sp = self.obstacles[m.obstacle].surface(r[(c + 1) * n - 1])
+            dist[c] = sp.distance
+            normal[c] = sp.normal
+            hess[c] = sp.hessian
+        res, J, sens = _jit.equations(vec, pose.q, n, kinds, T, w, ds, dw, kinv, kap0, slope,
+                                      dkinv, r, self._nu1, dist, normal, hess, jacobian,
+                                      pose_sensitivity)
+        return res, (J if jacobian else None), (sens if pose_sensitivity else None)
+
+    def _residual_numpy(self, modes, vec, pose, jacobian=True, pose_sensitivity=False):
+        """:meth:`residual` in numpy: the reference the compiled kernels are tested against."""
         self.evaluations += 1
         k = len(modes)
         lay = _Layout(self, self.breaks_of(modes, vec))

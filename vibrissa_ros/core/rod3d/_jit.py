@@ -1,0 +1,538 @@
+"""
+Compiled kernels of the 3D whisker's collocation equations (numba, cached on disk).
+
+The same equations as :meth:`.model.RodSolver.residual_reference` (the numpy reference, which the
+tests compare these kernels with), written as loops over the nodes: one kernel places the nodes
+and evaluates the shape there (:func:`prepare`), one evaluates the residual, its Jacobian and its
+pose sensitivities (:func:`equations`) from those and the obstacles' surface data at the
+contacts (the obstacles stay Python objects). ``VIBRISSA_NO_JIT=1`` in the environment, or numba
+missing, selects the numpy reference everywhere (``ENABLED`` is then False).
+
+Shapes: n points per segment, k segments (contacts), N = n k nodes; contact kinds as integers
+(1 side, 0 tip).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+
+import numpy as np
+
+ENABLED = os.environ.get("VIBRISSA_NO_JIT", "").strip() not in ("1", "true", "yes", "on")
+try:  # pragma: no cover - numba is a dependency; without it the numpy reference runs
+    import numba
+except ImportError:  # pragma: no cover
+    numba = None
+    ENABLED = False
+
+if numba is not None:
+    def _kernel(func):
+        return numba.njit(cache=True, nogil=True)(func)
+else:  # pragma: no cover
+    def _kernel(func):
+        return func
+
+
+@_kernel
+def _breaks(vec, n, kinds):
+    """Contact arc lengths (k,) from the unknown vector (tip contacts at s = 1)."""
+    k = kinds.size
+    out = np.empty(k)
+    o = 4 * n * k
+    for c in range(k):
+        if kinds[c] == 1:
+            out[c] = vec[o]
+            o += 2
+        else:
+            out[c] = 1.0
+            o += 1
+    return out
+
+
+@_kernel
+def _parabola_u(s, A, grid, table):
+    """u = 2 A x(s) on the parabola y = A x^2 (as RodShape._u: table, then Newton)."""
+    m = s.size
+    u = np.empty(m)
+    a = abs(A)
+    top = grid[-1]
+    inside = True
+    for i in range(m):
+        if not s[i] <= top:
+            inside = False
+    h = grid[1] - grid[0]
+    for i in range(m):
+        x = s[i]
+        if x > top or not x == x:
+            u[i] = 0.5 * 4.0 * a * x
+        else:
+            j = min(int(x / h), grid.size - 1)
+            while j > 0 and grid[j] > x:
+                j -= 1
+            while j < grid.size - 1 and grid[j + 1] <= x:
+                j += 1
+            if j == grid.size - 1 or grid[j] == x:
+                u[i] = table[j]
+            else:
+                slope = (table[j + 1] - table[j]) / (grid[j + 1] - grid[j])
+                u[i] = slope * (x - grid[j]) + table[j]
+    steps = 2 if inside else 60
+    for i in range(m):
+        target = 4.0 * a * s[i]
+        v = u[i]
+        for _ in range(steps):
+            root = math.sqrt(1.0 + v * v)
+            v = v - (v * root + math.asinh(v) - target) / (2.0 * root)
+        u[i] = math.copysign(1.0, A) * v
+    return u
+
+
+@_kernel
+def prepare(vec, n, kinds, tau, sp, T, p, shape, grid, table):
+    """
+    Return the nodes, the shape at them and the centerline there, for one unknown vector.
+
+    ``shape`` = (taper, 1 + nu, k0, k1, A, parabola flag); ``sp`` the cone's apex (or <= 0
+    for a cylinder). Returns (s, w, ds, dw, kinv, kap0, kap0_slope, dkinv, r): the nodes' arc
+    lengths and integration weights (N,), their derivatives by each contact's arc length (k, N),
+    (nu1/B, 1/B, 1/B) (N, 3), kappa0 and its slope (N,), d(1/B)/ds (N,), and r (N, 3).
+    """
+    k = kinds.size
+    N = n * k
+    b = _breaks(vec, n, kinds)
+    s = np.empty(N)
+    w = np.empty(N)
+    ds = np.zeros((k, N))
+    dw = np.zeros((k, N))
+    cone = sp > 0.0
+    Ls = np.empty(k)
+    for c in range(k):
+        a = 0.0 if c == 0 else b[c - 1]
+        if not cone:
+            h = b[c] - a
+            for j in range(n):
+                s[c * n + j] = a + h * tau[j]
+                w[c * n + j] = h
+        else:
+            L = math.log((sp - b[c]) / (sp - a))
+            Ls[c] = L
+            for j in range(n):
+                gap = (sp - a) * math.exp(tau[j] * L)
+                s[c * n + j] = sp - gap
+                w[c * n + j] = -L * gap
+    for c in range(k):
+        for j in range(n):
+            i = c * n + j
+            if not cone:
+                ds[c, i] = tau[j]
+                dw[c, i] = 1.0
+            else:
+                ds[c, i] = tau[j] * (sp - s[i]) / (sp - b[c])
+                dw[c, i] = (sp - s[i]) * (1.0 + Ls[c] * tau[j]) / (sp - b[c])
+            if c + 1 < k:
+                i2 = (c + 1) * n + j
+                if not cone:
+                    ds[c, i2] = 1.0 - tau[j]
+                    dw[c, i2] = -1.0
+                else:
+                    ds[c, i2] = (1.0 - tau[j]) * (sp - s[i2]) / (sp - b[c])
+                    dw[c, i2] = ((sp - s[i2]) * (-1.0 + Ls[c + 1] * (1.0 - tau[j]))
+                                 / (sp - b[c]))
+    taper, nu1, k0, k1, A, parabola = (shape[0], shape[1], shape[2], shape[3], shape[4],
+                                       shape[5])
+    kinv = np.empty((N, 3))
+    kap0 = np.empty(N)
+    slope = np.empty(N)
+    dkinv = np.empty(N)
+    t1 = 1.0 - taper
+    for i in range(N):
+        x = 1.0 - t1 * s[i]
+        B = x ** 4.0
+        inv = 1.0 / B
+        kinv[i, 0] = nu1 * inv
+        kinv[i, 1] = inv
+        kinv[i, 2] = inv
+        dkinv[i] = -(-4.0 * t1 * x ** 3.0) * inv ** 2.0
+    if parabola != 0.0:
+        u = _parabola_u(s, A, grid, table)
+        for i in range(N):
+            ww = 1.0 + u[i] * u[i]
+            kap0[i] = 2.0 * A / ww ** 1.5
+            slope[i] = -12.0 * A ** 2.0 * u[i] / ww ** 3.0
+    else:
+        for i in range(N):
+            kap0[i] = k0 + k1 * s[i]
+            slope[i] = k1 + 0.0 * s[i]
+    r = _positions(vec, T, w, p, N)
+    return s, w, ds, dw, kinv, kap0, slope, dkinv, r
+
+
+@_kernel
+def _positions(vec, T, w, p, N):
+    """Return r = p + G d1 (N, 3) at the nodes, G = T diag(w)."""
+    d1 = np.empty((N, 3))
+    for j in range(N):
+        qw, qx, qy, qz = vec[4 * j], vec[4 * j + 1], vec[4 * j + 2], vec[4 * j + 3]
+        d1[j, 0] = (qw * qw + qx * qx - qy * qy - qz * qz) * w[j]
+        d1[j, 1] = 2.0 * (qx * qy + qw * qz) * w[j]
+        d1[j, 2] = 2.0 * (qx * qz - qw * qy) * w[j]
+    r = np.empty((N, 3))
+    for i in range(N):
+        a0 = 0.0
+        a1 = 0.0
+        a2 = 0.0
+        for j in range(N):
+            t = T[i, j]
+            a0 += t * d1[j, 0]
+            a1 += t * d1[j, 1]
+            a2 += t * d1[j, 2]
+        r[i, 0] = p[0] + a0
+        r[i, 1] = p[1] + a1
+        r[i, 2] = p[2] + a2
+    return r
+
+
+@_kernel
+def _rotation(q, R):
+    """Fill R (3, 3) with R(q) (the unit-quaternion formula, as model._rotations)."""
+    w, x, y, z = q[0], q[1], q[2], q[3]
+    ww, xx, yy, zz = w * w, x * x, y * y, z * z
+    xy, xz, yz, wx, wy, wz = x * y, x * z, y * z, w * x, w * y, w * z
+    R[0, 0] = ww + xx - yy - zz
+    R[0, 1] = 2.0 * (xy - wz)
+    R[0, 2] = 2.0 * (xz + wy)
+    R[1, 0] = 2.0 * (xy + wz)
+    R[1, 1] = ww - xx + yy - zz
+    R[1, 2] = 2.0 * (yz - wx)
+    R[2, 0] = 2.0 * (xz - wy)
+    R[2, 1] = 2.0 * (yz + wx)
+    R[2, 2] = ww - xx - yy + zz
+
+
+@_kernel
+def _left(q, Lv):
+    """Fill Lv (4, 3) with q * (0, v) = Lv v."""
+    w, x, y, z = q[0], q[1], q[2], q[3]
+    Lv[0, 0], Lv[0, 1], Lv[0, 2] = -x, -y, -z
+    Lv[1, 0], Lv[1, 1], Lv[1, 2] = w, -z, y
+    Lv[2, 0], Lv[2, 1], Lv[2, 2] = z, w, -x
+    Lv[3, 0], Lv[3, 1], Lv[3, 2] = -y, x, w
+
+
+@_kernel
+def _drot(q, dR):
+    """Fill dR (4, 3, 3) with dR/dq_k (k = w, x, y, z)."""
+    w, x, y, z = 2.0 * q[0], 2.0 * q[1], 2.0 * q[2], 2.0 * q[3]
+    dR[0, 0, 0], dR[0, 0, 1], dR[0, 0, 2] = w, -z, y
+    dR[0, 1, 0], dR[0, 1, 1], dR[0, 1, 2] = z, w, -x
+    dR[0, 2, 0], dR[0, 2, 1], dR[0, 2, 2] = -y, x, w
+    dR[1, 0, 0], dR[1, 0, 1], dR[1, 0, 2] = x, y, z
+    dR[1, 1, 0], dR[1, 1, 1], dR[1, 1, 2] = y, -x, -w
+    dR[1, 2, 0], dR[1, 2, 1], dR[1, 2, 2] = z, w, -x
+    dR[2, 0, 0], dR[2, 0, 1], dR[2, 0, 2] = -y, x, w
+    dR[2, 1, 0], dR[2, 1, 1], dR[2, 1, 2] = x, y, z
+    dR[2, 2, 0], dR[2, 2, 1], dR[2, 2, 2] = -w, z, -y
+    dR[3, 0, 0], dR[3, 0, 1], dR[3, 0, 2] = -z, -w, x
+    dR[3, 1, 0], dR[3, 1, 1], dR[3, 1, 2] = w, -z, y
+    dR[3, 2, 0], dR[3, 2, 1], dR[3, 2, 2] = x, y, z
+
+
+@_kernel
+def _cross3(a0, a1, a2, b0, b1, b2, out, i):
+    """Add (a x b) to out[i]."""
+    out[i, 0] += a1 * b2 - a2 * b1
+    out[i, 1] += a2 * b0 - a0 * b2
+    out[i, 2] += a0 * b1 - a1 * b0
+
+
+@_kernel
+def equations(vec, qb, n, kinds, T, w, ds, dw, kinv, kap0, slope, dkinv, r, nu1,
+              dist, normal, hess, jacobian, sensitivity):
+    """
+    Return (residual, Jacobian, pose sensitivity) of the collocation system (model.py).
+
+    ``dist`` (k,), ``normal`` (k, 3), ``hess`` (k, 3, 3): the obstacles' surface data at the
+    contact points r(s_c). The Jacobian and the sensitivity are (0, 0) arrays unless asked for.
+    """
+    k = kinds.size
+    N = n * k
+    M4 = 4 * N
+    size = M4
+    for c in range(k):
+        size += 2 if kinds[c] == 1 else 1
+    ends = np.empty(k, dtype=np.int64)
+    fs = np.empty(k)
+    o = M4
+    offs = np.empty(k, dtype=np.int64)
+    for c in range(k):
+        ends[c] = (c + 1) * n - 1
+        sz = 2 if kinds[c] == 1 else 1
+        offs[c] = o
+        fs[c] = vec[o + sz - 1]
+        o += sz
+    G = np.empty((N, N))
+    for i in range(N):
+        for j in range(N):
+            G[i, j] = T[i, j] * w[j]
+    F = np.empty((k, 3))
+    for c in range(k):
+        for m in range(3):
+            F[c, m] = fs[c] * normal[c, m]
+    # moments M_i = sum_c [i <= e_c] (r_c - r_i) x F_c
+    M = np.zeros((N, 3))
+    for c in range(k):
+        e = ends[c]
+        for i in range(e + 1):
+            _cross3(r[e, 0] - r[i, 0], r[e, 1] - r[i, 1], r[e, 2] - r[i, 2],
+                    F[c, 0], F[c, 1], F[c, 2], M, i)
+    R = np.empty((N, 3, 3))
+    Lv = np.empty((N, 4, 3))
+    mb = np.empty((N, 3))
+    kap = np.empty((N, 3))
+    g = np.empty((N, 4))
+    for i in range(N):
+        q = vec[4 * i:4 * i + 4]
+        _rotation(q, R[i])
+        _left(q, Lv[i])
+        for m in range(3):
+            mb[i, m] = M[i, 0] * R[i, 0, m] + M[i, 1] * R[i, 1, m] + M[i, 2] * R[i, 2, m]
+            kap[i, m] = kinv[i, m] * mb[i, m]
+        kap[i, 2] += kap0[i]
+        for a in range(4):
+            g[i, a] = 0.5 * (Lv[i, a, 0] * kap[i, 0] + Lv[i, a, 1] * kap[i, 1]
+                             + Lv[i, a, 2] * kap[i, 2])
+    res = np.empty(size)
+    for i in range(N):
+        for a in range(4):
+            acc = 0.0
+            for j in range(N):
+                acc += G[i, j] * g[j, a]
+            res[4 * i + a] = vec[4 * i + a] - qb[a] - acc
+    for c in range(k):
+        o = offs[c]
+        res[o] = dist[c]
+        if kinds[c] == 1:
+            e = ends[c]
+            res[o + 1] = (R[e, 0, 0] * normal[c, 0] + R[e, 1, 0] * normal[c, 1]
+                          + R[e, 2, 0] * normal[c, 2])
+    if not jacobian and not sensitivity:
+        return res, np.zeros((0, 0)), np.zeros((0, 0))
+    # D[j, l, b] = d d1_l / d q_jb;  P = dg/dkappa;  PRt = P R^T = dg/dM
+    dR = np.empty((N, 4, 3, 3))
+    D = np.empty((N, 3, 4))
+    P = np.empty((N, 4, 3))
+    PRt = np.empty((N, 4, 3))
+    for i in range(N):
+        _drot(vec[4 * i:4 * i + 4], dR[i])
+        for b in range(4):
+            for l in range(3):
+                D[i, l, b] = dR[i, b, l, 0]
+        for a in range(4):
+            for m in range(3):
+                P[i, a, m] = 0.5 * Lv[i, a, m] * kinv[i, m]
+            for l in range(3):
+                PRt[i, a, l] = (P[i, a, 0] * R[i, l, 0] + P[i, a, 1] * R[i, l, 1]
+                                + P[i, a, 2] * R[i, l, 2])
+    # dM_i/dp (the normals turn with the contact points)
+    dMdp = np.zeros((N, 3, 3))
+    for c in range(k):
+        e = ends[c]
+        f = fs[c]
+        for i in range(e + 1):
+            v0, v1, v2 = r[e, 0] - r[i, 0], r[e, 1] - r[i, 1], r[e, 2] - r[i, 2]
+            for col in range(3):
+                h0, h1, h2 = hess[c, 0, col], hess[c, 1, col], hess[c, 2, col]
+                dMdp[i, 0, col] += f * (v1 * h2 - v2 * h1)
+                dMdp[i, 1, col] += f * (v2 * h0 - v0 * h2)
+                dMdp[i, 2, col] += f * (v0 * h1 - v1 * h0)
+    J = np.zeros((size, size)) if jacobian else np.zeros((0, 0))
+    sens = np.zeros((size, 7)) if sensitivity else np.zeros((0, 0))
+    if jacobian:
+        dg = np.zeros((N, 4, N, 4))
+        # the diagonal: 1/2 Rm(kappa) + P d(R^T M)/dq
+        for i in range(N):
+            Tm = np.zeros((3, 4))
+            for b in range(3):
+                for kk in range(4):
+                    Tm[b, kk] = (dR[i, kk, 0, b] * M[i, 0] + dR[i, kk, 1, b] * M[i, 1]
+                                 + dR[i, kk, 2, b] * M[i, 2])
+            k1_, k2_, k3_ = kap[i, 0], kap[i, 1], kap[i, 2]
+            # Rm(k) q = q * (0, k)
+            Rm = np.array(((0.0, -k1_, -k2_, -k3_), (k1_, 0.0, k3_, -k2_),
+                           (k2_, -k3_, 0.0, k1_), (k3_, k2_, -k1_, 0.0)))
+            for a in range(4):
+                for kk in range(4):
+                    dg[i, a, i, kk] += 0.5 * Rm[a, kk] + (P[i, a, 0] * Tm[0, kk]
+                                                          + P[i, a, 1] * Tm[1, kk]
+                                                          + P[i, a, 2] * Tm[2, kk])
+        XD = np.empty((3, N, 4))
+        for c in range(k):
+            e = ends[c]
+            Fc0, Fc1, Fc2 = F[c, 0], F[c, 1], F[c, 2]
+            # [F]_x D_j
+            for j in range(N):
+                for b in range(4):
+                    d0, d1_, d2 = D[j, 0, b], D[j, 1, b], D[j, 2, b]
+                    XD[0, j, b] = -Fc2 * d1_ + Fc1 * d2
+                    XD[1, j, b] = Fc2 * d0 - Fc0 * d2
+                    XD[2, j, b] = -Fc1 * d0 + Fc0 * d1_
+            f = fs[c]
+            PY = np.zeros((4, 3))
+            for i in range(e + 1):
+                if f != 0.0:
+                    v0, v1, v2 = r[e, 0] - r[i, 0], r[e, 1] - r[i, 1], r[e, 2] - r[i, 2]
+                    # Y = f [r_c - r_i]_x H;  PY = PRt_i Y
+                    Y = np.empty((3, 3))
+                    for col in range(3):
+                        h0, h1, h2 = hess[c, 0, col], hess[c, 1, col], hess[c, 2, col]
+                        Y[0, col] = f * (v1 * h2 - v2 * h1)
+                        Y[1, col] = f * (v2 * h0 - v0 * h2)
+                        Y[2, col] = f * (v0 * h1 - v1 * h0)
+                    for a in range(4):
+                        for col in range(3):
+                            PY[a, col] = (PRt[i, a, 0] * Y[0, col] + PRt[i, a, 1] * Y[1, col]
+                                          + PRt[i, a, 2] * Y[2, col])
+                for j in range(N):
+                    ge = G[e, j]
+                    w1 = ge - G[i, j]
+                    for a in range(4):
+                        p0, p1, p2 = PRt[i, a, 0], PRt[i, a, 1], PRt[i, a, 2]
+                        for b in range(4):
+                            A_ = p0 * XD[0, j, b] + p1 * XD[1, j, b] + p2 * XD[2, j, b]
+                            val = -A_ * w1
+                            if f != 0.0:
+                                val += (PY[a, 0] * D[j, 0, b] + PY[a, 1] * D[j, 1, b]
+                                        + PY[a, 2] * D[j, 2, b]) * ge
+                            dg[i, a, j, b] += val
+        GD = np.dot(G, dg.reshape(N, 16 * N))
+        for i in range(N):
+            for a in range(4):
+                row = 4 * i + a
+                for jb in range(M4):
+                    J[row, jb] = -GD[i, a * M4 + jb]
+                J[row, row] += 1.0
+        # the columns of the forces and the rows of the contact equations
+        Z = np.empty((N, 4))
+        for c in range(k):
+            e = ends[c]
+            o = offs[c]
+            sz = 2 if kinds[c] == 1 else 1
+            n0, n1, n2 = normal[c, 0], normal[c, 1], normal[c, 2]
+            for i in range(N):
+                for a in range(4):
+                    Z[i, a] = 0.0
+            for i in range(e + 1):
+                v0, v1, v2 = r[e, 0] - r[i, 0], r[e, 1] - r[i, 1], r[e, 2] - r[i, 2]
+                m0 = v1 * n2 - v2 * n1
+                m1 = v2 * n0 - v0 * n2
+                m2 = v0 * n1 - v1 * n0
+                for a in range(4):
+                    Z[i, a] = PRt[i, a, 0] * m0 + PRt[i, a, 1] * m1 + PRt[i, a, 2] * m2
+            for i in range(N):
+                for a in range(4):
+                    acc = 0.0
+                    for j in range(N):
+                        acc += G[i, j] * Z[j, a]
+                    J[4 * i + a, o + sz - 1] = -acc
+            if kinds[c] == 1:
+                t0, t1_, t2 = R[e, 0, 0], R[e, 1, 0], R[e, 2, 0]
+                hd0 = hess[c, 0, 0] * t0 + hess[c, 0, 1] * t1_ + hess[c, 0, 2] * t2
+                hd1 = hess[c, 1, 0] * t0 + hess[c, 1, 1] * t1_ + hess[c, 1, 2] * t2
+                hd2 = hess[c, 2, 0] * t0 + hess[c, 2, 1] * t1_ + hess[c, 2, 2] * t2
+            for j in range(N):
+                ge = G[e, j]
+                for b in range(4):
+                    J[o, 4 * j + b] = (n0 * D[j, 0, b] + n1 * D[j, 1, b] + n2 * D[j, 2, b]) * ge
+                    if kinds[c] == 1:
+                        val = (hd0 * D[j, 0, b] + hd1 * D[j, 1, b] + hd2 * D[j, 2, b]) * ge
+                        if j == e:
+                            val += n0 * D[j, 0, b] + n1 * D[j, 1, b] + n2 * D[j, 2, b]
+                        J[o + 1, 4 * j + b] = val
+        # the columns of the contact arc lengths: moving nodes and integration weights
+        shared = np.empty((N, 4))
+        for i in range(N):
+            dk0 = nu1 * dkinv[i] * mb[i, 0]
+            dk1 = dkinv[i] * mb[i, 1]
+            dk2 = dkinv[i] * mb[i, 2] + slope[i]
+            for a in range(4):
+                shared[i, a] = 0.5 * (Lv[i, a, 0] * dk0 + Lv[i, a, 1] * dk1 + Lv[i, a, 2] * dk2)
+        dr = np.empty((N, 3))
+        dM = np.empty((N, 3))
+        dg2 = np.empty((N, 4))
+        for c in range(k):
+            if kinds[c] != 1:
+                continue
+            o = offs[c]
+            # dr = dG D1, dG = T diag(dw_c)
+            for i in range(N):
+                a0 = 0.0
+                a1 = 0.0
+                a2 = 0.0
+                for j in range(N):
+                    t = T[i, j] * dw[c, j]
+                    a0 += t * R[j, 0, 0]
+                    a1 += t * R[j, 1, 0]
+                    a2 += t * R[j, 2, 0]
+                dr[i, 0], dr[i, 1], dr[i, 2] = a0, a1, a2
+            for i in range(N):
+                dM[i, 0], dM[i, 1], dM[i, 2] = 0.0, 0.0, 0.0
+            for cp in range(k):
+                e = ends[cp]
+                x0, x1, x2 = dr[e, 0], dr[e, 1], dr[e, 2]
+                f = fs[cp]
+                dF0 = f * (hess[cp, 0, 0] * x0 + hess[cp, 0, 1] * x1 + hess[cp, 0, 2] * x2)
+                dF1 = f * (hess[cp, 1, 0] * x0 + hess[cp, 1, 1] * x1 + hess[cp, 1, 2] * x2)
+                dF2 = f * (hess[cp, 2, 0] * x0 + hess[cp, 2, 1] * x1 + hess[cp, 2, 2] * x2)
+                for i in range(e + 1):
+                    _cross3(x0 - dr[i, 0], x1 - dr[i, 1], x2 - dr[i, 2],
+                            F[cp, 0], F[cp, 1], F[cp, 2], dM, i)
+                    _cross3(r[e, 0] - r[i, 0], r[e, 1] - r[i, 1], r[e, 2] - r[i, 2],
+                            dF0, dF1, dF2, dM, i)
+            for i in range(N):
+                for a in range(4):
+                    dg2[i, a] = (PRt[i, a, 0] * dM[i, 0] + PRt[i, a, 1] * dM[i, 1]
+                                 + PRt[i, a, 2] * dM[i, 2]) + shared[i, a] * ds[c, i]
+            for i in range(N):
+                for a in range(4):
+                    acc = 0.0
+                    for j in range(N):
+                        acc += T[i, j] * dw[c, j] * g[j, a] + G[i, j] * dg2[j, a]
+                    J[4 * i + a, o] = -acc
+            for cp in range(k):
+                e = ends[cp]
+                op = offs[cp]
+                x0, x1, x2 = dr[e, 0], dr[e, 1], dr[e, 2]
+                J[op, o] = normal[cp, 0] * x0 + normal[cp, 1] * x1 + normal[cp, 2] * x2
+                if kinds[cp] == 1:
+                    acc = 0.0
+                    for l in range(3):
+                        acc += R[e, l, 0] * (hess[cp, l, 0] * x0 + hess[cp, l, 1] * x1
+                                             + hess[cp, l, 2] * x2)
+                    J[op + 1, o] = acc
+    if sensitivity:
+        for c in range(k):
+            e = ends[c]
+            o = offs[c]
+            for l in range(3):
+                sens[o, l] = normal[c, l]
+            if kinds[c] == 1:
+                for l in range(3):
+                    sens[o + 1, l] = (hess[c, l, 0] * R[e, 0, 0] + hess[c, l, 1] * R[e, 1, 0]
+                                      + hess[c, l, 2] * R[e, 2, 0])
+        PM = np.empty((N, 4, 3))
+        for i in range(N):
+            for a in range(4):
+                for col in range(3):
+                    PM[i, a, col] = (PRt[i, a, 0] * dMdp[i, 0, col]
+                                     + PRt[i, a, 1] * dMdp[i, 1, col]
+                                     + PRt[i, a, 2] * dMdp[i, 2, col])
+        for i in range(N):
+            for a in range(4):
+                for col in range(3):
+                    acc = 0.0
+                    for j in range(N):
+                        acc += G[i, j] * PM[j, a, col]
+                    sens[4 * i + a, col] = -acc
+                sens[4 * i + a, 3 + a] = -1.0
+    return res, J, sens
