@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 import os
+import threading
 
 import numpy as np
 
@@ -25,6 +26,45 @@ try:  # pragma: no cover - numba is a dependency; without it the numpy reference
 except ImportError:  # pragma: no cover
     numba = None
     ENABLED = False
+
+#: set once every kernel is compiled (or loaded from numba's cache) in this process
+WARM = False
+_WARMING = threading.RLock()
+
+
+def warm_up() -> None:
+    """
+    Compile every kernel (or load it from the on-disk cache) now, once per process.
+
+    The first use of a kernel compiles it (~10 s the first time on a machine, ~0.2 s from the
+    cache afterwards); this does it at once, in one thread: the solver calls it before a
+    kernel's first use, and the ROS node starts it in the background when it starts. Other
+    threads wait for it to finish (numba must not compile one kernel in two threads at once).
+    """
+    global WARM
+    if WARM or not ENABLED:
+        return
+    with _WARMING:
+        if WARM:
+            return
+        # imported here: model imports this module
+        from .model import RodContactMode, RodSolver
+        from .obstacles import Sphere
+        from .pose import BasePose
+        from .shape import RodShape
+
+        solver = RodSolver(RodShape(), (Sphere((0.5, 0.1, 0.0), 0.1),), n=8)
+        modes = (RodContactMode("side", 0),)
+        pose = BasePose((0.0, 0.0, 0.0))
+        vec = solver.guess(modes, (0.5,), (0.1,), lambda s: solver.free_quaternions(pose, s))
+        WARM = True  # the calls below would otherwise come back here
+        try:
+            solver._residual_compiled(modes, vec, pose, True, True)
+            solver._nodes(modes, vec, pose)
+        except BaseException:
+            WARM = False
+            raise
+
 
 if numba is not None:
     def _kernel(func):
@@ -52,7 +92,7 @@ def _breaks(vec, n, kinds):
 
 @_kernel
 def _parabola_u(s, A, grid, table):
-    """u = 2 A x(s) on the parabola y = A x^2 (as RodShape._u: table, then Newton)."""
+    """Return u = 2 A x(s) on the parabola y = A x^2 (as RodShape._u: table, then Newton)."""
     m = s.size
     u = np.empty(m)
     a = abs(A)
@@ -89,27 +129,17 @@ def _parabola_u(s, A, grid, table):
 
 
 @_kernel
-def prepare(vec, n, kinds, tau, sp, T, p, shape, grid, table):
-    """
-    Return the nodes, the shape at them and the centerline there, for one unknown vector.
-
-    ``shape`` = (taper, 1 + nu, k0, k1, A, parabola flag); ``sp`` the cone's apex (or <= 0
-    for a cylinder). Returns (s, w, ds, dw, kinv, kap0, kap0_slope, dkinv, r): the nodes' arc
-    lengths and integration weights (N,), their derivatives by each contact's arc length (k, N),
-    (nu1/B, 1/B, 1/B) (N, 3), kappa0 and its slope (N,), d(1/B)/ds (N,), and r (N, 3).
-    """
+def _weights(vec, n, kinds, tau, sp):
+    """Return the breaks (k,), the nodes' arc lengths and weights (N,) and the cone's logs (k,)."""
     k = kinds.size
     N = n * k
     b = _breaks(vec, n, kinds)
     s = np.empty(N)
     w = np.empty(N)
-    ds = np.zeros((k, N))
-    dw = np.zeros((k, N))
-    cone = sp > 0.0
-    Ls = np.empty(k)
+    Ls = np.zeros(k)
     for c in range(k):
         a = 0.0 if c == 0 else b[c - 1]
-        if not cone:
+        if sp <= 0.0:
             h = b[c] - a
             for j in range(n):
                 s[c * n + j] = a + h * tau[j]
@@ -121,6 +151,44 @@ def prepare(vec, n, kinds, tau, sp, T, p, shape, grid, table):
                 gap = (sp - a) * math.exp(tau[j] * L)
                 s[c * n + j] = sp - gap
                 w[c * n + j] = -L * gap
+    return b, s, w, Ls
+
+
+@_kernel
+def nodes(vec, n, kinds, tau, sp, T, p):
+    """
+    Return (breaks (k,), w (N,), r (N, 3), frames at the contacts (k, 3, 3)) of a solution.
+
+    The centerline at the nodes, r = p + G d1, and R(q) at the segments' ends, for sampling a
+    solution (:meth:`.model.RodSolver.centerline`, :meth:`.model.RodSolver.equilibrium`).
+    """
+    k = kinds.size
+    N = n * k
+    b, s, w, Ls = _weights(vec, n, kinds, tau, sp)
+    r = _positions(vec, T, w, p, N)
+    frames = np.empty((k, 3, 3))
+    for c in range(k):
+        e = (c + 1) * n - 1
+        _rotation(vec[4 * e:4 * e + 4], frames[c])
+    return b, w, r, frames
+
+
+@_kernel
+def prepare(vec, n, kinds, tau, sp, T, p, shape, grid, table):
+    """
+    Return the nodes, the shape at them and the centerline there, for one unknown vector.
+
+    ``shape`` = (taper, 1 + nu, k0, k1, A, parabola flag); ``sp`` the cone's apex (or <= 0
+    for a cylinder). Returns (s, w, ds, dw, kinv, kap0, kap0_slope, dkinv, r): the nodes' arc
+    lengths and integration weights (N,), their derivatives by each contact's arc length (k, N),
+    (nu1/B, 1/B, 1/B) (N, 3), kappa0 and its slope (N,), d(1/B)/ds (N,), and r (N, 3).
+    """
+    k = kinds.size
+    N = n * k
+    b, s, w, Ls = _weights(vec, n, kinds, tau, sp)
+    ds = np.zeros((k, N))
+    dw = np.zeros((k, N))
+    cone = sp > 0.0
     for c in range(k):
         for j in range(n):
             i = c * n + j
@@ -318,7 +386,7 @@ def equations(vec, qb, n, kinds, T, w, ds, dw, kinv, kap0, slope, dkinv, r, nu1,
                           + R[e, 2, 0] * normal[c, 2])
     if not jacobian and not sensitivity:
         return res, np.zeros((0, 0)), np.zeros((0, 0))
-    # D[j, l, b] = d d1_l / d q_jb;  P = dg/dkappa;  PRt = P R^T = dg/dM
+    # D[j, ax, b] = d d1_l / d q_jb;  P = dg/dkappa;  PRt = P R^T = dg/dM
     dR = np.empty((N, 4, 3, 3))
     D = np.empty((N, 3, 4))
     P = np.empty((N, 4, 3))
@@ -326,14 +394,14 @@ def equations(vec, qb, n, kinds, T, w, ds, dw, kinv, kap0, slope, dkinv, r, nu1,
     for i in range(N):
         _drot(vec[4 * i:4 * i + 4], dR[i])
         for b in range(4):
-            for l in range(3):
-                D[i, l, b] = dR[i, b, l, 0]
+            for ax in range(3):
+                D[i, ax, b] = dR[i, b, ax, 0]
         for a in range(4):
             for m in range(3):
                 P[i, a, m] = 0.5 * Lv[i, a, m] * kinv[i, m]
-            for l in range(3):
-                PRt[i, a, l] = (P[i, a, 0] * R[i, l, 0] + P[i, a, 1] * R[i, l, 1]
-                                + P[i, a, 2] * R[i, l, 2])
+            for ax in range(3):
+                PRt[i, a, ax] = (P[i, a, 0] * R[i, ax, 0] + P[i, a, 1] * R[i, ax, 1]
+                                 + P[i, a, 2] * R[i, ax, 2])
     # dM_i/dp (the normals turn with the contact points)
     dMdp = np.zeros((N, 3, 3))
     for c in range(k):
@@ -506,20 +574,20 @@ def equations(vec, qb, n, kinds, T, w, ds, dw, kinv, kap0, slope, dkinv, r, nu1,
                 J[op, o] = normal[cp, 0] * x0 + normal[cp, 1] * x1 + normal[cp, 2] * x2
                 if kinds[cp] == 1:
                     acc = 0.0
-                    for l in range(3):
-                        acc += R[e, l, 0] * (hess[cp, l, 0] * x0 + hess[cp, l, 1] * x1
-                                             + hess[cp, l, 2] * x2)
+                    for ax in range(3):
+                        acc += R[e, ax, 0] * (hess[cp, ax, 0] * x0 + hess[cp, ax, 1] * x1
+                                              + hess[cp, ax, 2] * x2)
                     J[op + 1, o] = acc
     if sensitivity:
         for c in range(k):
             e = ends[c]
             o = offs[c]
-            for l in range(3):
-                sens[o, l] = normal[c, l]
+            for ax in range(3):
+                sens[o, ax] = normal[c, ax]
             if kinds[c] == 1:
-                for l in range(3):
-                    sens[o + 1, l] = (hess[c, l, 0] * R[e, 0, 0] + hess[c, l, 1] * R[e, 1, 0]
-                                      + hess[c, l, 2] * R[e, 2, 0])
+                for ax in range(3):
+                    sens[o + 1, ax] = (hess[c, ax, 0] * R[e, 0, 0] + hess[c, ax, 1] * R[e, 1, 0]
+                                       + hess[c, ax, 2] * R[e, 2, 0])
         PM = np.empty((N, 4, 3))
         for i in range(N):
             for a in range(4):

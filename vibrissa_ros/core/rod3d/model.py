@@ -132,6 +132,19 @@ def _probe_tip(shape: RodShape, n: int) -> np.ndarray:
     return np.concatenate((tip, quat_matrix(q / np.linalg.norm(q)).ravel()))
 
 
+def warm_up() -> None:
+    """
+    Compile the solver's kernels now (or load them from numba's cache), once per process.
+
+    The solver does it itself before their first use: about 10 s the first time on a machine
+    (numba compiles them and caches them on disk), about 0.2 s afterwards. A program that must
+    answer its first poses at once (the ROS node) calls it at start, in a thread. Nothing
+    happens when VIBRISSA_NO_JIT=1 selects the numpy code (doc/mechanics/rod3d.md).
+
+    """
+    _jit.warm_up()
+
+
 @lru_cache(maxsize=64)
 def points_for(shape: RodShape) -> int:
     """
@@ -653,6 +666,8 @@ class RodSolver:
 
     def _residual_compiled(self, modes, vec, pose, jacobian, pose_sensitivity):
         """:meth:`residual` by the compiled kernels (:mod:`._jit`)."""
+        if not _jit.WARM:
+            _jit.warm_up()
         self.evaluations += 1
         n = self.n
         k = len(modes)
@@ -1261,16 +1276,25 @@ class RodSolver:
         p = pose.p
         if not modes:
             return p + self.shape.free_centerline(s) @ pose.rotation.T
-        lay = _Layout(self, self.breaks_of(modes, vec))
-        Q = vec[:4 * lay.N].reshape(lay.N, 4)
-        R = _rotations(Q)
-        D1 = R[:, :, 0]
-        # segment starts: the nodes' positions r = p + G D1 at each segment's first node
-        r_nodes = p + lay.G @ D1
-        end = lay.breaks[-1]
+        if _jit.ENABLED:
+            breaks, w, r_nodes, frames = self._nodes(modes, vec, pose)
+            last = frames[-1]
+            lay = None
+        else:
+            lay = _Layout(self, self.breaks_of(modes, vec))
+            Q = vec[:4 * lay.N].reshape(lay.N, 4)
+            R = _rotations(Q)
+            D1 = R[:, :, 0]
+            # segment starts: the nodes' positions r = p + G D1 at each segment's first node
+            r_nodes = p + lay.G @ D1
+            breaks, last = lay.breaks, R[-1]
+        end = breaks[-1]
         out = np.empty((s.size, 3))
         inside = s <= end
         if np.any(inside):
+            if lay is None:
+                lay = _Layout(self, breaks)
+                D1 = _tangents(vec[:4 * lay.N].reshape(lay.N, 4))
             c, x = lay.locate(s[inside])
             W = np.polynomial.chebyshev.chebvander(x, self.n) @ self._int_matrix   # (m, n)
             vals = (D1 * lay.w[:, None]).reshape(lay.k, lay.n, 3)[c]
@@ -1278,8 +1302,16 @@ class RodSolver:
             out[inside] = starts + 0.5 * np.einsum("mj,mjd->md", W, vals)
         if not np.all(inside):
             off = self.shape.intrinsic_offset(end, s[~inside])
-            out[~inside] = r_nodes[-1] + off[:, :1] * R[-1, :, 0] + off[:, 1:] * R[-1, :, 1]
+            out[~inside] = r_nodes[-1] + off[:, :1] * last[:, 0] + off[:, 1:] * last[:, 1]
         return out
+
+    def _nodes(self, modes, vec, pose):
+        """Return (breaks, w, r at the nodes, frames at the contacts) by the compiled kernel."""
+        if not _jit.WARM:
+            _jit.warm_up()
+        k = len(modes)
+        return _jit.nodes(np.ascontiguousarray(vec, dtype=float), self.n, self._kinds_of(modes),
+                          self._tau, self._jit_sp, self._template(k), pose.p)
 
     def equilibrium(self, modes: Sequence[RodContactMode], vec: np.ndarray, pose: BasePose
                     ) -> RodEquilibrium:
@@ -1306,15 +1338,21 @@ class RodSolver:
         if modes:
             breaks = self.breaks_of(modes, vec)
             fs = self.forces_of(modes, vec)
-            lay = _Layout(self, breaks)
-            Q = vec[:4 * lay.N].reshape(lay.N, 4)
-            R = _rotations(Q[lay.ends])
-            r_ends = p + lay.G[lay.ends] @ _tangents(Q)
+            if _jit.ENABLED:
+                _, _, r_nodes, R = self._nodes(modes, vec, pose)
+                r_ends = r_nodes[self.n - 1::self.n]
+                Q_last = vec[4 * self.n * len(modes) - 4:4 * self.n * len(modes)]
+            else:
+                lay = _Layout(self, breaks)
+                Q = vec[:4 * lay.N].reshape(lay.N, 4)
+                R = _rotations(Q[lay.ends])
+                r_ends = p + lay.G[lay.ends] @ _tangents(Q)
+                Q_last = Q[-1]
             pts = r_ends
             forces = np.array([f * np.asarray(self.obstacles[m.obstacle].surface(x).normal)
                                for m, f, x in zip(modes, fs, pts)])
             end = breaks[-1]
-            frame = R[-1] / np.linalg.norm(Q[-1]) ** 2
+            frame = R[-1] / np.linalg.norm(Q_last) ** 2
             tip = r_ends[-1]
             if end < 1.0:
                 off, phi = self.shape.tail(end)
