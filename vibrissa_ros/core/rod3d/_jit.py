@@ -48,7 +48,7 @@ def warm_up() -> None:
         if WARM:
             return
         # imported here: model imports this module
-        from .model import RodContactMode, RodSolver
+        from .model import RodContactMode, RodSolver, _lu_factor
         from .obstacles import Sphere
         from .pose import BasePose
         from .shape import RodShape
@@ -59,8 +59,9 @@ def warm_up() -> None:
         vec = solver.guess(modes, (0.5,), (0.1,), lambda s: solver.free_quaternions(pose, s))
         WARM = True  # the calls below would otherwise come back here
         try:
-            solver._residual_compiled(modes, vec, pose, True, True)
+            _, J, _ = solver._residual_compiled(modes, vec, pose, True, True)
             solver._nodes(modes, vec, pose)
+            det_measure(*_lu_factor(J))
         except BaseException:
             WARM = False
             raise
@@ -417,69 +418,81 @@ def equations(vec, qb, n, kinds, T, w, ds, dw, kinv, kap0, slope, dkinv, r, nu1,
     J = np.zeros((size, size)) if jacobian else np.zeros((0, 0))
     sens = np.zeros((size, 7)) if sensitivity else np.zeros((0, 0))
     if jacobian:
-        dg = np.zeros((N, 4, N, 4))
-        # the diagonal: 1/2 Rm(kappa) + P d(R^T M)/dq
+        # d g_i / d q_j = [i == j] diag_i + V_ij D_j: the moments' part of every pair (i, j)
+        # shares D_j (3 x 4), so G is applied to V (N x N x 4 x 3) and D_j afterwards
+        diag = np.empty((N, 4, 4))
+        Tm = np.empty((3, 4))
         for i in range(N):
-            Tm = np.zeros((3, 4))
+            # 1/2 Rm(kappa) + P d(R^T M)/dq, Rm(k) q = q * (0, k)
             for b in range(3):
                 for kk in range(4):
                     Tm[b, kk] = (dR[i, kk, 0, b] * M[i, 0] + dR[i, kk, 1, b] * M[i, 1]
                                  + dR[i, kk, 2, b] * M[i, 2])
-            k1_, k2_, k3_ = kap[i, 0], kap[i, 1], kap[i, 2]
-            # Rm(k) q = q * (0, k)
-            Rm = np.array(((0.0, -k1_, -k2_, -k3_), (k1_, 0.0, k3_, -k2_),
-                           (k2_, -k3_, 0.0, k1_), (k3_, k2_, -k1_, 0.0)))
+            k1_, k2_, k3_ = 0.5 * kap[i, 0], 0.5 * kap[i, 1], 0.5 * kap[i, 2]
+            diag[i, 0, 0], diag[i, 0, 1], diag[i, 0, 2], diag[i, 0, 3] = 0.0, -k1_, -k2_, -k3_
+            diag[i, 1, 0], diag[i, 1, 1], diag[i, 1, 2], diag[i, 1, 3] = k1_, 0.0, k3_, -k2_
+            diag[i, 2, 0], diag[i, 2, 1], diag[i, 2, 2], diag[i, 2, 3] = k2_, -k3_, 0.0, k1_
+            diag[i, 3, 0], diag[i, 3, 1], diag[i, 3, 2], diag[i, 3, 3] = k3_, k2_, -k1_, 0.0
             for a in range(4):
                 for kk in range(4):
-                    dg[i, a, i, kk] += 0.5 * Rm[a, kk] + (P[i, a, 0] * Tm[0, kk]
-                                                          + P[i, a, 1] * Tm[1, kk]
-                                                          + P[i, a, 2] * Tm[2, kk])
-        XD = np.empty((3, N, 4))
+                    diag[i, a, kk] += (P[i, a, 0] * Tm[0, kk] + P[i, a, 1] * Tm[1, kk]
+                                       + P[i, a, 2] * Tm[2, kk])
+        # PY_ci = PRt_i f_c [r_c - r_i]_x H_c: the normal turns with the contact point
+        PY = np.zeros((k, N, 4, 3))
         for c in range(k):
             e = ends[c]
-            Fc0, Fc1, Fc2 = F[c, 0], F[c, 1], F[c, 2]
-            # [F]_x D_j
-            for j in range(N):
-                for b in range(4):
-                    d0, d1_, d2 = D[j, 0, b], D[j, 1, b], D[j, 2, b]
-                    XD[0, j, b] = -Fc2 * d1_ + Fc1 * d2
-                    XD[1, j, b] = Fc2 * d0 - Fc0 * d2
-                    XD[2, j, b] = -Fc1 * d0 + Fc0 * d1_
             f = fs[c]
-            PY = np.zeros((4, 3))
+            if f == 0.0:
+                continue
             for i in range(e + 1):
-                if f != 0.0:
-                    v0, v1, v2 = r[e, 0] - r[i, 0], r[e, 1] - r[i, 1], r[e, 2] - r[i, 2]
-                    # Y = f [r_c - r_i]_x H;  PY = PRt_i Y
-                    Y = np.empty((3, 3))
-                    for col in range(3):
-                        h0, h1, h2 = hess[c, 0, col], hess[c, 1, col], hess[c, 2, col]
-                        Y[0, col] = f * (v1 * h2 - v2 * h1)
-                        Y[1, col] = f * (v2 * h0 - v0 * h2)
-                        Y[2, col] = f * (v0 * h1 - v1 * h0)
+                v0, v1, v2 = r[e, 0] - r[i, 0], r[e, 1] - r[i, 1], r[e, 2] - r[i, 2]
+                for col in range(3):
+                    h0, h1, h2 = hess[c, 0, col], hess[c, 1, col], hess[c, 2, col]
+                    y0 = f * (v1 * h2 - v2 * h1)
+                    y1 = f * (v2 * h0 - v0 * h2)
+                    y2 = f * (v0 * h1 - v1 * h0)
                     for a in range(4):
-                        for col in range(3):
-                            PY[a, col] = (PRt[i, a, 0] * Y[0, col] + PRt[i, a, 1] * Y[1, col]
-                                          + PRt[i, a, 2] * Y[2, col])
-                for j in range(N):
-                    ge = G[e, j]
-                    w1 = ge - G[i, j]
-                    for a in range(4):
-                        p0, p1, p2 = PRt[i, a, 0], PRt[i, a, 1], PRt[i, a, 2]
-                        for b in range(4):
-                            A_ = p0 * XD[0, j, b] + p1 * XD[1, j, b] + p2 * XD[2, j, b]
-                            val = -A_ * w1
-                            if f != 0.0:
-                                val += (PY[a, 0] * D[j, 0, b] + PY[a, 1] * D[j, 1, b]
-                                        + PY[a, 2] * D[j, 2, b]) * ge
-                            dg[i, a, j, b] += val
-        GD = np.dot(G, dg.reshape(N, 16 * N))
+                        PY[c, i, a, col] = (PRt[i, a, 0] * y0 + PRt[i, a, 1] * y1
+                                            + PRt[i, a, 2] * y2)
+        # V_ij = PRt_i sum_c [i <= e_c] (G_ij - G_cj) [F_c]_x + sum_c [i <= e_c] G_cj PY_ci
+        V = np.zeros((N, N * 12))
+        W = np.empty((3, 3))
         for i in range(N):
+            for j in range(N):
+                gij = G[i, j]
+                W[:, :] = 0.0
+                for c in range(k):
+                    if i > ends[c]:
+                        continue
+                    cw = gij - G[ends[c], j]
+                    W[0, 1] -= cw * F[c, 2]
+                    W[0, 2] += cw * F[c, 1]
+                    W[1, 0] += cw * F[c, 2]
+                    W[1, 2] -= cw * F[c, 0]
+                    W[2, 0] -= cw * F[c, 1]
+                    W[2, 1] += cw * F[c, 0]
+                base = j * 12
+                for a in range(4):
+                    for col in range(3):
+                        acc = (PRt[i, a, 0] * W[0, col] + PRt[i, a, 1] * W[1, col]
+                               + PRt[i, a, 2] * W[2, col])
+                        for c in range(k):
+                            if i <= ends[c]:
+                                acc += G[ends[c], j] * PY[c, i, a, col]
+                        V[i, base + 3 * a + col] = acc
+        GV = np.dot(G, V)
+        for i in range(N):
+            for j in range(N):
+                gij = G[i, j]
+                base = j * 12
+                for a in range(4):
+                    o3 = base + 3 * a
+                    g0, g1, g2 = GV[i, o3], GV[i, o3 + 1], GV[i, o3 + 2]
+                    for b in range(4):
+                        J[4 * i + a, 4 * j + b] = -(g0 * D[j, 0, b] + g1 * D[j, 1, b]
+                                                    + g2 * D[j, 2, b] + gij * diag[j, a, b])
             for a in range(4):
-                row = 4 * i + a
-                for jb in range(M4):
-                    J[row, jb] = -GD[i, a * M4 + jb]
-                J[row, row] += 1.0
+                J[4 * i + a, 4 * i + a] += 1.0
         # the columns of the forces and the rows of the contact equations
         Z = np.empty((N, 4))
         for c in range(k):
@@ -604,3 +617,24 @@ def equations(vec, qb, n, kinds, T, w, ds, dw, kinv, kap0, slope, dkinv, r, nu1,
                     sens[4 * i + a, col] = -acc
                 sens[4 * i + a, 3 + a] = -1.0
     return res, J, sens
+
+
+@_kernel
+def det_measure(lu, piv):
+    """
+    Return sign(det J) times the geometric mean of abs(U_ii), from getrf's (lu, piv).
+
+    Continuous in J and zero where J is singular (tracker._det_measure, the stability monitor).
+    """
+    n = piv.size
+    odd = 0
+    total = 0.0
+    for i in range(n):
+        if piv[i] != i:
+            odd += 1
+        d = lu[i, i]
+        if d < 0.0:
+            odd += 1
+        total += math.log(abs(d)) if d != 0.0 else -math.inf
+    sign = -1.0 if odd % 2 else 1.0
+    return sign * math.exp(total / n)
