@@ -437,49 +437,45 @@ def equations(vec, qb, n, kinds, T, w, ds, dw, kinv, kap0, slope, dkinv, r, nu1,
                 for kk in range(4):
                     diag[i, a, kk] += (P[i, a, 0] * Tm[0, kk] + P[i, a, 1] * Tm[1, kk]
                                        + P[i, a, 2] * Tm[2, kk])
-        # PY_ci = PRt_i f_c [r_c - r_i]_x H_c: the normal turns with the contact point
-        PY = np.zeros((k, N, 4, 3))
+        # C_ci = PRt_i (f_c [r_c - r_i]_x H_c - [F_c]_x) (the normal turns with the contact
+        # point) and A_i = PRt_i sum_c [i <= e_c] [F_c]_x, so that
+        # V_ij = G_ij A_i + sum_c [i <= e_c] G_cj C_ci
+        C = np.zeros((k, N, 4, 3))
+        A = np.zeros((N, 4, 3))
         for c in range(k):
             e = ends[c]
             f = fs[c]
-            if f == 0.0:
-                continue
+            F0, F1, F2 = F[c, 0], F[c, 1], F[c, 2]
             for i in range(e + 1):
                 v0, v1, v2 = r[e, 0] - r[i, 0], r[e, 1] - r[i, 1], r[e, 2] - r[i, 2]
                 for col in range(3):
                     h0, h1, h2 = hess[c, 0, col], hess[c, 1, col], hess[c, 2, col]
-                    y0 = f * (v1 * h2 - v2 * h1)
-                    y1 = f * (v2 * h0 - v0 * h2)
-                    y2 = f * (v0 * h1 - v1 * h0)
+                    # column col of [F]_x
+                    x0 = 0.0 if col == 0 else (-F2 if col == 1 else F1)
+                    x1 = F2 if col == 0 else (0.0 if col == 1 else -F0)
+                    x2 = -F1 if col == 0 else (F0 if col == 1 else 0.0)
+                    y0 = f * (v1 * h2 - v2 * h1) - x0
+                    y1 = f * (v2 * h0 - v0 * h2) - x1
+                    y2 = f * (v0 * h1 - v1 * h0) - x2
                     for a in range(4):
-                        PY[c, i, a, col] = (PRt[i, a, 0] * y0 + PRt[i, a, 1] * y1
-                                            + PRt[i, a, 2] * y2)
-        # V_ij = PRt_i sum_c [i <= e_c] (G_ij - G_cj) [F_c]_x + sum_c [i <= e_c] G_cj PY_ci
-        V = np.zeros((N, N * 12))
-        W = np.empty((3, 3))
+                        p0, p1, p2 = PRt[i, a, 0], PRt[i, a, 1], PRt[i, a, 2]
+                        C[c, i, a, col] = p0 * y0 + p1 * y1 + p2 * y2
+                        A[i, a, col] += p0 * x0 + p1 * x1 + p2 * x2
+        V = np.empty((N, N * 12))
         for i in range(N):
             for j in range(N):
                 gij = G[i, j]
-                W[:, :] = 0.0
-                for c in range(k):
-                    if i > ends[c]:
-                        continue
-                    cw = gij - G[ends[c], j]
-                    W[0, 1] -= cw * F[c, 2]
-                    W[0, 2] += cw * F[c, 1]
-                    W[1, 0] += cw * F[c, 2]
-                    W[1, 2] -= cw * F[c, 0]
-                    W[2, 0] -= cw * F[c, 1]
-                    W[2, 1] += cw * F[c, 0]
                 base = j * 12
                 for a in range(4):
                     for col in range(3):
-                        acc = (PRt[i, a, 0] * W[0, col] + PRt[i, a, 1] * W[1, col]
-                               + PRt[i, a, 2] * W[2, col])
-                        for c in range(k):
-                            if i <= ends[c]:
-                                acc += G[ends[c], j] * PY[c, i, a, col]
-                        V[i, base + 3 * a + col] = acc
+                        V[i, base + 3 * a + col] = gij * A[i, a, col]
+                for c in range(k):
+                    if i > ends[c]:
+                        continue
+                    gc = G[ends[c], j]
+                    for a in range(4):
+                        for col in range(3):
+                            V[i, base + 3 * a + col] += gc * C[c, i, a, col]
         GV = np.dot(G, V)
         for i in range(N):
             for j in range(N):
