@@ -61,6 +61,8 @@ def warm_up() -> None:
         try:
             _, J, _ = solver._residual_compiled(modes, vec, pose, True, True)
             solver._nodes(modes, vec, pose)
+            solver._centerline_compiled(modes, vec, pose, np.array([0.25, 1.0]))
+            parabola_tail(0.5, np.array([1.0]), 1.0, *RodShape(parabola=1.0)._u_table())
             det_measure(*_lu_factor(J))
         except BaseException:
             WARM = False
@@ -634,3 +636,75 @@ def det_measure(lu, piv):
         total += math.log(abs(d)) if d != 0.0 else -math.inf
     sign = -1.0 if odd % 2 else 1.0
     return sign * math.exp(total / n)
+
+
+@_kernel
+def parabola_tail(end, s, A, grid, table):
+    """
+    Return the unloaded offsets (m, 2) from ``end`` to the arc lengths ``s`` on the parabola.
+
+    In the (d1, d2) components of the frame at ``end``: RodShape.intrinsic_offset of a
+    parabolic whisker (its chord helper, with u from :func:`_parabola_u`).
+    """
+    ua = _parabola_u(np.array([end]), A, grid, table)[0]
+    ub = _parabola_u(s, A, grid, table)
+    root = math.sqrt(1.0 + ua * ua)
+    c, sn = 1.0 / root, ua / root
+    out = np.empty((s.size, 2))
+    for i in range(s.size):
+        dx = (ub[i] - ua) / (2.0 * A)
+        dy = (ub[i] * ub[i] - ua * ua) / (4.0 * A)
+        out[i, 0] = c * dx + sn * dy
+        out[i, 1] = -sn * dx + c * dy
+    return out
+
+
+@_kernel
+def sample(s, vec, n, breaks, w, r, sp, cheb):
+    """
+    Return the centerline (m, 3) at arc lengths ``s`` inside the segments (s <= the last break).
+
+    Each point is located in its segment (local coordinate x in [-1, 1], the node map inverted
+    as model._Layout.locate) and the segment's tangents are integrated from its first node by
+    the Chebyshev integration matrix ``cheb`` ((n + 1) x n, nodal values -> integral from -1).
+    """
+    k = breaks.size
+    m = s.size
+    out = np.empty((m, 3))
+    T = np.empty(n + 1)
+    for p in range(m):
+        x = s[p]
+        c = 0
+        while c < k and breaks[c] < x:
+            c += 1
+        if c > k - 1:
+            c = k - 1
+        a = 0.0 if c == 0 else breaks[c - 1]
+        b = breaks[c]
+        if sp <= 0.0:
+            tau = (x - a) / (b - a)
+        else:
+            tau = math.log((sp - x) / (sp - a)) / math.log((sp - b) / (sp - a))
+        z = min(max(2.0 * tau - 1.0, -1.0), 1.0)
+        T[0] = 1.0
+        T[1] = z
+        for d in range(2, n + 1):
+            T[d] = T[d - 1] * (2.0 * z) - T[d - 2]
+        a0 = 0.0
+        a1 = 0.0
+        a2 = 0.0
+        for j in range(n):
+            wj = 0.0
+            for d in range(n + 1):
+                wj += T[d] * cheb[d, j]
+            i = c * n + j
+            qw, qx, qy, qz = vec[4 * i], vec[4 * i + 1], vec[4 * i + 2], vec[4 * i + 3]
+            wj *= w[i]
+            a0 += wj * (qw * qw + qx * qx - qy * qy - qz * qz)
+            a1 += wj * 2.0 * (qx * qy + qw * qz)
+            a2 += wj * 2.0 * (qx * qz - qw * qy)
+        first = c * n
+        out[p, 0] = r[first, 0] + 0.5 * a0
+        out[p, 1] = r[first, 1] + 0.5 * a1
+        out[p, 2] = r[first, 2] + 0.5 * a2
+    return out

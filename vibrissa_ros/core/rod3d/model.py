@@ -1277,24 +1277,17 @@ class RodSolver:
         if not modes:
             return p + self.shape.free_centerline(s) @ pose.rotation.T
         if _jit.ENABLED:
-            breaks, w, r_nodes, frames = self._nodes(modes, vec, pose)
-            last = frames[-1]
-            lay = None
-        else:
-            lay = _Layout(self, self.breaks_of(modes, vec))
-            Q = vec[:4 * lay.N].reshape(lay.N, 4)
-            R = _rotations(Q)
-            D1 = R[:, :, 0]
-            # segment starts: the nodes' positions r = p + G D1 at each segment's first node
-            r_nodes = p + lay.G @ D1
-            breaks, last = lay.breaks, R[-1]
-        end = breaks[-1]
+            return self._centerline_compiled(modes, vec, pose, s)
+        lay = _Layout(self, self.breaks_of(modes, vec))
+        Q = vec[:4 * lay.N].reshape(lay.N, 4)
+        R = _rotations(Q)
+        D1 = R[:, :, 0]
+        # segment starts: the nodes' positions r = p + G D1 at each segment's first node
+        r_nodes = p + lay.G @ D1
+        end = lay.breaks[-1]
         out = np.empty((s.size, 3))
         inside = s <= end
         if np.any(inside):
-            if lay is None:
-                lay = _Layout(self, breaks)
-                D1 = _tangents(vec[:4 * lay.N].reshape(lay.N, 4))
             c, x = lay.locate(s[inside])
             W = np.polynomial.chebyshev.chebvander(x, self.n) @ self._int_matrix   # (m, n)
             vals = (D1 * lay.w[:, None]).reshape(lay.k, lay.n, 3)[c]
@@ -1302,7 +1295,34 @@ class RodSolver:
             out[inside] = starts + 0.5 * np.einsum("mj,mjd->md", W, vals)
         if not np.all(inside):
             off = self.shape.intrinsic_offset(end, s[~inside])
-            out[~inside] = r_nodes[-1] + off[:, :1] * last[:, 0] + off[:, 1:] * last[:, 1]
+            out[~inside] = r_nodes[-1] + off[:, :1] * R[-1, :, 0] + off[:, 1:] * R[-1, :, 1]
+        return out
+
+    def _centerline_compiled(self, modes, vec, pose, s):
+        """:meth:`centerline` (with contacts) by the compiled kernels."""
+        vec = np.ascontiguousarray(vec, dtype=float)
+        s = np.ascontiguousarray(s)
+        breaks, w, r_nodes, frames = self._nodes(modes, vec, pose)
+        end = breaks[-1]
+        last = frames[-1]
+        beyond = s > end
+        n_beyond = int(np.count_nonzero(beyond))
+        if n_beyond == 0:
+            return _jit.sample(s, vec, self.n, breaks, w, r_nodes, self._jit_sp,
+                               self._int_matrix)
+        tail = s if n_beyond == s.size else s[beyond]
+        if self.shape.parabola is not None:
+            off = _jit.parabola_tail(end, tail, self.shape.parabola, self._jit_grid,
+                                     self._jit_table)
+        else:
+            off = self.shape.intrinsic_offset(end, tail)
+        pts = r_nodes[-1] + off[:, :1] * last[:, 0] + off[:, 1:] * last[:, 1]
+        if n_beyond == s.size:
+            return pts
+        out = np.empty((s.size, 3))
+        out[beyond] = pts
+        out[~beyond] = _jit.sample(s[~beyond], vec, self.n, breaks, w, r_nodes, self._jit_sp,
+                                   self._int_matrix)
         return out
 
     def _nodes(self, modes, vec, pose):
