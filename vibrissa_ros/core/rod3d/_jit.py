@@ -14,6 +14,7 @@ Shapes: n points per segment, k segments (contacts), N = n k nodes; contact kind
 
 from __future__ import annotations
 
+import hashlib
 import math
 import os
 import threading
@@ -60,6 +61,7 @@ def warm_up() -> None:
         WARM = True  # the calls below would otherwise come back here
         try:
             _, J, _ = solver._residual_compiled(modes, vec, pose, True, True)
+            solver._residual_compiled(modes, vec, pose, False, False)
             solver._nodes(modes, vec, pose)
             solver._centerline_compiled(modes, vec, pose, np.array([0.25, 1.0]))
             parabola_tail(0.5, np.array([1.0]), 1.0, *RodShape(parabola=1.0)._u_table())
@@ -69,7 +71,48 @@ def warm_up() -> None:
             raise
 
 
+def _shared_cache() -> None:
+    """
+    Cache the kernels by this file's content, in the user's numba cache, for every copy of it.
+
+    numba caches by the source file's path by default: a colcon install (a copy) would compile
+    everything again (~10 s). The locator below keys the cache directory on the file's content
+    instead, so a source tree and its installs share one cache (and a changed file gets a new
+    one). It uses numba's cache locator classes; where they differ (another numba release) the
+    default per-path cache is kept.
+    """
+    try:
+        from numba.core import caching
+        base = getattr(caching, "UserWideCacheLocator", None) or caching._UserWideCacheLocator
+        impl = getattr(caching, "CacheImpl", None) or caching._CacheImpl
+    except (ImportError, AttributeError):  # pragma: no cover - another numba layout
+        return
+    source = os.path.abspath(__file__)
+    with open(source, "rb") as fh:
+        digest = hashlib.sha256(fh.read()).hexdigest()
+
+    class _SharedLocator(base):
+        def __init__(self, py_func, py_file):
+            super().__init__(py_func, py_file)
+            root = numba.config.CACHE_DIR or os.path.dirname(self._cache_path)
+            self._cache_path = os.path.join(root, "vibrissa_ros_rod3d_" + digest[:16])
+
+        def get_source_stamp(self):
+            return digest
+
+        @classmethod
+        def from_function(cls, py_func, py_file):
+            if os.path.abspath(py_file) != source:
+                return None
+            return super().from_function(py_func, py_file)
+
+    if not any(getattr(c, "__name__", "") == "_SharedLocator" for c in impl._locator_classes):
+        impl._locator_classes.insert(0, _SharedLocator)
+
+
 if numba is not None:
+    _shared_cache()
+
     def _kernel(func):
         return numba.njit(cache=True, nogil=True)(func)
 else:  # pragma: no cover
@@ -321,7 +364,7 @@ def _cross3(a0, a1, a2, b0, b1, b2, out, i):
 def equations(vec, qb, n, kinds, T, w, ds, dw, kinv, kap0, slope, dkinv, r, nu1,
               dist, normal, hess, jacobian, sensitivity):
     """
-    Return (residual, Jacobian, pose sensitivity) of the collocation system (model.py).
+    Return (residual, Jacobian, pose sensitivity, Jacobian finite) of the collocation system.
 
     ``dist`` (k,), ``normal`` (k, 3), ``hess`` (k, 3, 3): the obstacles' surface data at the
     contact points r(s_c). The Jacobian and the sensitivity are (0, 0) arrays unless asked for.
@@ -388,7 +431,7 @@ def equations(vec, qb, n, kinds, T, w, ds, dw, kinv, kap0, slope, dkinv, r, nu1,
             res[o + 1] = (R[e, 0, 0] * normal[c, 0] + R[e, 1, 0] * normal[c, 1]
                           + R[e, 2, 0] * normal[c, 2])
     if not jacobian and not sensitivity:
-        return res, np.zeros((0, 0)), np.zeros((0, 0))
+        return res, np.zeros((0, 0)), np.zeros((0, 0)), False
     # D[j, ax, b] = d d1_l / d q_jb;  P = dg/dkappa;  PRt = P R^T = dg/dM
     dR = np.empty((N, 4, 3, 3))
     D = np.empty((N, 3, 4))
@@ -614,7 +657,13 @@ def equations(vec, qb, n, kinds, T, w, ds, dw, kinv, kap0, slope, dkinv, r, nu1,
                         acc += G[i, j] * PM[j, a, col]
                     sens[4 * i + a, col] = -acc
                 sens[4 * i + a, 3 + a] = -1.0
-    return res, J, sens
+    finite = jacobian
+    if jacobian:
+        for i in range(size):
+            for j in range(size):
+                if not math.isfinite(J[i, j]):
+                    finite = False
+    return res, J, sens, finite
 
 
 @_kernel

@@ -77,15 +77,15 @@ _TRUSTED_CHORD = 1e-4
 _S_EXTEND = 1.25
 
 
-def _lu_factor(J: np.ndarray):
+def _lu_factor(J: np.ndarray, finite: bool = False):
     """
     Return the LU factorization (lu, piv) of J, as scipy.linalg.lu_factor gives it.
 
     LAPACK's getrf directly: scipy.linalg's wrappers cost more than the factorization of these
-    small matrices. A non-finite J raises ValueError; an exactly singular one
-    numpy.linalg.LinAlgError.
+    small matrices. A non-finite J raises ValueError (``finite``: J is known to be finite); an
+    exactly singular one numpy.linalg.LinAlgError.
     """
-    if not np.all(np.isfinite(J)):
+    if not finite and not np.all(np.isfinite(J)):
         raise ValueError("the Jacobian has non-finite entries")
     lu, piv, info = _getrf(J)
     if info > 0:
@@ -127,7 +127,9 @@ def _probe_tip(shape: RodShape, n: int) -> np.ndarray:
     vec = solver.solve_loaded(1.0, pose, (0.0, f, f), (couple, 0.0, 0.0), ramp=4)
     full = np.concatenate((vec, [1.0, 0.0]))
     modes = (RodContactMode("side", 0),)
-    tip = solver.centerline(modes, full, pose, [1.0])[0]
+    # numpy: a new process reaches here before its first contact, and need not wait for the
+    # kernels to compile (warm_up)
+    tip = solver._centerline_numpy(modes, full, pose, np.array([1.0]))[0]
     q = solver.quaternions(modes, full, pose, [1.0])[0]
     return np.concatenate((tip, quat_matrix(q / np.linalg.norm(q)).ravel()))
 
@@ -559,6 +561,7 @@ class RodSolver:
         self._identity_columns = {}
         # the compiled kernels' view of the shape (vibrissa_ros.core.rod3d._jit)
         self._kinds = {}
+        self._finite_jacobian = None
         self._jit_sp = -1.0 if self._sp is None else float(self._sp)
         if shape.parabola is not None:
             self._jit_grid, self._jit_table = shape._u_table()
@@ -657,11 +660,12 @@ class RodSolver:
 
     def _kinds_of(self, modes) -> np.ndarray:
         """Return the contacts' kinds as the kernels take them (1 side, 0 tip), cached."""
-        key = tuple(m.kind for m in modes)
-        kinds = self._kinds.get(key)
+        if not isinstance(modes, tuple):
+            modes = tuple(modes)
+        kinds = self._kinds.get(modes)
         if kinds is None:
-            kinds = self._kinds[key] = np.array([m.kind == "side" for m in modes],
-                                                dtype=np.int64)
+            kinds = np.array([m.kind == "side" for m in modes], dtype=np.int64)
+            self._kinds[modes] = kinds
         return kinds
 
     def _residual_compiled(self, modes, vec, pose, jacobian, pose_sensitivity):
@@ -685,9 +689,12 @@ class RodSolver:
             dist[c] = sp.distance
             normal[c] = sp.normal
             hess[c] = sp.hessian
-        res, J, sens = _jit.equations(vec, pose.q, n, kinds, T, w, ds, dw, kinv, kap0, slope,
-                                      dkinv, r, self._nu1, dist, normal, hess, jacobian,
-                                      pose_sensitivity)
+        res, J, sens, finite = _jit.equations(vec, pose.q, n, kinds, T, w, ds, dw, kinv, kap0,
+                                              slope, dkinv, r, self._nu1, dist, normal, hess,
+                                              jacobian, pose_sensitivity)
+        if finite:
+            # checked by the kernel: _lu_factor need not look again
+            self._finite_jacobian = J
         return res, (J if jacobian else None), (sens if pose_sensitivity else None)
 
     def _residual_numpy(self, modes, vec, pose, jacobian=True, pose_sensitivity=False):
@@ -958,7 +965,7 @@ class RodSolver:
                 # at a converged chord solution this evaluation gives the Jacobian and the
                 # sensitivities there; its Newton step is one more (tiny) correction
                 res, J, sens = self.residual(modes, vec, pose, pose_sensitivity=True)
-                lu = _lu_factor(J)
+                lu = _lu_factor(J, finite=J is self._finite_jacobian)
                 step = _lu_solve(lu, res)
                 size = self._take(step, max_step)
                 vec = vec - step
@@ -973,7 +980,7 @@ class RodSolver:
                         or (trusted and it == 0 and size <= _TRUSTED_STEP)):
                     if exact_jacobian:
                         _, J, sens = self.residual(modes, vec, pose, pose_sensitivity=True)
-                        lu = _lu_factor(J)
+                        lu = _lu_factor(J, finite=J is self._finite_jacobian)
                     return Solved(vec, lu, sens)
                 newton += 1
                 if fail_fast and newton >= 3 and size > 0.9 * last:
@@ -1278,6 +1285,11 @@ class RodSolver:
             return p + self.shape.free_centerline(s) @ pose.rotation.T
         if _jit.ENABLED:
             return self._centerline_compiled(modes, vec, pose, s)
+        return self._centerline_numpy(modes, vec, pose, s)
+
+    def _centerline_numpy(self, modes, vec, pose, s):
+        """:meth:`centerline` (with contacts) in numpy: the reference of the kernels."""
+        p = pose.p
         lay = _Layout(self, self.breaks_of(modes, vec))
         Q = vec[:4 * lay.N].reshape(lay.N, 4)
         R = _rotations(Q)
@@ -1378,10 +1390,20 @@ class RodSolver:
                 off, phi = self.shape.tail(end)
                 tip = tip + off[0] * frame[:, 0] + off[1] * frame[:, 1]
                 c, sn = math.cos(phi), math.sin(phi)
-                frame = np.column_stack((c * frame[:, 0] + sn * frame[:, 1],
-                                         -sn * frame[:, 0] + c * frame[:, 1], frame[:, 2]))
+                turned = np.empty((3, 3))
+                turned[:, 0] = c * frame[:, 0] + sn * frame[:, 1]
+                turned[:, 1] = -sn * frame[:, 0] + c * frame[:, 1]
+                turned[:, 2] = frame[:, 2]
+                frame = turned
             force = forces.sum(axis=0)
-            moment = _cross(pts - p, forces).sum(axis=0)
+            # sum_c (x_c - p) x F_c, in floats (as _cross(pts - p, forces).sum(axis=0))
+            px, py, pz = pose.position
+            moment = None
+            for (x, y, z), (fx, fy, fz) in zip(pts.tolist(), forces.tolist()):
+                ax, ay, az = x - px, y - py, z - pz
+                mc = (ay * fz - az * fy, az * fx - ax * fz, ax * fy - ay * fx)
+                moment = mc if moment is None else tuple(u + v for u, v in zip(moment, mc))
+            moment = np.array(moment)
         else:
             breaks, fs = (), ()
             pts = np.zeros((0, 3))
