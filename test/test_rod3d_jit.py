@@ -84,7 +84,7 @@ def test_the_sampled_solution_equals_the_numpy_reference(shape, monkeypatch):
 
 
 def _stream():
-    """A rolled, tapered, curved whisker swept past a sphere while its base turns (3D)."""
+    """Return a rolled, tapered, curved whisker swept past a sphere while its base turns."""
     ball = Sphere((0.55, 0.2, 0.05), 0.12, "ball")
     shape = RodShape(taper=0.3, parabola=0.5)
     poses = [_pose(0.0, -0.35 + 0.55 * t, 0.02 * math.sin(3 * t), 0.1 * t, 0.4 + 0.3 * t)
