@@ -50,6 +50,7 @@ from ..errors import (
     ParameterError,
     VibrissaError,
 )
+from . import _jit
 from .model import RodContactMode, RodSolver, _lu_solve
 from .pose import BasePose, quat_conjugate, quat_matrix, quat_multiply
 from .shape import RodShape
@@ -315,6 +316,8 @@ def _aligned(q: np.ndarray, ref: np.ndarray) -> np.ndarray:
 def _det_measure(lu) -> float:
     """Sign of det J times the geometric mean of |U_ii|: continuous, zero where J is singular."""
     lu_, piv = lu
+    if _jit.ENABLED:
+        return _jit.det_measure(lu_, piv)
     d = np.diag(lu_)
     swaps = int(np.count_nonzero(piv != np.arange(piv.size)))
     sign = -1.0 if (swaps + int(np.count_nonzero(d < 0.0))) % 2 else 1.0
@@ -759,10 +762,15 @@ class RodTracker:
         p0, v0 = self._pose, self._vec
         target = path.b
 
-        def flat(pose):
-            return np.concatenate((pose.p, _aligned(pose.q, p0.q)))
-
-        x3, x2, x1, x0, xt = (flat(p) for p in (p3, p2, p1, p0, target))
+        # (p, q) of each pose, q on the side of p0's (one array: fewer numpy calls per pose)
+        rw, rx, ry, rz = p0.quaternion
+        rows = []
+        for pose in (p3, p2, p1, p0, target):
+            w, x, y, z = q = pose.quaternion
+            if w * rw + x * rx + y * ry + z * rz < 0.0:
+                q = (-w, -x, -y, -z)
+            rows.append(pose.position + q)
+        x3, x2, x1, x0, xt = np.array(rows)
         step = float(np.linalg.norm(xt - x0))
         if step == 0.0:
             return None
