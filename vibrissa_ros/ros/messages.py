@@ -367,6 +367,9 @@ CONTACT_DTYPE = np.dtype({"names": [f[0] for f in CONTACT_FIELDS],
                           "offsets": [f[3] for f in CONTACT_FIELDS],
                           "itemsize": CONTACT_POINT_STEP})
 
+_CONTACT_POINT_FIELDS = [PointField(name=name, offset=offset, datatype=kind, count=1)
+                         for name, kind, _, offset in CONTACT_FIELDS]
+
 
 def contacts_cloud(stamp, frame: str, contacts: Sequence[ContactRecord]) -> PointCloud2:
     """
@@ -385,8 +388,7 @@ def contacts_cloud(stamp, frame: str, contacts: Sequence[ContactRecord]) -> Poin
     cloud = PointCloud2()
     cloud.header.stamp, cloud.header.frame_id = stamp, frame
     cloud.height, cloud.width = 1, len(contacts)
-    cloud.fields = [PointField(name=name, offset=offset, datatype=kind, count=1)
-                    for name, kind, _, offset in CONTACT_FIELDS]
+    cloud.fields = _CONTACT_POINT_FIELDS  # shared: never changed once built
     cloud.is_bigendian = False
     cloud.point_step = CONTACT_POINT_STEP
     cloud.row_step = CONTACT_POINT_STEP * len(contacts)

@@ -128,15 +128,21 @@ class WhiskerNode(Node):
             self.get_logger().info(f"recording finished: {recorder.path} "
                                    f"({recorder.written} messages)")
 
-    def _record(self, key: str, msg, log_time: int) -> None:
+    def _record(self, key: str, msg, log_time: int):
+        """Record a message; return it serialized (None when not recording)."""
         if self._recorder is not None:
-            self._recorder.write(key, msg, log_time)
+            return self._recorder.write(key, msg, log_time)
+        return None
 
     def _send(self, key: str, msg, log_time: int) -> None:
-        """Record, then publish: all the node published is in its log, even after a signal."""
-        self._record(key, msg, log_time)
+        """
+        Record, then publish: all the node published is in its log, even after a signal.
+
+        Recording serializes the message: the same bytes are published (serialized once).
+        """
+        data = self._record(key, msg, log_time)
         try:
-            self._pub[key].publish(msg)
+            self._pub[key].publish(msg if data is None else data)
         except RCLError:
             if self.context.ok():
                 raise
@@ -210,9 +216,11 @@ class WhiskerNode(Node):
         return self._listened
 
     def _emit(self, key: str, make, now: int, listening: Dict[str, bool]) -> None:
-        """Publish (and record) an optional topic only when someone takes it."""
-        if listening[key] or self._recorder is not None:
+        """Publish an optional topic only when someone takes it; record it whenever recording."""
+        if listening[key]:
             self._send(key, make(), now)
+        elif self._recorder is not None:
+            self._record(key, make(), now)
 
     def _publish_state(self, stamp, state, events, now: int) -> None:
         cfg = self.config
