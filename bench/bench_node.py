@@ -22,6 +22,7 @@ import os
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from pathlib import Path
 
@@ -42,6 +43,57 @@ def _qos():
 
     return QoSProfile(history=HistoryPolicy.KEEP_ALL, depth=1000,
                       reliability=ReliabilityPolicy.RELIABLE)
+
+
+class Driver:
+    """An in-process pose publisher and wrench listener (bench_kill9.py's driver)."""
+
+    def __init__(self, context):
+        import rclpy
+        from geometry_msgs.msg import PoseStamped, WrenchStamped
+        from rclpy.executors import SingleThreadedExecutor
+
+        from vibrissa_ros.node.edge import header_ns
+
+        self.node = rclpy.create_node("bench_driver", context=context)
+        self.pub = self.node.create_publisher(PoseStamped, f"{TOPIC}/foot_pose", _qos())
+        self.received = {}
+        self.node.create_subscription(
+            WrenchStamped, f"{TOPIC}/wrench",
+            lambda m: self.received.__setitem__(header_ns(m), time.time_ns()), _qos())
+        self.executor = SingleThreadedExecutor(context=context)
+        self.executor.add_node(self.node)
+        self._spinning = True
+        self._thread = threading.Thread(target=self._spin, daemon=True)
+        self._thread.start()
+
+    def _spin(self):
+        while self._spinning:
+            self.executor.spin_once(timeout_sec=0.01)
+
+    def pose(self, x: float, stamp_ns: int):
+        """Return the foot pose at x [m] on the paper's line (yaw 90 degrees)."""
+        from vibrissa_ros.ros.messages import pose_stamped
+
+        return pose_stamped(x, 0.0, math.pi / 2, stamp_ns)
+
+    def handshake(self, timeout: float = 30.0) -> None:
+        """Publish a pose every 0.1 s until the node answers."""
+        end = time.monotonic() + timeout
+        while not self.received and time.monotonic() < end:
+            self.pub.publish(self.pose(0.2, time.time_ns()))
+            time.sleep(0.1)
+        if not self.received:
+            raise TimeoutError("the node under test does not answer")
+        time.sleep(0.5)
+        self.received.clear()
+
+    def close(self) -> None:
+        """Stop spinning and destroy the node."""
+        self._spinning = False
+        self._thread.join()
+        self.executor.remove_node(self.node)
+        self.node.destroy_node()
 
 
 def receiver(work: Path) -> None:
@@ -161,8 +213,10 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seconds", type=float, default=60.0)
     parser.add_argument("--rate", type=float, default=1000.0)
-    parser.add_argument("--ramp", type=lambda s: [float(v) for v in s.split(",")],
-                        default=[1000, 2000, 3000, 4000, 5000])
+    parser.add_argument("--ramp", type=lambda s: [float(v) for v in s.split(",") if v],
+                        default=[1000, 2000, 3000, 4000, 5000],
+                        help="rates [Hz] of the ramp after the main run, comma-separated; '' "
+                        "for none")
     parser.add_argument("--ramp-seconds", type=float, default=5.0)
     parser.add_argument("--log",
                         default=os.path.join(tempfile.gettempdir(), "vibrissa_bench.mcap"),
@@ -183,6 +237,7 @@ def main(argv=None):
     if args.role == "sender":
         return sender(Path(args.work), json.loads(args.segments), args.amplitude)
     os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+    os.environ.setdefault("ROS_DOMAIN_ID", "57")  # away from other ROS work on the machine
     results = {}
     with tempfile.TemporaryDirectory() as tmp:
         for kind in args.nodes.split(","):

@@ -24,6 +24,7 @@ import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseStamped, WrenchStamped
 from rclpy.node import Node
+from rclpy.serialization import deserialize_message
 from std_srvs.srv import Trigger
 
 from ..node.edge import contact_records, event_record, header_ns, rod_phase
@@ -60,7 +61,9 @@ class WhiskerNode(Node):
         self._pub = {key: self.create_publisher(kind, f"~/{key}", qos)
                      for key, (kind, qos) in OUTPUTS.items()}
         self._pub["diagnostics"] = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
-        self._sub = self.create_subscription(PoseStamped, "~/foot_pose", self._on_pose, POSES)
+        # raw: the poses arrive serialized, as they are recorded (deserialized once, here)
+        self._sub = self.create_subscription(PoseStamped, "~/foot_pose", self._on_pose, POSES,
+                                             raw=True)
         self._backlog = PoseBacklog(self._sub)
         self._more = self.create_guard_condition(self._work)
         self.create_service(Trigger, "~/reset", self._on_reset)
@@ -163,11 +166,11 @@ class WhiskerNode(Node):
         self.get_logger().info(f"~/reset: {response.message}")
         return response
 
-    def _on_pose(self, msg: PoseStamped) -> None:
+    def _on_pose(self, data: bytes) -> None:
         if self._backlog:  # older poses are still waiting: this one goes behind them (and
-            self._backlog.append(msg)  # before those still in DDS, which are newer)
+            self._backlog.append(data)  # before those still in DDS, which are newer)
         else:
-            self._process_pose(msg)
+            self._process_pose(deserialize_message(data, PoseStamped), data)
         self._work()
 
     def _work(self) -> None:
@@ -177,16 +180,20 @@ class WhiskerNode(Node):
             if not self._backlog:
                 return
             self._stats.waiting(len(self._backlog))
-            self._process_pose(self._backlog.pop())
+            self._process_pose(*self._backlog.pop_serialized())
             if i % TAKE_EVERY == TAKE_EVERY - 1:
                 self._backlog.take_available()
         if self._backlog:
             self._more.trigger()
 
-    def _process_pose(self, msg: PoseStamped) -> None:
+    def _process_pose(self, msg: PoseStamped, data: Optional[bytes] = None) -> None:
+        """Step to a pose (``data``: its CDR bytes when it arrived serialized)."""
         self._stats.received += 1
         now = self._now_ns()
-        self._record("foot_pose", msg, now)
+        if data is not None and self._recorder is not None:
+            self._recorder.write_serialized("foot_pose", data, now)
+        else:
+            self._record("foot_pose", msg, now)
         p, q = msg.pose.position, msg.pose.orientation
         t0 = time.perf_counter_ns()
         try:
