@@ -7,8 +7,9 @@ node under test, a sender (publishes foot poses, each stamped with its send time
 For each node (whisker_node on config/catenary.yaml, whisker_node recording to MCAP, then
 bench/echo_node.py): stream poses for --seconds at --rate (the paper's catenary sweep, back and
 forth: x runs 0.15 -> -0.15 -> 0.15 m every 10 s), then ramp the rate (--ramp) for --ramp-seconds
-each; report the highest rate that loses nothing. Prints medians and the ratios whisker/echo
-measured in the same run, and the recording's log size.
+each; report the highest rate that loses nothing. Prints medians and p99 with the ratios to the
+echo node measured in the same run, the CPU time each node (with its log writer) used per pose,
+and the recording's log size.
 
 Run: python bench/bench_node.py [--seconds 60] [--rate 1000] [--ramp 1000,2000,3000,4000]
 """
@@ -159,6 +160,21 @@ def sender(work: Path, segments, amplitude: float = 0.15) -> None:
     rclpy.try_shutdown()
 
 
+def cpu_seconds(pid: int) -> float:
+    """Return the CPU time [s] used so far by a process and its children (the log writer)."""
+    import psutil
+
+    try:
+        proc = psutil.Process(pid)
+        total = 0.0
+        for p in [proc] + proc.children(recursive=True):
+            times = p.cpu_times()
+            total += times.user + times.system
+        return total
+    except psutil.Error:
+        return math.nan
+
+
 def start_node(kind: str, log_path: str, params: str) -> subprocess.Popen:
     if kind in ("whisker", "recording"):
         exe = Path(sys.executable).with_name("whisker_node")
@@ -182,7 +198,11 @@ def measure(kind: str, args, work: Path):
     rx = subprocess.Popen(me + ["--role", "receiver"])
     tx = subprocess.Popen(me + ["--role", "sender", "--segments", json.dumps(segments)])
     try:
+        while tx.poll() is None and not (work / "ready").exists():
+            time.sleep(0.05)
+        cpu_start = cpu_seconds(node.pid)  # the sender starts streaming 1 s after ready
         tx.wait()
+        cpu_used = cpu_seconds(node.pid) - cpu_start
         rx.wait(timeout=120)
     finally:
         node.send_signal(2)
@@ -195,6 +215,7 @@ def measure(kind: str, args, work: Path):
                         "lost": sum(1 for s in seg["sent"] if s not in arrival),
                         "sent": len(seg["sent"])})
     main_run, sustained = results[0], 0
+    main_run["cpu_per_pose"] = cpu_used / sum(r["sent"] for r in results)
     for r in results[1:]:
         p99 = np.percentile(r["lat"], 99) if len(r["lat"]) else math.inf
         ok = r["lost"] == 0 and r["achieved"] >= 0.97 * r["rate"] and p99 < 50_000
@@ -245,12 +266,13 @@ def main(argv=None):
             results[kind] = measure(kind, args, Path(tmp) / kind)
     print()
     print(f"{'node':9s} {'sent':>7s} {'lost':>5s} {'median':>9s} {'p99':>9s} {'max':>9s} "
-          f"{'sustained':>10s}")
+          f"{'sustained':>10s} {'CPU/pose':>9s}")
     for kind, r in results.items():
         lat = r["lat"]
         sustained = f"{int(r['sustained'])}Hz" if kind != "recording" else "-"
         print(f"{kind:9s} {r['sent']:7d} {r['lost']:5d} {np.median(lat) / 1e3:7.3f}ms "
-              f"{np.percentile(lat, 99) / 1e3:7.3f}ms {lat.max() / 1e3:7.2f}ms {sustained:>10s}")
+              f"{np.percentile(lat, 99) / 1e3:7.3f}ms {lat.max() / 1e3:7.2f}ms {sustained:>10s} "
+              f"{r['cpu_per_pose'] * 1e6:7.0f}us")
     for kind in ("whisker", "recording"):
         if kind in results and "echo" in results:
             w, e = results[kind]["lat"], results["echo"]["lat"]
