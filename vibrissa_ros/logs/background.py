@@ -10,7 +10,7 @@ the file is finished as far as it can be, and later calls do nothing.
 
 :class:`LogProcess` keeps the writing off the caller's interpreter (its GIL): the messages are
 batched in memory and sent every ``batch_period`` seconds through a pipe to a writer process
-(``python -m vibrissa_ros.logs.background``) that owns the file. The writer process ignores
+(:func:`main`, with this interpreter) that owns the file. The writer process ignores
 SIGINT and SIGTERM (a Ctrl-C reaches the whole process group: the caller finishes the log through
 :meth:`LogProcess.close`), and finishes the file by itself when its input ends, e.g. when the
 caller was killed on its own. It stays in the caller's process group: a kill -9 of the group
@@ -99,7 +99,7 @@ class LogThread:
         return self._writer.messages
 
     def channel(self, spec: TopicSpec) -> int:
-        """Register a channel (in the caller's thread: LogError if its type is not installed)."""
+        """Register the channel of ``spec``; LogError (in this thread) if its type is unknown."""
         return self._writer.channel(spec)
 
     def write(self, channel: int, data: bytes, log_time: int) -> None:
@@ -169,6 +169,13 @@ def _read_frame(fd: int):
     return None if body is None else pickle.loads(body)
 
 
+# the writer process: it ignores SIGINT and SIGTERM before anything else (its imports take a
+# while, and a Ctrl-C reaches the whole process group)
+_WRITER_MAIN = ("import signal; signal.signal(signal.SIGINT, signal.SIG_IGN); "
+                "signal.signal(signal.SIGTERM, signal.SIG_IGN); "
+                "from vibrissa_ros.logs.background import main; main()")
+
+
 class LogProcess:
     """
     Write a log in a process of its own, fed with serialized messages through a pipe.
@@ -211,7 +218,7 @@ class LogProcess:
                 f"cannot open {self.path!r} for writing: {exc.strerror or exc}") from None
         try:
             self._proc = subprocess.Popen(
-                [sys.executable, "-m", "vibrissa_ros.logs.background", str(fd)],
+                [sys.executable, "-c", _WRITER_MAIN, str(fd)],
                 stdin=subprocess.PIPE, stdout=subprocess.PIPE, pass_fds=(fd,))
         except OSError as exc:
             raise LogError(f"cannot start the writer of {self.path!r}: {exc}") from None
@@ -234,7 +241,7 @@ class LogProcess:
         return self._written
 
     def channel(self, spec: TopicSpec) -> int:
-        """Register a channel (its type is checked here: LogError if it is not installed)."""
+        """Register the channel of ``spec``; LogError (at once) if its type is not installed."""
         if spec.topic not in self._channels:
             index = len(self._channels)
             self._pending.append((_CHANNEL, index, spec, describe_channel(spec)))
@@ -347,14 +354,10 @@ def _serve(fd: int, commands: int, replies: int) -> None:
 
 
 def main(argv: Optional[Tuple[str, ...]] = None) -> None:
-    """Run the writer process: ``python -m vibrissa_ros.logs.background FD``."""
+    """Run the writer process on the file descriptor ``argv[0]``: commands on standard input."""
     args = sys.argv[1:] if argv is None else list(argv)
     for sig in (signal.SIGINT, signal.SIGTERM):  # the caller decides when the log ends
         signal.signal(sig, signal.SIG_IGN)
     replies = os.dup(sys.stdout.fileno())
     os.dup2(sys.stderr.fileno(), sys.stdout.fileno())  # stray prints must not reach the pipe
     _serve(int(args[0]), sys.stdin.fileno(), replies)
-
-
-if __name__ == "__main__":
-    main()
