@@ -22,15 +22,16 @@ from typing import Dict, Optional
 
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray
-from geometry_msgs.msg import PoseStamped, WrenchStamped
+from geometry_msgs.msg import PoseStamped
 from rclpy.node import Node
-from rclpy.serialization import deserialize_message
+from rclpy.serialization import deserialize_message, serialize_message
 from std_srvs.srv import Trigger
 
 from ..node.edge import contact_records, event_record, header_ns, rod_phase
 from ..logs.mcap_log import LogError
 from ..node.config import PARAMETERS, WhiskerConfig, build_config
 from ..node.pipeline import PosePipeline, PoseStats, drop_reason
+from . import cdr
 from . import messages as m
 from .backlog import PoseBacklog
 from .params import NodeParameters
@@ -57,7 +58,6 @@ class WhiskerNode(Node):
         self._last_centerline = -math.inf
         self._listened: Dict[str, bool] = {}
         self._listened_at = -math.inf
-        self._wrench = WrenchStamped()  # reused: building a message costs more than the solve
         self._pub = {key: self.create_publisher(kind, f"~/{key}", qos)
                      for key, (kind, qos) in OUTPUTS.items()}
         self._pub["diagnostics"] = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
@@ -222,36 +222,45 @@ class WhiskerNode(Node):
             self._listened = {k: self._pub[k].get_subscription_count() > 0 for k in OPTIONAL}
         return self._listened
 
+    def _send_serialized(self, key: str, data: bytes, log_time: int, publish: bool = True):
+        """Record CDR bytes (when recording), then publish them (unless ``publish`` is False)."""
+        if self._recorder is not None:
+            self._recorder.write_serialized(key, data, log_time)
+        if publish:
+            try:
+                self._pub[key].publish(data)
+            except RCLError:
+                if self.context.ok():
+                    raise
+
     def _emit(self, key: str, make, now: int, listening: Dict[str, bool]) -> None:
         """Publish an optional topic only when someone takes it; record it whenever recording."""
-        if listening[key]:
-            self._send(key, make(), now)
-        elif self._recorder is not None:
-            self._record(key, make(), now)
+        if listening[key] or self._recorder is not None:
+            self._send_serialized(key, make(), now, listening[key])
 
     def _publish_state(self, stamp, state, events, now: int) -> None:
+        """Publish (and record) a pose's answer; the per-pose messages go out as CDR bytes."""
         cfg = self.config
         reading, sensed = self._pipeline.reading(state)
         if cfg.rod3d:  # all six components
-            wrench = m.fill_wrench6(self._wrench, stamp, cfg.base_frame, sensed[:3], sensed[3:])
+            force, torque = sensed[:3], sensed[3:]
         else:
-            sx, sy, sz = sensed
-            wrench = m.fill_wrench(self._wrench, stamp, cfg.base_frame, (sx, sy), sz)
-        self._send("wrench", wrench, now)
+            force, torque = (sensed[0], sensed[1], 0.0), (0.0, 0.0, sensed[2])
+        self._send_serialized("wrench", cdr.wrench_cdr(stamp, cfg.base_frame, force, torque), now)
         listening = self._listening()
         world = cfg.world_frame
-        self._emit("phase", lambda: m.phase_msg(reading.phase), now, listening)
-        self._emit("contact_force", lambda: m.vector_stamped(stamp, world, reading.force_world),
+        self._emit("phase", lambda: cdr.uint8_cdr(reading.phase), now, listening)
+        self._emit("contact_force", lambda: cdr.vector_cdr(stamp, world, reading.force_world),
                    now, listening)
-        self._emit("contact_force_magnitude", lambda: m.float_msg(reading.force_magnitude), now,
-                   listening)
+        self._emit("contact_force_magnitude", lambda: cdr.float_cdr(reading.force_magnitude),
+                   now, listening)
         if reading.contact_world is not None:
             self._emit("contact_point",
-                       lambda: m.point_stamped(stamp, world, reading.contact_world), now,
+                       lambda: cdr.point_cdr(stamp, world, reading.contact_world), now,
                        listening)
-            self._emit("arc_length", lambda: m.float_msg(reading.s1), now, listening)
+            self._emit("arc_length", lambda: cdr.float_cdr(reading.s1), now, listening)
         self._emit("contacts",
-                   lambda: m.contacts_cloud(stamp, world, contact_records(state, cfg.units)),
+                   lambda: cdr.contacts_cdr(stamp, world, contact_records(state, cfg.units)),
                    now, listening)
         for event in events:
             record = event_record(event, cfg.units, cfg.roll)
@@ -267,7 +276,10 @@ class WhiskerNode(Node):
         if max_rate <= 0.0 or tick - self._last_centerline >= 1.0 / max_rate:
             n = int(cfg.values["centerline.points"])
             self._last_centerline = tick
-            self._emit("centerline", lambda: self._centerline(stamp, state, n), now, listening)
+            if listening["centerline"] or self._recorder is not None:
+                msg = self._centerline(stamp, state, n)
+                data = serialize_message(msg)
+                self._send_serialized("centerline", data, now, listening["centerline"])
 
     def _centerline(self, stamp, state, n: int):
         """Return the ~/centerline of a state: n points [m] (3D: with the body frames)."""
