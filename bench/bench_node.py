@@ -269,7 +269,7 @@ def main(argv=None):
           f"{'sustained':>10s} {'CPU/pose':>9s}")
     for kind, r in results.items():
         lat = r["lat"]
-        sustained = f"{int(r['sustained'])}Hz" if kind != "recording" else "-"
+        sustained = f"{int(r['sustained'])}Hz" if kind != "recording" and args.ramp else "-"
         print(f"{kind:9s} {r['sent']:7d} {r['lost']:5d} {np.median(lat) / 1e3:7.3f}ms "
               f"{np.percentile(lat, 99) / 1e3:7.3f}ms {lat.max() / 1e3:7.2f}ms {sustained:>10s} "
               f"{r['cpu_per_pose'] * 1e6:7.0f}us")

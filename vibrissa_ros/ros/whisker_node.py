@@ -9,9 +9,10 @@ roll or pitch, model rod3d: any 6-DoF pose). Out: ``~/wrench`` (base frame; rod3
 pose places the whisker unloaded, doc/mechanics/decisions.md, "Recovery"); the topic table of
 doc/guide/node.md says what each carries. Every message with a header carries the stamp of the
 pose that produced it; the wrench and events are always published, the other per-pose
-topics only while somebody subscribes (or the node records). This module only wires: checks and
-steps are :mod:`vibrissa_ros.node.pipeline`'s, conversions :mod:`vibrissa_ros.node.edge`'s,
-messages :mod:`.messages`', recording :mod:`.recorder`'s and queueing :mod:`.backlog`'s.
+topics only while somebody subscribes (while recording, all of them are recorded). This module
+only wires: checks and steps are :mod:`vibrissa_ros.node.pipeline`'s, conversions
+:mod:`vibrissa_ros.node.edge`'s, messages :mod:`.messages`' (the per-pose ones as CDR bytes:
+:mod:`.cdr`'s), recording :mod:`.recorder`'s and queueing :mod:`.backlog`'s.
 """
 
 from __future__ import annotations
