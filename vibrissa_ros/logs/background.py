@@ -354,7 +354,15 @@ def _serve(fd: int, commands: int, replies: int) -> None:
 
 
 def main(argv: Optional[Tuple[str, ...]] = None) -> None:
-    """Run the writer process on the file descriptor ``argv[0]``: commands on standard input."""
+    """
+    Run the writer process of a :class:`LogProcess`: commands on standard input, replies out.
+
+    Parameters
+    ----------
+    argv : tuple of str, optional
+        The open log file's descriptor (default: the command line's first argument).
+
+    """
     args = sys.argv[1:] if argv is None else list(argv)
     for sig in (signal.SIGINT, signal.SIGTERM):  # the caller decides when the log ends
         signal.signal(sig, signal.SIG_IGN)

@@ -178,7 +178,27 @@ ChannelDescription = Tuple[bytes, Dict[str, str]]
 
 
 def describe_channel(spec: TopicSpec) -> ChannelDescription:
-    """Return the schema text and the channel metadata of ``spec``; LogError if not installed."""
+    """
+    Return what a channel of ``spec`` is registered with: its schema's text and its metadata.
+
+    Parameters
+    ----------
+    spec : TopicSpec
+        The channel's topic, type and offered QoS.
+
+    Returns
+    -------
+    text : bytes
+        The ros2msg schema of the type (:func:`message_definition`).
+    metadata : dict
+        ``offered_qos_profiles`` (rosbag2's YAML) and ``topic_type_hash``.
+
+    Raises
+    ------
+    LogError
+        When the type's interface package is not installed.
+
+    """
     text = message_definition(spec.type_name).encode()
     metadata = {
         "offered_qos_profiles": qos_yaml(spec.reliable, spec.transient_local, spec.depth,
@@ -189,7 +209,25 @@ def describe_channel(spec: TopicSpec) -> ChannelDescription:
 
 
 def open_log(path: str) -> BinaryIO:
-    """Open ``path`` for writing a log (created or overwritten); LogError with the OS's reason."""
+    """
+    Open a log file for writing, created or overwritten.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The log file.
+
+    Returns
+    -------
+    BinaryIO
+        The open file.
+
+    Raises
+    ------
+    LogError
+        When it cannot be opened, with the OS's reason.
+
+    """
     try:
         return open(path, "wb")
     except OSError as exc:
