@@ -77,6 +77,7 @@ def main(argv=None):
     parser.add_argument("--rate", type=float, default=1000.0)
     args = parser.parse_args(argv)
     os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+    os.environ.setdefault("ROS_DOMAIN_ID", "58")  # away from other ROS work on the machine
     context = rclpy.Context()
     rclpy.init(context=context)
     rng = random.Random(1)

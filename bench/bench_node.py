@@ -7,8 +7,9 @@ node under test, a sender (publishes foot poses, each stamped with its send time
 For each node (whisker_node on config/catenary.yaml, whisker_node recording to MCAP, then
 bench/echo_node.py): stream poses for --seconds at --rate (the paper's catenary sweep, back and
 forth: x runs 0.15 -> -0.15 -> 0.15 m every 10 s), then ramp the rate (--ramp) for --ramp-seconds
-each; report the highest rate that loses nothing. Prints medians and the ratios whisker/echo
-measured in the same run, and the recording's log size.
+each; report the highest rate that loses nothing. Prints medians and p99 with the ratios to the
+echo node measured in the same run, the CPU time each node (with its log writer) used per pose,
+and the recording's log size.
 
 Run: python bench/bench_node.py [--seconds 60] [--rate 1000] [--ramp 1000,2000,3000,4000]
 """
@@ -22,6 +23,7 @@ import os
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from pathlib import Path
 
@@ -42,6 +44,57 @@ def _qos():
 
     return QoSProfile(history=HistoryPolicy.KEEP_ALL, depth=1000,
                       reliability=ReliabilityPolicy.RELIABLE)
+
+
+class Driver:
+    """An in-process pose publisher and wrench listener (bench_kill9.py's driver)."""
+
+    def __init__(self, context):
+        import rclpy
+        from geometry_msgs.msg import PoseStamped, WrenchStamped
+        from rclpy.executors import SingleThreadedExecutor
+
+        from vibrissa_ros.node.edge import header_ns
+
+        self.node = rclpy.create_node("bench_driver", context=context)
+        self.pub = self.node.create_publisher(PoseStamped, f"{TOPIC}/foot_pose", _qos())
+        self.received = {}
+        self.node.create_subscription(
+            WrenchStamped, f"{TOPIC}/wrench",
+            lambda m: self.received.__setitem__(header_ns(m), time.time_ns()), _qos())
+        self.executor = SingleThreadedExecutor(context=context)
+        self.executor.add_node(self.node)
+        self._spinning = True
+        self._thread = threading.Thread(target=self._spin, daemon=True)
+        self._thread.start()
+
+    def _spin(self):
+        while self._spinning:
+            self.executor.spin_once(timeout_sec=0.01)
+
+    def pose(self, x: float, stamp_ns: int):
+        """Return the foot pose at x [m] on the paper's line (yaw 90 degrees)."""
+        from vibrissa_ros.ros.messages import pose_stamped
+
+        return pose_stamped(x, 0.0, math.pi / 2, stamp_ns)
+
+    def handshake(self, timeout: float = 30.0) -> None:
+        """Publish a pose every 0.1 s until the node answers."""
+        end = time.monotonic() + timeout
+        while not self.received and time.monotonic() < end:
+            self.pub.publish(self.pose(0.2, time.time_ns()))
+            time.sleep(0.1)
+        if not self.received:
+            raise TimeoutError("the node under test does not answer")
+        time.sleep(0.5)
+        self.received.clear()
+
+    def close(self) -> None:
+        """Stop spinning and destroy the node."""
+        self._spinning = False
+        self._thread.join()
+        self.executor.remove_node(self.node)
+        self.node.destroy_node()
 
 
 def receiver(work: Path) -> None:
@@ -107,6 +160,21 @@ def sender(work: Path, segments, amplitude: float = 0.15) -> None:
     rclpy.try_shutdown()
 
 
+def cpu_seconds(pid: int) -> float:
+    """Return the CPU time [s] used so far by a process and its children (the log writer)."""
+    import psutil
+
+    try:
+        proc = psutil.Process(pid)
+        total = 0.0
+        for p in [proc] + proc.children(recursive=True):
+            times = p.cpu_times()
+            total += times.user + times.system
+        return total
+    except psutil.Error:
+        return math.nan
+
+
 def start_node(kind: str, log_path: str, params: str) -> subprocess.Popen:
     if kind in ("whisker", "recording"):
         exe = Path(sys.executable).with_name("whisker_node")
@@ -130,7 +198,11 @@ def measure(kind: str, args, work: Path):
     rx = subprocess.Popen(me + ["--role", "receiver"])
     tx = subprocess.Popen(me + ["--role", "sender", "--segments", json.dumps(segments)])
     try:
+        while tx.poll() is None and not (work / "ready").exists():
+            time.sleep(0.05)
+        cpu_start = cpu_seconds(node.pid)  # the sender starts streaming 1 s after ready
         tx.wait()
+        cpu_used = cpu_seconds(node.pid) - cpu_start
         rx.wait(timeout=120)
     finally:
         node.send_signal(2)
@@ -143,6 +215,7 @@ def measure(kind: str, args, work: Path):
                         "lost": sum(1 for s in seg["sent"] if s not in arrival),
                         "sent": len(seg["sent"])})
     main_run, sustained = results[0], 0
+    main_run["cpu_per_pose"] = cpu_used / sum(r["sent"] for r in results)
     for r in results[1:]:
         p99 = np.percentile(r["lat"], 99) if len(r["lat"]) else math.inf
         ok = r["lost"] == 0 and r["achieved"] >= 0.97 * r["rate"] and p99 < 50_000
@@ -161,8 +234,10 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seconds", type=float, default=60.0)
     parser.add_argument("--rate", type=float, default=1000.0)
-    parser.add_argument("--ramp", type=lambda s: [float(v) for v in s.split(",")],
-                        default=[1000, 2000, 3000, 4000, 5000])
+    parser.add_argument("--ramp", type=lambda s: [float(v) for v in s.split(",") if v],
+                        default=[1000, 2000, 3000, 4000, 5000],
+                        help="rates [Hz] of the ramp after the main run, comma-separated; '' "
+                        "for none")
     parser.add_argument("--ramp-seconds", type=float, default=5.0)
     parser.add_argument("--log",
                         default=os.path.join(tempfile.gettempdir(), "vibrissa_bench.mcap"),
@@ -183,6 +258,7 @@ def main(argv=None):
     if args.role == "sender":
         return sender(Path(args.work), json.loads(args.segments), args.amplitude)
     os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+    os.environ.setdefault("ROS_DOMAIN_ID", "57")  # away from other ROS work on the machine
     results = {}
     with tempfile.TemporaryDirectory() as tmp:
         for kind in args.nodes.split(","):
@@ -190,12 +266,13 @@ def main(argv=None):
             results[kind] = measure(kind, args, Path(tmp) / kind)
     print()
     print(f"{'node':9s} {'sent':>7s} {'lost':>5s} {'median':>9s} {'p99':>9s} {'max':>9s} "
-          f"{'sustained':>10s}")
+          f"{'sustained':>10s} {'CPU/pose':>9s}")
     for kind, r in results.items():
         lat = r["lat"]
-        sustained = f"{int(r['sustained'])}Hz" if kind != "recording" else "-"
+        sustained = f"{int(r['sustained'])}Hz" if kind != "recording" and args.ramp else "-"
         print(f"{kind:9s} {r['sent']:7d} {r['lost']:5d} {np.median(lat) / 1e3:7.3f}ms "
-              f"{np.percentile(lat, 99) / 1e3:7.3f}ms {lat.max() / 1e3:7.2f}ms {sustained:>10s}")
+              f"{np.percentile(lat, 99) / 1e3:7.3f}ms {lat.max() / 1e3:7.2f}ms {sustained:>10s} "
+              f"{r['cpu_per_pose'] * 1e6:7.0f}us")
     for kind in ("whisker", "recording"):
         if kind in results and "echo" in results:
             w, e = results[kind]["lat"], results["echo"]["lat"]

@@ -22,7 +22,7 @@ import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Dict, List, Optional, Tuple
+from typing import BinaryIO, Dict, List, Optional, Tuple
 
 from mcap.exceptions import McapError
 from mcap.reader import make_reader
@@ -173,6 +173,67 @@ class TopicSpec:
     keep_all: bool = False
 
 
+#: what a channel needs besides its TopicSpec: the schema text and the channel's metadata
+ChannelDescription = Tuple[bytes, Dict[str, str]]
+
+
+def describe_channel(spec: TopicSpec) -> ChannelDescription:
+    """
+    Return what a channel of ``spec`` is registered with: its schema's text and its metadata.
+
+    Parameters
+    ----------
+    spec : TopicSpec
+        The channel's topic, type and offered QoS.
+
+    Returns
+    -------
+    text : bytes
+        The ros2msg schema of the type (:func:`message_definition`).
+    metadata : dict
+        ``offered_qos_profiles`` (rosbag2's YAML) and ``topic_type_hash``.
+
+    Raises
+    ------
+    LogError
+        When the type's interface package is not installed.
+
+    """
+    text = message_definition(spec.type_name).encode()
+    metadata = {
+        "offered_qos_profiles": qos_yaml(spec.reliable, spec.transient_local, spec.depth,
+                                         spec.keep_all),
+        "topic_type_hash": type_hash(spec.type_name),
+    }
+    return text, metadata
+
+
+def open_log(path: str) -> BinaryIO:
+    """
+    Open a log file for writing, created or overwritten.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The log file.
+
+    Returns
+    -------
+    BinaryIO
+        The open file.
+
+    Raises
+    ------
+    LogError
+        When it cannot be opened, with the OS's reason.
+
+    """
+    try:
+        return open(path, "wb")
+    except OSError as exc:
+        raise LogError(f"cannot open {str(path)!r} for writing: {exc.strerror or exc}") from None
+
+
 class LogWriter:
     """
     Writes one MCAP log; raises :class:`LogError` (with the OS's reason) when it cannot.
@@ -186,6 +247,9 @@ class LogWriter:
     flush_period : float, optional
         The longest time [s] a written message waits in the open chunk before it is flushed
         (:meth:`flush_if_due`): what a crash can lose.
+    stream : binary file, optional
+        Write to this stream, already open (``path`` then only names it in messages), instead of
+        opening ``path``.
 
     Raises
     ------
@@ -194,14 +258,10 @@ class LogWriter:
 
     """
 
-    def __init__(self, path: str, chunk_size: int = 1 << 20, flush_period: float = 0.5):
+    def __init__(self, path: str, chunk_size: int = 1 << 20, flush_period: float = 0.5,
+                 stream: Optional[BinaryIO] = None):
         self.path = str(path)
-        try:
-            self._stream = open(self.path, "wb")
-        except OSError as exc:
-            raise LogError(
-                f"cannot open {self.path!r} for writing: {exc.strerror or exc}"
-            ) from None
+        self._stream = stream if stream is not None else open_log(self.path)
         self._writer = Writer(
             self._stream, chunk_size=chunk_size, compression=CompressionType.ZSTD
         )
@@ -227,19 +287,15 @@ class LogWriter:
                 pass
             raise LogError(f"writing {self.path!r} failed: {exc.strerror or exc}") from None
 
-    def channel(self, spec: TopicSpec) -> int:
+    def channel(self, spec: TopicSpec, description: Optional["ChannelDescription"] = None) -> int:
+        """Register the channel of ``spec`` (once per topic); return its id."""
         if spec.topic in self._channels:
             return self._channels[spec.topic]
+        text, metadata = description if description is not None else describe_channel(spec)
         if spec.type_name not in self._schemas:
-            text = message_definition(spec.type_name).encode()
             self._schemas[spec.type_name] = self._guard(
                 lambda: self._writer.register_schema(spec.type_name, SCHEMA_ENCODING, text)
             )
-        metadata = {
-            "offered_qos_profiles": qos_yaml(spec.reliable, spec.transient_local, spec.depth,
-                                             spec.keep_all),
-            "topic_type_hash": type_hash(spec.type_name),
-        }
         cid = self._guard(
             lambda: self._writer.register_channel(
                 spec.topic, MESSAGE_ENCODING, self._schemas[spec.type_name], metadata

@@ -4,6 +4,7 @@ The ROS 2 side of vibrissa_ros: everything that imports rclpy lives in this subp
 * :mod:`.whisker_node` and :mod:`.contour_node`: the two nodes (wiring only); :mod:`.topics`:
   whisker_node's topic names, types and QoS; :mod:`.backlog`: poses taken, not yet processed;
 * :mod:`.messages`: pure builders of every message the nodes publish (testable without DDS);
+  :mod:`.cdr`: whisker_node's per-pose messages straight to CDR bytes;
 * :mod:`.params`: the shared parameter machinery turned into ROS descriptors and callbacks;
 * :mod:`.recorder`: MCAP recording of a node's endpoints; :mod:`.serialization`: CDR;
 * :mod:`.replay` and :mod:`.sweep`: the ``vibrissa replay`` and ``vibrissa sweep`` drivers;

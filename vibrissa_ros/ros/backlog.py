@@ -31,7 +31,7 @@ class PoseBacklog:
         return len(self._items)
 
     def append(self, msg) -> None:
-        """Queue a message the executor delivered (older than any still in DDS)."""
+        """Queue a message the executor delivered (older than any still in DDS), or its bytes."""
         self._items.append(msg)
 
     def take_available(self) -> None:
@@ -48,5 +48,11 @@ class PoseBacklog:
 
     def pop(self):
         """Return the oldest message, deserialized."""
+        return self.pop_serialized()[0]
+
+    def pop_serialized(self):
+        """Return the oldest message, deserialized, and its CDR bytes (None if not taken so)."""
         item = self._items.popleft()
-        return deserialize_message(item, self._sub.msg_type) if isinstance(item, bytes) else item
+        if isinstance(item, bytes):
+            return deserialize_message(item, self._sub.msg_type), item
+        return item, None

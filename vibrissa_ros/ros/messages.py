@@ -367,6 +367,18 @@ CONTACT_DTYPE = np.dtype({"names": [f[0] for f in CONTACT_FIELDS],
                           "offsets": [f[3] for f in CONTACT_FIELDS],
                           "itemsize": CONTACT_POINT_STEP})
 
+_CONTACT_POINT_FIELDS = [PointField(name=name, offset=offset, datatype=kind, count=1)
+                         for name, kind, _, offset in CONTACT_FIELDS]
+
+
+def contact_points(contacts: Sequence[ContactRecord]) -> bytes:
+    """Return the data of a ``~/contacts`` cloud: one CONTACT_POINT_STEP-byte point a contact."""
+    points = np.zeros(len(contacts), dtype=CONTACT_DTYPE)
+    for i, c in enumerate(contacts):
+        points[i] = (float(c.x), float(c.y), float(c.z), float(c.fx), float(c.fy), float(c.s),
+                     int(c.kind), int(c.state), int(c.obstacle), float(c.fz))
+    return points.tobytes()
+
 
 def contacts_cloud(stamp, frame: str, contacts: Sequence[ContactRecord]) -> PointCloud2:
     """
@@ -378,19 +390,14 @@ def contacts_cloud(stamp, frame: str, contacts: Sequence[ContactRecord]) -> Poin
     obstacle (uint32, its index), fz [N] (0 but for the 3D whisker). No contact: an empty cloud
     (width 0).
     """
-    points = np.zeros(len(contacts), dtype=CONTACT_DTYPE)
-    for i, c in enumerate(contacts):
-        points[i] = (float(c.x), float(c.y), float(c.z), float(c.fx), float(c.fy), float(c.s),
-                     int(c.kind), int(c.state), int(c.obstacle), float(c.fz))
     cloud = PointCloud2()
     cloud.header.stamp, cloud.header.frame_id = stamp, frame
     cloud.height, cloud.width = 1, len(contacts)
-    cloud.fields = [PointField(name=name, offset=offset, datatype=kind, count=1)
-                    for name, kind, _, offset in CONTACT_FIELDS]
+    cloud.fields = _CONTACT_POINT_FIELDS  # shared: never changed once built
     cloud.is_bigendian = False
     cloud.point_step = CONTACT_POINT_STEP
     cloud.row_step = CONTACT_POINT_STEP * len(contacts)
-    cloud.data = points.tobytes()
+    cloud.data = contact_points(contacts)
     cloud.is_dense = True
     return cloud
 

@@ -1,10 +1,15 @@
 """
 Records a node's endpoints into an MCAP log (rosbag2 layout), failures handled here.
 
-The recorder is given ``{key: endpoint}`` (publishers and subscriptions) and takes each channel's
-topic, type and offered QoS from the endpoint itself. Messages are serialized in the caller's
-thread (they may be reused right after) and written, chunked and compressed by a writer thread,
-so closing a chunk never stalls the whisker.
+The recorder is given ``{key: endpoint}`` (publishers and subscriptions, or anything with their
+``topic_name``, ``msg_type`` and ``qos_profile``) and takes each channel's topic, type and offered
+QoS from the endpoint itself. It takes messages serialized (:meth:`Recorder.write_serialized`:
+CDR bytes, e.g. those a node publishes with ``publisher.publish(data)``) or as objects
+(:meth:`Recorder.write` serializes them in the caller's thread: they may be reused right after).
+Writing, chunking and compressing happen in a writer process of its own
+(:class:`~vibrissa_ros.logs.background.LogProcess`), so neither a chunk's compression nor the
+MCAP library's Python holds the node's interpreter; given a ``writer``, in a thread instead
+(:class:`~vibrissa_ros.logs.background.LogThread`).
 
 A failure of any kind (the disk is full, the file is gone, the mcap library misbehaves) stops the
 recording, never the node: the recorder finishes the file as far as it can (whatever was written
@@ -15,7 +20,6 @@ stays readable), keeps the reason in :attr:`Recorder.error` and reports it once 
 from __future__ import annotations
 
 import json
-import queue
 import threading
 from collections import Counter
 from typing import Callable, Dict, Mapping, Optional
@@ -24,6 +28,7 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, ReliabilityPolicy
 from rclpy.serialization import serialize_message
 
 from .. import __version__
+from ..logs.background import LogProcess, LogThread
 from ..logs.mcap_log import CONFIGURATION_METADATA, RESET_METADATA, LogError, LogWriter, TopicSpec
 
 
@@ -62,31 +67,52 @@ def topic_spec(endpoint) -> TopicSpec:
 
 
 class Recorder:
-    """Records one run of one node; see the module's docstring for what happens on failure."""
+    """
+    Records one run of one node; see the module's docstring for what happens on failure.
 
-    _STOP = object()
+    Parameters
+    ----------
+    path : str
+        The log file, created or overwritten.
+    endpoints : mapping
+        ``{key: endpoint}``: a channel per endpoint (its topic, type and offered QoS); ``key``
+        names it in :meth:`write` and :meth:`write_serialized`.
+    values : mapping
+        The node's parameter values: the first configuration record, holding from the start.
+    node_name : str
+        The node's fully qualified name, in every configuration record.
+    on_error : callable, optional
+        Called once with the reason when the recording fails (from the writer's thread).
+    writer : LogWriter, optional
+        Write this log in a thread of this process instead of a writer process.
+
+    Raises
+    ------
+    LogError
+        When the file cannot be opened or a channel's type is not installed.
+
+    """
 
     def __init__(self, path: str, endpoints: Mapping[str, object], values: Mapping[str, object],
                  node_name: str, on_error: Callable[[str], None] = lambda reason: None,
                  writer: Optional[LogWriter] = None):
-        """Open ``path`` and register a channel per endpoint; raises LogError if it cannot."""
         self.path = path
         self.error: Optional[str] = None
         self._on_error = on_error
         self._node_name = node_name
-        self._writer = writer if writer is not None else LogWriter(path)
-        self._queue: "queue.SimpleQueue" = queue.SimpleQueue()
         self._queued = 0
         self._counts: Counter = Counter()  # messages handed over, by endpoint key
         self._lock = threading.Lock()
+        if writer is not None:
+            self._sink = LogThread(writer, self._fail)
+        else:
+            self._sink = LogProcess(path, self._fail)
         try:
-            self._channels = {key: self._writer.channel(topic_spec(endpoint))
+            self._channels = {key: self._sink.channel(topic_spec(endpoint))
                               for key, endpoint in endpoints.items()}
         except LogError:
-            self._writer.abandon()
+            self._sink.close()
             raise
-        self._thread = threading.Thread(target=self._run, name="vibrissa-recorder", daemon=True)
-        self._thread.start()
         self.configuration(values, 0, resets=True)  # the start: holds from the beginning
 
     @property
@@ -96,8 +122,8 @@ class Recorder:
 
     @property
     def written(self) -> int:
-        """Messages the writer thread has written to the file."""
-        return self._writer.messages
+        """Messages the writer has written to the file."""
+        return self._sink.messages
 
     def _fail(self, reason: str) -> None:
         with self._lock:
@@ -106,34 +132,11 @@ class Recorder:
             self.error = reason
         self._on_error(reason)
 
-    def _run(self) -> None:
-        writer = self._writer
-        try:
-            while True:
-                try:
-                    item = self._queue.get(timeout=0.1)
-                except queue.Empty:
-                    item = None
-                if item is self._STOP:
-                    return
-                if item is not None:
-                    if item[0] == "meta":
-                        writer.metadata(item[1], item[2])
-                    else:
-                        writer.write(item[0], item[1], item[2])
-                writer.flush_if_due()
-        except LogError as exc:
-            self._fail(str(exc))
-            writer.abandon()
-        except Exception as exc:  # noqa: BLE001 - any failure of this thread must be reported
-            self._fail(f"writing {self.path!r} failed: {type(exc).__name__}: {exc}")
-            writer.abandon()  # finish the file as far as possible: what was written stays
-
     def configuration(self, values: Mapping[str, object], log_time: int, resets: bool) -> None:
         """Record a (new) configuration, holding from ``log_time`` on."""
         if self.error is None:
-            self._queue.put(("meta", CONFIGURATION_METADATA,
-                             configuration_record(values, self._node_name, log_time, resets)))
+            self._sink.metadata(CONFIGURATION_METADATA,
+                                configuration_record(values, self._node_name, log_time, resets))
 
     def reset(self, log_time: int, pose_key: str = "foot_pose") -> None:
         """
@@ -144,18 +147,24 @@ class Recorder:
         clock did.
         """
         if self.error is None:
-            self._queue.put(("meta", RESET_METADATA, {
+            self._sink.metadata(RESET_METADATA, {
                 "log_time": json.dumps(int(log_time)),
                 "poses_before": json.dumps(int(self._counts[pose_key])),
                 "node": json.dumps(self._node_name),
-            }))
+            })
 
-    def write(self, key: str, msg, log_time: int) -> None:
-        """Queue a message of the endpoint ``key`` (serialized now: ``msg`` may be reused)."""
+    def write_serialized(self, key: str, data: bytes, log_time: int) -> None:
+        """Queue a message of the endpoint ``key``, serialized (CDR), logged at ``log_time``."""
         if self.error is None:
-            self._queue.put((self._channels[key], serialize_message(msg), log_time))
+            self._sink.write(self._channels[key], data, log_time)
             self._queued += 1
             self._counts[key] += 1
+
+    def write(self, key: str, msg, log_time: int) -> bytes:
+        """Queue a message of the endpoint ``key`` (serialized now: ``msg`` may be reused)."""
+        data = serialize_message(msg)
+        self.write_serialized(key, data, log_time)
+        return data
 
     def close(self) -> None:
         """
@@ -163,11 +172,4 @@ class Recorder:
 
         After a failure: as much of it as could be saved.
         """
-        if self._thread.is_alive():
-            self._queue.put(self._STOP)
-            self._thread.join()
-        if self.error is None:
-            try:
-                self._writer.close()
-            except LogError as exc:
-                self._fail(str(exc))
+        self._sink.close()

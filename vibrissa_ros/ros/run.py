@@ -25,8 +25,13 @@ def run_node(make_node: Callable[[], Node], name: str, args=None) -> int:
     Init, build the node, spin until shutdown, clean up.
 
     An invalid start-up configuration is reported in one line and gives exit status 2. rclpy's
-    experimental EventsExecutor was tried: in the Jazzy wheels it delivered no subscription
-    callbacks here, so the standard single-threaded executor spins.
+    experimental EventsExecutor (``rclpy.experimental``, Jazzy wheels, rclpy 7.1.5) was measured
+    against the standard executor and is not usable here: it refuses a node with a guard
+    condition; with whisker_node's guard condition replaced by a timer, ``spin()`` kept a core
+    busy and returned on neither SIGINT nor SIGTERM, and ``spin_once`` loops answered 25 of
+    3,000 poses sent at 1 kHz (the node takes what DDS holds from the subscription itself,
+    which the events executor's message counts do not expect). So the standard single-threaded
+    executor spins.
     """
     rclpy.init(args=args)
     node = None

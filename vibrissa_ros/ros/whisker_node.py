@@ -9,9 +9,10 @@ roll or pitch, model rod3d: any 6-DoF pose). Out: ``~/wrench`` (base frame; rod3
 pose places the whisker unloaded, doc/mechanics/decisions.md, "Recovery"); the topic table of
 doc/guide/node.md says what each carries. Every message with a header carries the stamp of the
 pose that produced it; the wrench and events are always published, the other per-pose
-topics only while somebody subscribes (or the node records). This module only wires: checks and
-steps are :mod:`vibrissa_ros.node.pipeline`'s, conversions :mod:`vibrissa_ros.node.edge`'s,
-messages :mod:`.messages`', recording :mod:`.recorder`'s and queueing :mod:`.backlog`'s.
+topics only while somebody subscribes (while recording, all of them are recorded). This module
+only wires: checks and steps are :mod:`vibrissa_ros.node.pipeline`'s, conversions
+:mod:`vibrissa_ros.node.edge`'s, messages :mod:`.messages`' (the per-pose ones as CDR bytes:
+:mod:`.cdr`'s), recording :mod:`.recorder`'s and queueing :mod:`.backlog`'s.
 """
 
 from __future__ import annotations
@@ -23,8 +24,9 @@ from typing import Dict, Optional
 
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray
-from geometry_msgs.msg import PoseStamped, WrenchStamped
+from geometry_msgs.msg import PoseStamped
 from rclpy.node import Node
+from rclpy.serialization import deserialize_message, serialize_message
 from std_srvs.srv import Trigger
 
 from ..core.rod3d.model import warm_up
@@ -32,6 +34,7 @@ from ..node.edge import contact_records, event_record, header_ns, rod_phase
 from ..logs.mcap_log import LogError
 from ..node.config import PARAMETERS, WhiskerConfig, build_config
 from ..node.pipeline import PosePipeline, PoseStats, drop_reason
+from . import cdr
 from . import messages as m
 from .backlog import PoseBacklog
 from .params import NodeParameters
@@ -58,11 +61,12 @@ class WhiskerNode(Node):
         self._last_centerline = -math.inf
         self._listened: Dict[str, bool] = {}
         self._listened_at = -math.inf
-        self._wrench = WrenchStamped()  # reused: building a message costs more than the solve
         self._pub = {key: self.create_publisher(kind, f"~/{key}", qos)
                      for key, (kind, qos) in OUTPUTS.items()}
         self._pub["diagnostics"] = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
-        self._sub = self.create_subscription(PoseStamped, "~/foot_pose", self._on_pose, POSES)
+        # raw: the poses arrive serialized, as they are recorded (deserialized once, here)
+        self._sub = self.create_subscription(PoseStamped, "~/foot_pose", self._on_pose, POSES,
+                                             raw=True)
         self._backlog = PoseBacklog(self._sub)
         self._more = self.create_guard_condition(self._work)
         self.create_service(Trigger, "~/reset", self._on_reset)
@@ -134,15 +138,21 @@ class WhiskerNode(Node):
             self.get_logger().info(f"recording finished: {recorder.path} "
                                    f"({recorder.written} messages)")
 
-    def _record(self, key: str, msg, log_time: int) -> None:
+    def _record(self, key: str, msg, log_time: int):
+        """Record a message; return it serialized (None when not recording)."""
         if self._recorder is not None:
-            self._recorder.write(key, msg, log_time)
+            return self._recorder.write(key, msg, log_time)
+        return None
 
     def _send(self, key: str, msg, log_time: int) -> None:
-        """Record, then publish: all the node published is in its log, even after a signal."""
-        self._record(key, msg, log_time)
+        """
+        Record, then publish: all the node published is in its log, even after a signal.
+
+        Recording serializes the message: the same bytes are published (serialized once).
+        """
+        data = self._record(key, msg, log_time)
         try:
-            self._pub[key].publish(msg)
+            self._pub[key].publish(msg if data is None else data)
         except RCLError:
             if self.context.ok():
                 raise
@@ -163,11 +173,11 @@ class WhiskerNode(Node):
         self.get_logger().info(f"~/reset: {response.message}")
         return response
 
-    def _on_pose(self, msg: PoseStamped) -> None:
+    def _on_pose(self, data: bytes) -> None:
         if self._backlog:  # older poses are still waiting: this one goes behind them (and
-            self._backlog.append(msg)  # before those still in DDS, which are newer)
+            self._backlog.append(data)  # before those still in DDS, which are newer)
         else:
-            self._process_pose(msg)
+            self._process_pose(deserialize_message(data, PoseStamped), data)
         self._work()
 
     def _work(self) -> None:
@@ -177,16 +187,20 @@ class WhiskerNode(Node):
             if not self._backlog:
                 return
             self._stats.waiting(len(self._backlog))
-            self._process_pose(self._backlog.pop())
+            self._process_pose(*self._backlog.pop_serialized())
             if i % TAKE_EVERY == TAKE_EVERY - 1:
                 self._backlog.take_available()
         if self._backlog:
             self._more.trigger()
 
-    def _process_pose(self, msg: PoseStamped) -> None:
+    def _process_pose(self, msg: PoseStamped, data: Optional[bytes] = None) -> None:
+        """Step to a pose (``data``: its CDR bytes when it arrived serialized)."""
         self._stats.received += 1
         now = self._now_ns()
-        self._record("foot_pose", msg, now)
+        if data is not None and self._recorder is not None:
+            self._recorder.write_serialized("foot_pose", data, now)
+        else:
+            self._record("foot_pose", msg, now)
         p, q = msg.pose.position, msg.pose.orientation
         t0 = time.perf_counter_ns()
         try:
@@ -215,34 +229,45 @@ class WhiskerNode(Node):
             self._listened = {k: self._pub[k].get_subscription_count() > 0 for k in OPTIONAL}
         return self._listened
 
+    def _send_serialized(self, key: str, data: bytes, log_time: int, publish: bool = True):
+        """Record CDR bytes (when recording), then publish them (unless ``publish`` is False)."""
+        if self._recorder is not None:
+            self._recorder.write_serialized(key, data, log_time)
+        if publish:
+            try:
+                self._pub[key].publish(data)
+            except RCLError:
+                if self.context.ok():
+                    raise
+
     def _emit(self, key: str, make, now: int, listening: Dict[str, bool]) -> None:
-        """Publish (and record) an optional topic only when someone takes it."""
+        """Publish an optional topic only when someone takes it; record it whenever recording."""
         if listening[key] or self._recorder is not None:
-            self._send(key, make(), now)
+            self._send_serialized(key, make(), now, listening[key])
 
     def _publish_state(self, stamp, state, events, now: int) -> None:
+        """Publish (and record) a pose's answer; the per-pose messages go out as CDR bytes."""
         cfg = self.config
         reading, sensed = self._pipeline.reading(state)
         if cfg.rod3d:  # all six components
-            wrench = m.fill_wrench6(self._wrench, stamp, cfg.base_frame, sensed[:3], sensed[3:])
+            force, torque = sensed[:3], sensed[3:]
         else:
-            sx, sy, sz = sensed
-            wrench = m.fill_wrench(self._wrench, stamp, cfg.base_frame, (sx, sy), sz)
-        self._send("wrench", wrench, now)
+            force, torque = (sensed[0], sensed[1], 0.0), (0.0, 0.0, sensed[2])
+        self._send_serialized("wrench", cdr.wrench_cdr(stamp, cfg.base_frame, force, torque), now)
         listening = self._listening()
         world = cfg.world_frame
-        self._emit("phase", lambda: m.phase_msg(reading.phase), now, listening)
-        self._emit("contact_force", lambda: m.vector_stamped(stamp, world, reading.force_world),
+        self._emit("phase", lambda: cdr.uint8_cdr(reading.phase), now, listening)
+        self._emit("contact_force", lambda: cdr.vector_cdr(stamp, world, reading.force_world),
                    now, listening)
-        self._emit("contact_force_magnitude", lambda: m.float_msg(reading.force_magnitude), now,
-                   listening)
+        self._emit("contact_force_magnitude", lambda: cdr.float_cdr(reading.force_magnitude),
+                   now, listening)
         if reading.contact_world is not None:
             self._emit("contact_point",
-                       lambda: m.point_stamped(stamp, world, reading.contact_world), now,
+                       lambda: cdr.point_cdr(stamp, world, reading.contact_world), now,
                        listening)
-            self._emit("arc_length", lambda: m.float_msg(reading.s1), now, listening)
+            self._emit("arc_length", lambda: cdr.float_cdr(reading.s1), now, listening)
         self._emit("contacts",
-                   lambda: m.contacts_cloud(stamp, world, contact_records(state, cfg.units)),
+                   lambda: cdr.contacts_cdr(stamp, world, contact_records(state, cfg.units)),
                    now, listening)
         for event in events:
             record = event_record(event, cfg.units, cfg.roll)
@@ -258,7 +283,10 @@ class WhiskerNode(Node):
         if max_rate <= 0.0 or tick - self._last_centerline >= 1.0 / max_rate:
             n = int(cfg.values["centerline.points"])
             self._last_centerline = tick
-            self._emit("centerline", lambda: self._centerline(stamp, state, n), now, listening)
+            if listening["centerline"] or self._recorder is not None:
+                msg = self._centerline(stamp, state, n)
+                data = serialize_message(msg)
+                self._send_serialized("centerline", data, now, listening["centerline"])
 
     def _centerline(self, stamp, state, n: int):
         """Return the ~/centerline of a state: n points [m] (3D: with the body frames)."""

@@ -1,0 +1,73 @@
+"""The per-pose messages as CDR bytes decode as the messages the builders return."""
+
+import pytest
+from builtin_interfaces.msg import Time
+from geometry_msgs.msg import PointStamped, Vector3Stamped, WrenchStamped
+from mcap.records import Schema
+from mcap_ros2.decoder import DecoderFactory
+from rclpy.serialization import deserialize_message, serialize_message
+from sensor_msgs.msg import PointCloud2
+from std_msgs.msg import Float64, UInt8
+
+from vibrissa_ros.logs.mcap_log import message_definition
+from vibrissa_ros.node.edge import ContactRecord
+from vibrissa_ros.ros import cdr
+from vibrissa_ros.ros import messages as m
+
+STAMP = Time(sec=1_795_000_123, nanosec=987_654_321)
+CONTACTS = (ContactRecord(0.01, -0.02, 0.3, -0.4, 0.05, 1, 0, 2, 0.001, 0.5),
+            ContactRecord(-1e-300, 2.5, 1e300, -0.0, 0.07, 0, 1, 0, 0.0, 0.0))
+
+
+def _same(got, want):
+    assert serialize_message(got) == serialize_message(want) or repr(got) == repr(want)
+    assert repr(got) == repr(want)
+
+
+@pytest.mark.parametrize("frame", ["world", "whisker_base", "a/longer_frame_name", ""])
+def test_stamped_messages_decode_as_the_builders_messages(frame):
+    force, torque = (1.25, -2.5e-7, 3.0), (-4.0, 5e9, -6.125)
+    want = m.fill_wrench6(WrenchStamped(), STAMP, frame, force, torque)
+    _same(deserialize_message(cdr.wrench_cdr(STAMP, frame, force, torque), WrenchStamped), want)
+    planar = m.fill_wrench(WrenchStamped(), STAMP, frame, force[:2], torque[2])
+    got = cdr.wrench_cdr(STAMP, frame, force[:2] + (0.0,), (0.0, 0.0, torque[2]))
+    _same(deserialize_message(got, WrenchStamped), planar)
+    for xy in ((0.1, -0.2), (0.1, -0.2, 0.3)):
+        _same(deserialize_message(cdr.vector_cdr(STAMP, frame, xy), Vector3Stamped),
+              m.vector_stamped(STAMP, frame, xy))
+        _same(deserialize_message(cdr.point_cdr(STAMP, frame, xy), PointStamped),
+              m.point_stamped(STAMP, frame, xy))
+
+
+@pytest.mark.parametrize("n", [0, 1, 2])
+def test_the_contacts_cloud_decodes_as_the_builders_cloud(n):
+    want = m.contacts_cloud(STAMP, "world", CONTACTS[:n])
+    got = deserialize_message(cdr.contacts_cdr(STAMP, "world", CONTACTS[:n]), PointCloud2)
+    _same(got, want)
+    assert m.decode_contacts(got) == m.decode_contacts(want)
+
+
+def test_scalars_decode_as_the_builders_messages():
+    for value in (0.0, -1.5, 1e-300, float("inf")):
+        _same(deserialize_message(cdr.float_cdr(value), Float64), m.float_msg(value))
+    for phase in (0, 1, 2, 255):
+        _same(deserialize_message(cdr.uint8_cdr(phase), UInt8), m.phase_msg(phase))
+
+
+def test_the_other_ros2_decoder_reads_them_too():
+    """mcap-ros2-support, which Foxglove's tools use, decodes the bytes from the schema."""
+    factory = DecoderFactory()
+    ids = {}
+
+    def decode(type_name, data):
+        schema = Schema(id=ids.setdefault(type_name, len(ids) + 1), name=type_name,
+                        encoding="ros2msg", data=message_definition(type_name).encode())
+        return factory.decoder_for("cdr", schema)(data)
+
+    wrench = decode("geometry_msgs/msg/WrenchStamped",
+                    cdr.wrench_cdr(STAMP, "whisker_base", (1.0, 2.0, 0.0), (0.0, 0.0, 3.0)))
+    assert wrench.header.frame_id == "whisker_base" and wrench.wrench.torque.z == 3.0
+    assert wrench.header.stamp.nanosec == STAMP.nanosec
+    cloud = decode("sensor_msgs/msg/PointCloud2", cdr.contacts_cdr(STAMP, "world", CONTACTS))
+    assert cloud.width == 2 and cloud.point_step == m.CONTACT_POINT_STEP and cloud.is_dense
+    assert decode("std_msgs/msg/UInt8", cdr.uint8_cdr(2)).data == 2
