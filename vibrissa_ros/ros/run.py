@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Callable
+from typing import Callable, Optional
 
 import rclpy
 from rclpy.exceptions import (
@@ -11,7 +11,7 @@ from rclpy.exceptions import (
     InvalidParameterValueException,
     ParameterUninitializedException,
 )
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.executors import Executor, ExternalShutdownException, SingleThreadedExecutor
 from rclpy.impl.implementation_singleton import rclpy_implementation
 from rclpy.node import Node
 
@@ -20,20 +20,23 @@ from ..core.errors import VibrissaError
 RCLError = rclpy_implementation.RCLError
 
 
-def run_node(make_node: Callable[[], Node], name: str, args=None) -> int:
+def run_node(make_node: Callable[[], Node], name: str, args=None,
+             make_executor: Optional[Callable[[Node], Optional[Executor]]] = None) -> int:
     """
     Init, build the node, spin until shutdown, clean up.
 
-    An invalid start-up configuration is reported in one line and gives exit status 2. rclpy's
-    experimental EventsExecutor was tried: in the Jazzy wheels it delivered no subscription
-    callbacks here, so the standard single-threaded executor spins.
+    An invalid start-up configuration is reported in one line and gives exit status 2. The
+    standard single-threaded executor spins, unless ``make_executor(node)`` returns another
+    (array_node's ``executor`` parameter: rclpy's experimental EventsExecutor).
     """
     rclpy.init(args=args)
     node = None
     code = 0
     try:
         node = make_node()
-        executor = SingleThreadedExecutor()
+        executor = make_executor(node) if make_executor is not None else None
+        if executor is None:
+            executor = SingleThreadedExecutor()
         executor.add_node(node)
         executor.spin()
     except (KeyboardInterrupt, ExternalShutdownException):
