@@ -54,7 +54,7 @@ ARRAY_PARAMETERS: Tuple[ParameterSpec, ...] = tuple(_read_only(s) for s in (
     ParameterSpec("array.side", "both", "the whiskers of the array run: both sides, or only "
                   "the right or the left one", choices=SIDES),
     ParameterSpec("scene.file", "", "a 3D scene file with lengths in metres (spheres, cylinders, "
-                  "planes, prisms); '' = no obstacle"),
+                  "planes, prisms; at least one obstacle), path or package://"),
     ParameterSpec("whisk.source", "builtin", "builtin: the cosine whisk, one tick per timer "
                   "period (rate); external: protraction angles from ~/whisk (JointState), one "
                   "tick per accepted JointState or head pose", choices=SOURCES),
@@ -218,13 +218,13 @@ def build_array_config(values: Mapping[str, Any],
     scene_text = recorded.get(SCENE_TEXT)
     if not isinstance(scene_text, str):
         scene_text = _read("scene.file", values["scene.file"]) if values["scene.file"] else ""
-    if scene_text.strip():
-        try:
-            scene = load_scene3d(scene_text if "\n" in scene_text else scene_text + "\n")
-        except ParameterError as exc:
-            raise ParameterError(f"scene.file = {values['scene.file']!r}: {exc}") from None
-    else:
-        scene = Scene3D(())
+    if not scene_text.strip():
+        raise ParameterError("scene.file = '': array_node needs a 3D scene file in metres (at "
+                             "least one obstacle; a plane far away for free whisking)")
+    try:
+        scene = load_scene3d(scene_text if "\n" in scene_text else scene_text + "\n")
+    except ParameterError as exc:
+        raise ParameterError(f"scene.file = {values['scene.file']!r}: {exc}") from None
     whisk = CosineWhisk(values["whisk.frequency"], values["whisk.retraction"],
                         values["whisk.protraction"])
     try:
