@@ -130,7 +130,7 @@ def _head(position, quaternion, stamp_ns, frame="world"):
 
 @pytest.fixture(scope="module")
 def external(installed, ros_env, rcl_context, tmp_path_factory):
-    """The shipped configuration with whisking from outside: a protraction sweep, bad input."""
+    """Run the shipped configuration with whisking from outside: a protraction sweep, bad input."""
     tmp = tmp_path_factory.mktemp("array_ext")
     log = tmp / "external.mcap"
     values = dict(_shipped(), **{"whisk.source": "external", "record.path": str(log),

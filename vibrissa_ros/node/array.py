@@ -236,7 +236,7 @@ def build_array_config(values: Mapping[str, Any],
                        scene_text)
 
 
-# -- inputs ----------------------------------------------------------------------------------------
+# -- inputs ---------------------------------------------------------------------------------------
 def head_pose(frame_id: str, world_frame: str, position: Sequence[float],
               quaternion: Sequence[float]) -> BasePose:
     """
@@ -423,7 +423,7 @@ def finite(rows: np.ndarray) -> bool:
                if kind == "<f8")
 
 
-# -- the pipeline -----------------------------------------------------------------------------------
+# -- the pipeline ---------------------------------------------------------------------------------
 class ArrayPipeline:
     """
     The node's state without ROS: the tracker, the head pose and the protraction so far.

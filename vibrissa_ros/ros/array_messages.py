@@ -205,7 +205,7 @@ def fill_wrench(msg: WrenchStamped, stamp, frame: str, row) -> WrenchStamped:
 
 def whisker_status(node_name: str, name: str, values: Mapping[str, object],
                    last_error: str) -> DiagnosticStatus:
-    """One whisker's status: WARN after a failed step (the last one said), else OK."""
+    """Return one whisker's status: WARN after a failed step (the last one said), else OK."""
     if last_error:
         level, message = DiagnosticStatus.WARN, f"step failed: {last_error}"
     else:
@@ -217,7 +217,7 @@ def whisker_status(node_name: str, name: str, values: Mapping[str, object],
 
 def node_status(node_name: str, values: Mapping[str, object], problems: Sequence[str]
                 ) -> DiagnosticStatus:
-    """The node's status: ERROR if a recording failed, WARN after drops or skipped ticks."""
+    """Return the node's status: ERROR if a recording failed, WARN after drops or skips."""
     if values.get("recording_error"):
         level, message = DiagnosticStatus.ERROR, f"not recording: {values['recording_error']}"
     elif problems:

@@ -1,5 +1,5 @@
 """
-ROS 2 whisker array (the rat's mystacial pad): head pose and whisking in, every whisker's wrench out.
+ROS 2 whisker array (the rat's mystacial pad): head pose and whisking in, all wrenches out.
 
 In: ``~/head_pose`` (geometry_msgs/PoseStamped in ``world_frame``, metres) and, with
 ``whisk.source: external``, ``~/whisk`` (sensor_msgs/JointState: protraction angles [rad] by
@@ -136,7 +136,7 @@ class ArrayNode(Node):
     def config(self) -> ArrayConfig:
         return self._params.config
 
-    # -- recording (thin: the recorder's public interface only) ---------------------------------
+    # -- recording (thin: the recorder's public interface only) -----------------------------------
     def _start_recording(self, path: str) -> None:
         if not path:
             return
@@ -180,7 +180,7 @@ class ArrayNode(Node):
                                        f"({recorder.written} messages)")
         return super().destroy_node()
 
-    # -- input ----------------------------------------------------------------------------------
+    # -- input ------------------------------------------------------------------------------------
     def _drop(self, what: str, exc: Exception) -> None:
         reason = drop_reason(exc)
         self._dropped[reason] += 1
@@ -214,7 +214,7 @@ class ArrayNode(Node):
         self._tick(msg.header.stamp)
 
     def _on_timer(self) -> None:
-        """A tick of the built-in whisk at k / rate: ticks missed by an overrun are skipped."""
+        """Tick the built-in whisk at k / rate (ticks missed by an overrun are skipped)."""
         k = self._k + 1
         if self.config.values["whisk.realtime"]:
             k = (time.monotonic_ns() - self._start_ns) // self._period_ns
@@ -279,7 +279,7 @@ class ArrayNode(Node):
         if recording or self._pub["contacts"].get_subscription_count():
             self._send("contacts", am.contacts_cloud(stamp, self._world, step, rows))
 
-    # -- latched and periodic outputs ---------------------------------------------------------------
+    # -- latched and periodic outputs -------------------------------------------------------------
     def _publish_latched(self) -> None:
         cfg = self.config
         self._send("whiskers", am.whiskers_msg(cfg.array, cfg.values["head_frame"]))
