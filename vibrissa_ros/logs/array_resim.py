@@ -25,7 +25,20 @@ COMPARED = ("fx", "fy", "fz", "mx", "my", "mz", "theta", "s", "f", "cx", "cy", "
 
 
 def is_array_log(values: Dict[str, object]) -> bool:
-    """Return whether a recorded configuration is array_node's."""
+    """
+    Return whether a recorded configuration is array_node's.
+
+    Parameters
+    ----------
+    values : dict
+        A configuration record's values.
+
+    Returns
+    -------
+    bool
+        True when it carries the array file's text.
+
+    """
     return ARRAY_TEXT in values
 
 

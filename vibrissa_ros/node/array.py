@@ -418,7 +418,20 @@ def output_rows(step: ArrayStep, scene: Scene3D) -> np.ndarray:
 
 
 def finite(rows: np.ndarray) -> bool:
-    """Return whether every float field of the rows is finite."""
+    """
+    Return whether every float field of the rows is finite.
+
+    Parameters
+    ----------
+    rows : numpy.ndarray
+        Rows of :data:`ARRAY_DTYPE`.
+
+    Returns
+    -------
+    bool
+        True when no value is NaN or infinite.
+
+    """
     return all(np.isfinite(rows[name]).all() for name, kind, _, _ in ARRAY_FIELDS
                if kind == "<f8")
 
