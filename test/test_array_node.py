@@ -293,3 +293,57 @@ def test_builtin_whisk_skips_ticks_in_real_time_and_resim_reproduces_it(
                           timeout=120)
     assert proc.returncode == 0, proc.stdout + proc.stderr
     assert "wrenches.fx" in proc.stdout and "OK" in proc.stdout
+
+
+# -- without DDS: the configuration, the joint names, the layout ---------------------------------
+def test_joint_names_rows_and_whisk_map_to_whiskers():
+    from vibrissa_ros.node.array import JointMap
+    from vibrissa_ros.node.edge import BadInput
+
+    cfg, _ = _reference(_shipped())
+    joints = JointMap(cfg.array)
+    theta = np.zeros(30)
+    out = joints.angles(["whisk", "row_B", "RB2"], [0.1, 0.2, 0.3], theta)
+    rows = np.array([n[1] for n in cfg.array.names])
+    assert np.all(out[rows == "A"] == 0.1) and out[cfg.array.names.index("RB2")] == 0.3
+    assert np.all(out[(rows == "B") & (np.array(cfg.array.names) != "RB2")] == 0.2)
+    for names, positions, reason in ((["RZ9"], [0.0], "joint_names"),
+                                     (["whisk", "whisk"], [0.0, 0.0], "joint_names"),
+                                     (["whisk"], [], "joint_lengths"),
+                                     ([], [], "joint_lengths"),
+                                     (["whisk"], [math.inf], "not_finite"),
+                                     (["whisk"], [2.0], "out_of_range")):
+        with pytest.raises(BadInput) as err:
+            joints.angles(names, positions, theta)
+        assert err.value.reason == reason and "\n" not in str(err.value)
+
+
+@pytest.mark.parametrize("change, words", [
+    ({"scene.file": ""}, "needs a 3D scene file"),
+    ({"array.side": "top"}, "array.side = 'top'"),
+    ({"array.file": "/nonexistent/array.yaml"}, "cannot read"),
+    ({"head.qw": 2.0}, "quaternion"),
+    ({"whisk.protraction": -0.5}, "protraction"),
+    ({"rate": 0.0}, "rate = 0.0"),
+])
+def test_a_bad_configuration_is_one_line_naming_the_parameter(change, words):
+    from vibrissa_ros.core.errors import ParameterError
+
+    values = dict(_shipped(), **{"scene.file": str(ROOT / "config" / "scene_peg_array_m.yaml")})
+    with pytest.raises(ParameterError) as err:
+        build_array_config(dict(values, **change))
+    assert words in str(err.value) and "\n" not in str(err.value)
+
+
+def test_the_cloud_layout_round_trips_by_field_name():
+    from vibrissa_ros.node.array import ARRAY_DTYPE
+    from vibrissa_ros.ros.array_messages import wrenches_cloud
+
+    rows = np.zeros(3, dtype=ARRAY_DTYPE)
+    rows["fx"], rows["index"], rows["kind"] = (1.5, -2.0, 3e-9), (0, 1, 2), (0, 1, 2)
+    cloud = wrenches_cloud(PointCloud2(), PoseStamped().header.stamp, "world", rows)
+    back = decode_cloud(cloud)
+    assert cloud.point_step == ARRAY_DTYPE.itemsize and cloud.width == 3
+    assert [f.name for f in cloud.fields] == list(ARRAY_DTYPE.names)
+    for name in ARRAY_DTYPE.names:
+        assert np.array_equal(back[name], rows[name]), name
