@@ -27,7 +27,8 @@ def run_node(make_node: Callable[[], Node], name: str, args=None,
 
     An invalid start-up configuration is reported in one line and gives exit status 2. The
     standard single-threaded executor spins, unless ``make_executor(node)`` returns another
-    (array_node's ``executor`` parameter: rclpy's experimental EventsExecutor).
+    (array_node's ``executor`` parameter: rclpy's experimental EventsExecutor, whose ``spin()``
+    runs no callback in the Jazzy wheels: it is spun with ``spin_once`` until shutdown).
     """
     rclpy.init(args=args)
     node = None
@@ -38,7 +39,11 @@ def run_node(make_node: Callable[[], Node], name: str, args=None,
         if executor is None:
             executor = SingleThreadedExecutor()
         executor.add_node(node)
-        executor.spin()
+        if isinstance(executor, SingleThreadedExecutor):
+            executor.spin()
+        else:  # the EventsExecutor's spin() of the Jazzy wheels runs no callback; spin_once does
+            while rclpy.ok():
+                executor.spin_once(timeout_sec=0.1)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     except (RCLError, InvalidHandle):
