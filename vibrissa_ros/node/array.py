@@ -54,7 +54,7 @@ ARRAY_PARAMETERS: Tuple[ParameterSpec, ...] = tuple(_read_only(s) for s in (
     ParameterSpec("array.side", "both", "the whiskers of the array run: both sides, or only "
                   "the right or the left one", choices=SIDES),
     ParameterSpec("scene.file", "", "a 3D scene file with lengths in metres (spheres, cylinders, "
-                  "planes, prisms; at least one obstacle), path or package://"),
+                  "planes, prisms), path or package://; '' = no obstacle (whisking in the air)"),
     ParameterSpec("whisk.source", "builtin", "builtin: the cosine whisk, one tick per timer "
                   "period (rate); external: protraction angles from ~/whisk (JointState), one "
                   "tick per accepted JointState or head pose", choices=SOURCES),
@@ -108,8 +108,8 @@ class ArrayConfig:
         Every parameter's value.
     array : WhiskerArray
         The whiskers run (the side chosen).
-    scene : Scene3D
-        The obstacles, metres, world frame.
+    scene : Scene3D or None
+        The obstacles, metres, world frame; None: no obstacle.
     whisk : CosineWhisk
         The built-in whisk (also gives the initial protraction, its retraction).
     head : BasePose
@@ -121,7 +121,7 @@ class ArrayConfig:
 
     values: Dict[str, Any]
     array: WhiskerArray
-    scene: Scene3D
+    scene: Optional[Scene3D]
     whisk: CosineWhisk
     head: BasePose
     array_text: str
@@ -139,7 +139,7 @@ class ArrayConfig:
 
     def describe(self) -> str:
         """Return one line: the whiskers, the scene, the whisk."""
-        names = ", ".join(ob.name for ob in self.scene) or "no obstacle"
+        names = ", ".join(ob.name for ob in self.scene or ()) or "no obstacle"
         v = self.values
         whisk = (f"built-in whisk {v['whisk.frequency']:g} Hz between "
                  f"{math.degrees(v['whisk.retraction']):g} and "
@@ -218,13 +218,12 @@ def build_array_config(values: Mapping[str, Any],
     scene_text = recorded.get(SCENE_TEXT)
     if not isinstance(scene_text, str):
         scene_text = _read("scene.file", values["scene.file"]) if values["scene.file"] else ""
-    if not scene_text.strip():
-        raise ParameterError("scene.file = '': array_node needs a 3D scene file in metres (at "
-                             "least one obstacle; a plane far away for free whisking)")
-    try:
-        scene = load_scene3d(scene_text if "\n" in scene_text else scene_text + "\n")
-    except ParameterError as exc:
-        raise ParameterError(f"scene.file = {values['scene.file']!r}: {exc}") from None
+    scene = None  # no obstacle: whisking in the air
+    if scene_text.strip():
+        try:
+            scene = load_scene3d(scene_text if "\n" in scene_text else scene_text + "\n")
+        except ParameterError as exc:
+            raise ParameterError(f"scene.file = {values['scene.file']!r}: {exc}") from None
     whisk = CosineWhisk(values["whisk.frequency"], values["whisk.retraction"],
                         values["whisk.protraction"])
     try:
@@ -387,7 +386,7 @@ def output_rows(step: ArrayStep, scene: Scene3D) -> np.ndarray:
     ----------
     step : ArrayStep
         The tick.
-    scene : Scene3D
+    scene : Scene3D or None
         The scene (for the obstacles' indices).
 
     Returns
@@ -409,7 +408,7 @@ def output_rows(step: ArrayStep, scene: Scene3D) -> np.ndarray:
     rows["index"] = np.arange(k)
     rows["contacts"] = step.contacts
     rows["kind"] = [KINDS.get(kind, 0) for kind in step.contact_kind]
-    names = {ob.name: i + 1 for i, ob in enumerate(scene)}
+    names = {ob.name: i + 1 for i, ob in enumerate(scene or ())}
     rows["obstacle"] = [names.get(name, 0) for name in step.contact_obstacle]
     rows["solved"] = step.solved
     failed = {e.whisker for e in step.errors}

@@ -284,7 +284,11 @@ class ArrayNode(Node):
         cfg = self.config
         self._send("whiskers", am.whiskers_msg(cfg.array, cfg.values["head_frame"]))
         stamp = self.get_clock().now().to_msg()
-        self._send("obstacles", m.scene3d_markers(cfg.scene, 1.0, self._world, stamp, size=0.1))
+        if cfg.scene is None:  # whisking in the air: nothing to draw
+            self._send("obstacles", MarkerArray())
+        else:
+            self._send("obstacles", m.scene3d_markers(cfg.scene, 1.0, self._world, stamp,
+                                                      size=0.1))
 
     def _publish_diagnostics(self) -> None:
         name = self.get_fully_qualified_name()
