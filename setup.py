@@ -81,6 +81,7 @@ setup(
             "vibrissa = vibrissa_ros.cli:main",
             "whisker_node = vibrissa_ros.ros.whisker_node:main",
             "contour_node = vibrissa_ros.ros.contour_node:main",
+            "array_node = vibrissa_ros.ros.array_node:main",
         ],
     },
 )

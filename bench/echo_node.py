@@ -1,13 +1,22 @@
 """
-The baseline for bench_node.py: a trivial node that answers each foot pose with an empty wrench.
+The baseline for bench_node.py and bench_array_node.py: a trivial node that answers each input.
 
-Same topics, QoS and executor as whisker_node, no mechanics: what rclpy and DDS cost on their own.
+Default: each foot pose with an empty wrench (whisker_node's topics). ``--array``: each JointState
+on /array_node/whisk with a PointCloud2 of 30 zero rows of array_node's layout on
+/array_node/wrenches (array_node's topics and QoS). Same executor as the nodes, no mechanics:
+what rclpy and DDS cost on their own.
 """
 
+import sys
+
+import numpy as np
 from geometry_msgs.msg import PoseStamped, WrenchStamped
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+from sensor_msgs.msg import JointState, PointCloud2
 
+from vibrissa_ros.node.array import ARRAY_DTYPE
+from vibrissa_ros.ros.array_messages import wrenches_cloud
 from vibrissa_ros.ros.run import run_node
 
 
@@ -26,7 +35,25 @@ class EchoNode(Node):
         self._pub.publish(out)
 
 
+class ArrayEchoNode(Node):
+    def __init__(self, whiskers: int = 30):
+        super().__init__("array_node")
+        inputs = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
+                            reliability=ReliabilityPolicy.RELIABLE)
+        outputs = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100,
+                             reliability=ReliabilityPolicy.RELIABLE)
+        self._rows = np.zeros(whiskers, dtype=ARRAY_DTYPE)
+        self._cloud = PointCloud2()
+        self._pub = self.create_publisher(PointCloud2, "~/wrenches", outputs)
+        self.create_subscription(JointState, "~/whisk", self._on_whisk, inputs)
+
+    def _on_whisk(self, msg):
+        self._pub.publish(wrenches_cloud(self._cloud, msg.header.stamp, "world", self._rows))
+
+
 def main():
+    if "--array" in sys.argv:
+        return run_node(ArrayEchoNode, "echo_node")
     return run_node(EchoNode, "echo_node")  # the same executor and life cycle as whisker_node
 
 

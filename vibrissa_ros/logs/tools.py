@@ -19,6 +19,7 @@ from ..core.errors import VibrissaError
 from ..core.rod3d import RodState
 from ..core.state import WhiskerState
 from ..node.edge import contact_records, decode_event, encode_event, event_record, header_ns
+from .array_resim import is_array_log, resimulate_array
 from .mcap_log import CONFIGURATION_METADATA, RESET_METADATA, LogError, LogMessage, read_log
 from ..node.config import build_config
 from ..node.pipeline import PosePipeline, drop_reason
@@ -185,6 +186,9 @@ def resimulate(path: str) -> Resimulation:
     """
     Re-run every recorded foot pose with the recorded configuration(s), compare each field.
 
+    A log of array_node is re-run tick by tick (:mod:`.array_resim`): ``states`` holds
+    (stamp, ArrayStep), the fields compared are every whisker's ``wrenches.*``.
+
     Parameters
     ----------
     path : str or path-like
@@ -204,6 +208,8 @@ def resimulate(path: str) -> Resimulation:
     """
     _, channels, metadata, messages = read_log(path)
     configs = configurations(metadata)
+    if is_array_log(configs[0][1]):  # array_node's: every whisker's row of every tick
+        return resimulate_array(configs, messages, Resimulation())
     node = configs[0][1].get("node", "/whisker_node")
     prefix = f"{node}/"
     # logs made before the node had ~/contacts: nothing of it to compare

@@ -1,7 +1,8 @@
 """
 The ROS 2 side of vibrissa_ros: everything that imports rclpy lives in this subpackage.
 
-* :mod:`.whisker_node` and :mod:`.contour_node`: the two nodes (wiring only); :mod:`.topics`:
+* :mod:`.whisker_node`, :mod:`.contour_node` and :mod:`.array_node`: the nodes (wiring only);
+  :mod:`.array_messages`: array_node's messages (pure builders); :mod:`.topics`:
   whisker_node's topic names, types and QoS; :mod:`.backlog`: poses taken, not yet processed;
 * :mod:`.messages`: pure builders of every message the nodes publish (testable without DDS);
   :mod:`.cdr`: whisker_node's per-pose messages straight to CDR bytes;

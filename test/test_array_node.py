@@ -1,0 +1,346 @@
+"""Launch-free integration tests of array_node (the rat's right whisker pad), over real DDS."""
+
+import json
+import math
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+import rclpy
+import yaml
+from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import PoseStamped
+from ros_harness import LATCHED, ROOT, start_installed_node, stop, write_params
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+from sensor_msgs.msg import JointState, PointCloud2
+from std_msgs.msg import String
+from visualization_msgs.msg import Marker, MarkerArray
+
+from vibrissa_ros.core.arrays import ArrayTracker
+from vibrissa_ros.core.rod3d import BasePose
+from vibrissa_ros.logs.tools import resimulate
+from vibrissa_ros.node.array import build_array_config, output_rows
+from vibrissa_ros.node.edge import header_ns, set_stamp
+from vibrissa_ros.ros.array_messages import decode_cloud
+
+SHIPPED = ROOT / "config" / "rat_array_node.yaml"
+VIBRISSA = str(Path(sys.executable).with_name("vibrissa"))
+KEEP_ALL = QoSProfile(history=HistoryPolicy.KEEP_ALL, depth=1000,
+                      reliability=ReliabilityPolicy.RELIABLE)
+WRENCH = ("fx", "fy", "fz", "mx", "my", "mz")
+
+
+def _flatten(tree, prefix=""):
+    out = {}
+    for key, value in tree.items():
+        if isinstance(value, dict):
+            out.update(_flatten(value, f"{prefix}{key}."))
+        else:
+            out[f"{prefix}{key}"] = value
+    return out
+
+
+def _shipped():
+    return _flatten(yaml.safe_load(SHIPPED.read_text())["/**"]["ros__parameters"])
+
+
+class ArrayProbe:
+    """A test node that drives array_node and keeps what it publishes."""
+
+    def __init__(self, context, prefix):
+        self.node = rclpy.create_node("array_probe", context=context)
+        self.prefix = prefix
+        self.got = {"wrenches": [], "events": [], "whiskers": [], "obstacles": [],
+                    "diagnostics": [], "shapes": [], "contacts": []}
+        n = self.node
+        n.create_subscription(PointCloud2, f"{prefix}/wrenches", self._keep("wrenches"),
+                              KEEP_ALL)
+        n.create_subscription(String, f"{prefix}/events", self._keep("events"), KEEP_ALL)
+        n.create_subscription(String, f"{prefix}/whiskers", self._keep("whiskers"), LATCHED)
+        n.create_subscription(MarkerArray, f"{prefix}/obstacles", self._keep("obstacles"),
+                              LATCHED)
+        n.create_subscription(MarkerArray, f"{prefix}/shapes", self._keep("shapes"), 10)
+        n.create_subscription(PointCloud2, f"{prefix}/contacts", self._keep("contacts"), 10)
+        n.create_subscription(DiagnosticArray, "/diagnostics", self._keep("diagnostics"), 50)
+        self.whisk = n.create_publisher(JointState, f"{prefix}/whisk", KEEP_ALL)
+        self.head = n.create_publisher(PoseStamped, f"{prefix}/head_pose", KEEP_ALL)
+        self.executor = SingleThreadedExecutor(context=context)
+        self.executor.add_node(n)
+
+    def _keep(self, key):
+        return lambda msg: self.got[key].append(msg)
+
+    def spin_until(self, condition, timeout=20.0):
+        end = time.monotonic() + timeout
+        while time.monotonic() < end and not condition():
+            self.executor.spin_once(timeout_sec=0.01)
+        return condition()
+
+    def send(self, msg, timeout=30.0):
+        """Publish one input and wait for its tick's answer (matched by stamp)."""
+        stamp = header_ns(msg)
+        (self.head if isinstance(msg, PoseStamped) else self.whisk).publish(msg)
+        if not self.spin_until(lambda: any(header_ns(w) == stamp
+                                           for w in self.got["wrenches"][-3:]), timeout):
+            raise TimeoutError(f"no answer to the input stamped {stamp}")
+
+    def expect_no_answer(self, msg, wait=0.5):
+        stamp = header_ns(msg)
+        (self.head if isinstance(msg, PoseStamped) else self.whisk).publish(msg)
+        end = time.monotonic() + wait
+        while time.monotonic() < end:
+            self.executor.spin_once(timeout_sec=0.01)
+        assert not any(header_ns(w) == stamp for w in self.got["wrenches"])
+
+    def status(self, after=0):
+        """Return the node's own status of a /diagnostics array received after ``after``."""
+        self.spin_until(lambda: len(self.got["diagnostics"]) > after, 10.0)
+        for array in reversed(self.got["diagnostics"][after:]):
+            for s in array.status:
+                if s.hardware_id == self.prefix:
+                    return {kv.key: kv.value for kv in s.values}
+        raise KeyError(self.prefix)
+
+    def destroy(self):
+        self.executor.remove_node(self.node)
+        self.node.destroy_node()
+
+
+def _joints(names, positions, stamp_ns):
+    msg = JointState()
+    set_stamp(msg.header.stamp, stamp_ns)
+    msg.name = list(names)
+    msg.position = [float(v) for v in positions]
+    return msg
+
+
+def _head(position, quaternion, stamp_ns, frame="world"):
+    msg = PoseStamped()
+    msg.header.frame_id = frame
+    set_stamp(msg.header.stamp, stamp_ns)
+    p, o = msg.pose.position, msg.pose.orientation
+    p.x, p.y, p.z = (float(v) for v in position)
+    o.x, o.y, o.z, o.w = (float(v) for v in quaternion)
+    return msg
+
+
+@pytest.fixture(scope="module")
+def external(installed, ros_env, rcl_context, tmp_path_factory):
+    """Run the shipped configuration with whisking from outside: a protraction sweep, bad input."""
+    tmp = tmp_path_factory.mktemp("array_ext")
+    log = tmp / "external.mcap"
+    values = dict(_shipped(), **{"whisk.source": "external", "record.path": str(log),
+                                 "diagnostics.period": 0.3})
+    proc = start_installed_node(installed, write_params(tmp / "p.yaml", values), ros_env,
+                                namespace="/ext", executable="array_node")
+    probe = ArrayProbe(rcl_context, "/ext/array_node")
+    t = 1_000_000_000
+    inputs, bad = [], {}
+    try:
+        first = _joints(["whisk"], [math.radians(-20.0)], t)
+        end = time.monotonic() + 30.0  # handshake: until the node answers
+        while not probe.got["wrenches"] and time.monotonic() < end:
+            probe.whisk.publish(first)
+            probe.spin_until(lambda: bool(probe.got["wrenches"]), 0.2)
+        assert probe.got["wrenches"], "array_node never answered"
+        probe.spin_until(lambda: False, 0.3)
+        for k, theta in enumerate(np.linspace(-20.0, 20.0, 60)[1:], start=1):
+            t += 1_000_000
+            if k == 20:  # a head pose ticks too (external mode): the head moves 0.5 mm
+                msg = _head((0.0, 0.0005, 0.0), (0, 0, 0, 1), t)
+            elif k == 40:  # one row's joint: row C only moves
+                msg = _joints(["row_C"], [math.radians(theta)], t)
+            else:
+                msg = _joints(["whisk"], [math.radians(theta)], t)
+            probe.send(msg)
+            inputs.append(msg)
+            if k == 30:  # bad input in contact: each dropped, the state kept
+                before = len(probe.got["diagnostics"])
+                for key, wrong in (
+                        ("joint_names", _joints(["RZ9"], [0.0], t + 1)),
+                        ("joint_lengths", _joints(["whisk", "row_A"], [0.0], t + 2)),
+                        ("not_finite", _joints(["whisk"], [math.nan], t + 3)),
+                        ("quaternion_not_unit", _head((0, 0, 0), (0, 0, 0, 1.01), t + 4)),
+                        ("wrong_frame_id", _head((0, 0, 0), (0, 0, 0, 1), t + 5, "map"))):
+                    probe.expect_no_answer(wrong, 0.3)
+                    bad[key] = wrong
+                probe.spin_until(lambda: len(probe.got["diagnostics"]) > before + 1, 5.0)
+                status = probe.status(before + 1)
+        probe.spin_until(lambda: probe.got["whiskers"] and probe.got["obstacles"], 10.0)
+        got = {k: list(v) for k, v in probe.got.items()}
+        alive = proc.poll() is None
+    finally:
+        probe.destroy()
+        code = stop(proc)
+    return dict(values=values, got=got, inputs=inputs, bad=bad, status=status, alive=alive,
+                code=code, log=log)
+
+
+def _reference(values):
+    """Return the configuration and a fresh ArrayTracker, the node's at start-up."""
+    cfg = build_array_config(dict(values, **{
+        "scene.file": str(ROOT / "config" / "scene_peg_array_m.yaml"),
+        "array.file": str(ROOT / "config" / "rat_array.yaml"), "record.path": ""}))
+    tracker = ArrayTracker(cfg.array, cfg.scene, BasePose((0.0, 0.0, 0.0)),
+                           math.radians(-20.0))
+    return cfg, tracker
+
+
+def test_every_whisker_is_published_and_equals_the_array_tracker(external):
+    assert external["alive"] and external["code"] == 0
+    got = external["got"]
+    clouds = [decode_cloud(c) for c in got["wrenches"]]
+    names = json.loads(got["whiskers"][-1].data)
+    assert len(names["names"]) == 30 and names["names"][0] == "RA0"
+    assert names["frames"][0] == "head/RA0" and names["fields"][:3] == ["x", "y", "z"]
+    assert all(len(c) == 30 and list(c["index"]) == list(range(30)) for c in clouds)
+    assert all(w.header.frame_id == "world" for w in got["wrenches"])
+    # every tick's values equal ArrayTracker's on the same inputs (head pose and protraction)
+    cfg, tracker = _reference(external["values"])
+    head = BasePose((0.0, 0.0, 0.0))
+    in_contact = 0
+    for i, cloud in enumerate(clouds):
+        if i > 0 and cloud["y"][0] != clouds[i - 1]["y"][0]:
+            head = BasePose((0.0, 0.0005, 0.0))
+        step = tracker.step(head, np.array(cloud["theta"]))
+        want = output_rows(step, cfg.scene)
+        for name in WRENCH + ("s", "f", "cx", "cy", "cz", "x", "y", "z", "theta"):
+            a, b = np.asarray(cloud[name]), np.asarray(want[name])
+            assert np.all(np.abs(a - b) <= 1e-12 * np.maximum(np.abs(b), 1e-30)), name
+        assert list(cloud["contacts"]) == list(want["contacts"])
+        assert np.isfinite(np.array([cloud[n] for n in WRENCH])).all()
+        in_contact = max(in_contact, int((cloud["contacts"] > 0).sum()))
+    # whisking against the peg: columns 0-2 touch it
+    assert in_contact >= 3
+    touched = {json.loads(e.data)["whisker"] for e in got["events"]
+               if json.loads(e.data)["kind"] == "touch"}
+    assert touched and all(int(name[2]) <= 2 for name in touched)
+    # the row joint moved row C only
+    row_msg = external["inputs"][39]
+    assert list(row_msg.name) == ["row_C"]
+    stamps = [header_ns(w) for w in got["wrenches"]]
+    j = stamps.index(header_ns(row_msg))
+    row_c = np.array([n[1] == "C" for n in names["names"]])
+    theta, before = clouds[j]["theta"], clouds[j - 1]["theta"]
+    assert np.all(theta[row_c] == row_msg.position[0])
+    assert np.all(theta[~row_c] == before[~row_c]) and np.all(theta[row_c] != before[row_c])
+
+
+def test_bad_input_is_dropped_reported_and_the_state_kept(external):
+    status = external["status"]
+    for key in ("joint_names", "joint_lengths", "not_finite", "quaternion_not_unit",
+                "wrong_frame_id"):
+        assert status[f"dropped_{key}"] == "1", key
+    assert int(status["whiskers_in_contact"]) >= 1
+    statuses = [s for a in external["got"]["diagnostics"] for s in a.status]
+    per_whisker = {s.hardware_id for s in statuses if s.hardware_id.startswith(
+        "/ext/array_node/")}
+    assert len(per_whisker) == 30
+    assert any("dropped" in s.message for s in statuses if s.hardware_id == "/ext/array_node")
+
+
+def test_obstacles_and_display_outputs(external):
+    array = external["got"]["obstacles"][-1]
+    peg = array.markers[1]
+    assert (peg.type, peg.text) == (Marker.CYLINDER, "peg")
+    assert (peg.pose.position.x, peg.pose.position.y) == pytest.approx((0.03, -0.016))
+    assert peg.scale.x == pytest.approx(0.003)
+    shapes = external["got"]["shapes"]
+    assert shapes and len(shapes[-1].markers) == 30
+    assert all(mk.type == Marker.LINE_STRIP and len(mk.points) == 21
+               for mk in shapes[-1].markers)
+
+
+def test_the_external_run_is_reproduced_by_resim(external):
+    sim = resimulate(str(external["log"]))
+    assert not sim.mismatches and sim.worst() <= 1e-12
+    assert sim.dropped == {"joint_names": 1, "joint_lengths": 1, "not_finite": 1,
+                           "quaternion_not_unit": 1, "wrong_frame_id": 1}
+    assert sim.compared["wrenches.fx"] >= 30 * len(external["inputs"])
+
+
+def test_builtin_whisk_skips_ticks_in_real_time_and_resim_reproduces_it(
+        installed, ros_env, rcl_context, tmp_path):
+    log = tmp_path / "builtin.mcap"
+    # no obstacle (whisking in the air), so that a tick is cheap, and a timer faster than any
+    # tick: ticks are skipped
+    values = dict(_shipped(), **{"whisk.realtime": True, "record.path": str(log),
+                                 "diagnostics.period": 0.5, "scene.file": "", "rate": 5000.0})
+    proc = start_installed_node(installed, write_params(tmp_path / "p.yaml", values), ros_env,
+                                namespace="/builtin", executable="array_node")
+    probe = ArrayProbe(rcl_context, "/builtin/array_node")
+    try:
+        assert probe.spin_until(lambda: len(probe.got["wrenches"]) >= 100, 20.0)
+        before = len(probe.got["diagnostics"])
+        status = probe.status(before)
+        alive = proc.poll() is None
+    finally:
+        probe.destroy()
+        code = stop(proc)
+    assert alive and code == 0
+    assert int(status["ticks"]) >= 1 and int(status["ticks_skipped"]) > 0
+    sim = resimulate(str(log))
+    assert not sim.mismatches and sim.worst() <= 1e-12
+    assert sim.compared["wrenches.mz"] >= 30 * 100
+    proc = subprocess.run([VIBRISSA, "resim", str(log)], capture_output=True, text=True,
+                          timeout=120)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert "wrenches.fx" in proc.stdout and "OK" in proc.stdout
+
+
+# -- without DDS: the configuration, the joint names, the layout ---------------------------------
+def test_joint_names_rows_and_whisk_map_to_whiskers():
+    from vibrissa_ros.node.array import JointMap
+    from vibrissa_ros.node.edge import BadInput
+
+    cfg, _ = _reference(_shipped())
+    joints = JointMap(cfg.array)
+    theta = np.zeros(30)
+    out = joints.angles(["whisk", "row_B", "RB2"], [0.1, 0.2, 0.3], theta)
+    rows = np.array([n[1] for n in cfg.array.names])
+    assert np.all(out[rows == "A"] == 0.1) and out[cfg.array.names.index("RB2")] == 0.3
+    assert np.all(out[(rows == "B") & (np.array(cfg.array.names) != "RB2")] == 0.2)
+    for names, positions, reason in ((["RZ9"], [0.0], "joint_names"),
+                                     (["whisk", "whisk"], [0.0, 0.0], "joint_names"),
+                                     (["whisk"], [], "joint_lengths"),
+                                     ([], [], "joint_lengths"),
+                                     (["whisk"], [math.inf], "not_finite"),
+                                     (["whisk"], [2.0], "out_of_range")):
+        with pytest.raises(BadInput) as err:
+            joints.angles(names, positions, theta)
+        assert err.value.reason == reason and "\n" not in str(err.value)
+
+
+@pytest.mark.parametrize("change, words", [
+    ({"scene.file": "/nonexistent/scene.yaml"}, "scene.file = '/nonexistent"),
+    ({"array.side": "top"}, "array.side = 'top'"),
+    ({"array.file": "/nonexistent/array.yaml"}, "cannot read"),
+    ({"head.qw": 2.0}, "quaternion"),
+    ({"whisk.protraction": -0.5}, "protraction"),
+    ({"rate": 0.0}, "rate = 0.0"),
+])
+def test_a_bad_configuration_is_one_line_naming_the_parameter(change, words):
+    from vibrissa_ros.core.errors import ParameterError
+
+    values = dict(_shipped(), **{"scene.file": str(ROOT / "config" / "scene_peg_array_m.yaml")})
+    with pytest.raises(ParameterError) as err:
+        build_array_config(dict(values, **change))
+    assert words in str(err.value) and "\n" not in str(err.value)
+
+
+def test_the_cloud_layout_round_trips_by_field_name():
+    from vibrissa_ros.node.array import ARRAY_DTYPE
+    from vibrissa_ros.ros.array_messages import wrenches_cloud
+
+    rows = np.zeros(3, dtype=ARRAY_DTYPE)
+    rows["fx"], rows["index"], rows["kind"] = (1.5, -2.0, 3e-9), (0, 1, 2), (0, 1, 2)
+    cloud = wrenches_cloud(PointCloud2(), PoseStamped().header.stamp, "world", rows)
+    back = decode_cloud(cloud)
+    assert cloud.point_step == ARRAY_DTYPE.itemsize and cloud.width == 3
+    assert [f.name for f in cloud.fields] == list(ARRAY_DTYPE.names)
+    for name in ARRAY_DTYPE.names:
+        assert np.array_equal(back[name], rows[name]), name
