@@ -527,7 +527,11 @@ def _cmd_batch(args) -> int:
         print(f"vibrissa batch: error: {args.study}: {exc}", file=sys.stderr)
         return 2
     if args.dry_run:
-        print(f"{args.study}: {len(study.tasks)} tasks, {study.poses} poses")
+        if hasattr(study, "whiskers"):  # an array study: rows of whiskers and ticks
+            print(f"{args.study}: {len(study.tasks)} tasks (array runs of {study.whiskers} "
+                  f"whiskers), {study.poses} rows")
+        else:
+            print(f"{args.study}: {len(study.tasks)} tasks, {study.poses} poses")
         return 0
     try:
         report = run_study(
@@ -924,9 +928,11 @@ def _check_array_options(args) -> None:
     if args.out is None:
         raise VibrissaError("--array needs --out OUT.parquet (or OUT.csv, '-' for standard "
                             "output)")
-    if args.poses is None and args.whisk is None:
+    if args.poses is None and args.whisk is None and args.velocity is None:
         raise VibrissaError("--array needs --poses P.csv (the head's path) and/or --whisk "
-                            "FREQ,RET,PRO")
+                            "FREQ,RET,PRO (or the head's --velocity)")
+    if args.poses is None and args.whisk is None and args.duration is None:
+        raise VibrissaError("--velocity without --whisk needs --duration S")
     if args.poses is not None:
         timed = [o for o in ("duration", "rate", "head", "velocity")
                  if getattr(args, o) is not None]

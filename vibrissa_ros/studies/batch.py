@@ -26,7 +26,8 @@ from dataclasses import dataclass
 from typing import IO, List, Optional, Tuple
 
 from ..core.errors import VibrissaError
-from .dataset import Layout, StudyWriter, TaskFiles, encode, failure_tables, result_tables
+from .dataset import (Layout, StudyWriter, TaskFiles, encode, failure_tables, layout_of,
+                      result_tables)
 from .study import Study, Task
 
 #: how often Dask re-runs a task that raised an unexpected exception (not a VibrissaError)
@@ -140,7 +141,7 @@ def run_study(
     writer = StudyWriter.create(out, study)
     done = writer.done()
     todo = [t for t in study.tasks if t.index not in done]
-    layout = Layout.of(study)
+    layout = layout_of(study)
     failed = 0
     errors: List[Tuple[int, str]] = []
     computed = 0
@@ -162,12 +163,21 @@ def run_study(
     )
     earlier_failures = writer.failures()
     pending = iter(todo)
+    function, shared = run_task, {}
+    if getattr(layout, "kind", None) == "array":
+        from .array_study import run_array_task
+
+        # the array file's text goes to every worker once, not with every task
+        function = run_array_task
+        shared = dict(array_text=client.scatter(study.array_text, broadcast=True),
+                      array_label=study.array_path, side=study.side)
 
     def submit(n: int):
         tasks = list(itertools.islice(pending, n))
         keys = [f"vibrissa-task-{study.digest[:12]}-{t.index}" for t in tasks]
         return (
-            client.map(run_task, tasks, layout=layout, key=keys, retries=retries, pure=False)
+            client.map(function, tasks, layout=layout, key=keys, retries=retries, pure=False,
+                       **shared)
             if tasks
             else []
         )
