@@ -997,10 +997,15 @@ def _cmd_scan_array(args) -> int:
             times = path.times
             shape_tick = min(range(len(times)), key=lambda i: abs(times[i] - args.plot_tick))
     result = plan.run(shape_tick=shape_tick)
-    write_array_scan(result, args.out)
-    if args.events:
-        with open(args.events, "w") as stream:
-            write_array_events_json(result, stream)
+    try:
+        write_array_scan(result, args.out)
+        if args.events:
+            with open(args.events, "w") as stream:
+                write_array_events_json(result, stream)
+    except OSError as exc:
+        print(f"vibrissa scan: error: {exc.filename or args.out}: {exc.strerror or exc}",
+              file=sys.stderr)
+        return 2
     touched = int(sum(s.in_contact for s in result.steps))
     print(f"vibrissa scan: {len(array)} whiskers x {len(result.steps)} ticks, {touched} "
           f"whisker-ticks in contact -> {args.out}", file=sys.stderr)
