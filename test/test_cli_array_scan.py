@@ -253,3 +253,19 @@ def test_the_whisk_start_is_the_retraction(files):
     assert float(rows[0]["protraction"]) == pytest.approx(math.radians(-20))
     assert np.isclose(float(rows[-1]["protraction"]), CosineWhisk(
         8.0, math.radians(-20), math.radians(20)).angle(0.062))
+
+
+def test_head_pose_is_yaw_then_pitch_then_roll():
+    from vibrissa_ros.scan.array_scan import head_pose
+
+    def rot(axis, deg):
+        c, s = math.cos(math.radians(deg)), math.sin(math.radians(deg))
+        i, j = [(1, 2), (2, 0), (0, 1)][axis]
+        R = np.eye(3)
+        R[i, i], R[i, j], R[j, i], R[j, j] = c, -s, s, c
+        return R
+
+    pose = head_pose((0.01, 0.02, 0.03), 30.0, -20.0, 10.0)
+    want = rot(2, 30.0) @ rot(1, -20.0) @ rot(0, 10.0)
+    assert np.abs(pose.rotation - want).max() < 1e-15
+    assert pose.position == (0.01, 0.02, 0.03)
