@@ -122,7 +122,7 @@ class ArrayTask:
 
     @property
     def ticks(self) -> int:
-        """Return the run's number of ticks (the start included)."""
+        """Return how many ticks the run has, the start included."""
         return int(round(self.duration * self.rate)) + 1
 
     def parameters(self) -> Dict[str, object]:
