@@ -15,8 +15,12 @@ It prints tasks/s, whisker-ticks/s and core-seconds per task of both, the ratio 
 and the extrapolation to a data set of Zhuang et al. 2017's size (240,000 sweeps of about 110
 frames of a 31-whisker array; here 30 whiskers), by the measured cost per whisker-tick.
 
+``--dask-environ`` starts the workers as Dask's nannies do by default (with
+MALLOC_TRIM_THRESHOLD_=65536, which ``vibrissa batch``'s embedded cluster leaves out: it doubles
+the 3D solver's CPU time).
+
 Run: OPENBLAS_NUM_THREADS=1 python bench/bench_array_batch.py [--tasks 6] [--repeats 3]
-[--workers 2]
+[--workers 2] [--dask-environ]
 """
 
 from __future__ import annotations
@@ -53,11 +57,14 @@ def main() -> None:
     parser.add_argument("--tasks", type=int, default=6)
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--dask-environ", action="store_true",
+                        help="start the workers with Dask's own environment (its "
+                        "MALLOC_TRIM_THRESHOLD_) instead of vibrissa batch's")
     args = parser.parse_args()
     from distributed import Client, LocalCluster
 
     from vibrissa_ros.studies.array_study import run_array_task
-    from vibrissa_ros.studies.batch import run_study
+    from vibrissa_ros.studies.batch import _client, run_study
     from vibrissa_ros.studies.dataset import layout_of
     from vibrissa_ros.studies.study import parse_study
 
@@ -69,9 +76,12 @@ def main() -> None:
     print(f"study: {n} tasks of {study.whiskers} whiskers x {study.tasks[0].ticks} ticks "
           f"({rows:,} whisker-ticks); load average before: {os.getloadavg()[0]:.1f}")
     started = time.perf_counter()
-    cluster = LocalCluster(n_workers=args.workers, threads_per_worker=1, processes=True,
-                           dashboard_address=":0", silence_logs=logging.ERROR)
-    client = Client(cluster)
+    if args.dask_environ:
+        cluster = LocalCluster(n_workers=args.workers, threads_per_worker=1, processes=True,
+                               dashboard_address=":0", silence_logs=logging.ERROR)
+        client = Client(cluster)
+    else:  # the embedded cluster of vibrissa batch
+        client, cluster = _client(args.workers, None)
     print(f"cluster start-up ({args.workers} workers): {time.perf_counter() - started:.1f} s")
     serial, dask = [], []
     layout = layout_of(study)
