@@ -83,36 +83,43 @@ def main() -> None:
     else:  # the embedded cluster of vibrissa batch
         client, cluster = _client(args.workers, None)
     print(f"cluster start-up ({args.workers} workers): {time.perf_counter() - started:.1f} s")
-    serial, dask = [], []
+    serial, dask, serial_cpu, dask_cpu = [], [], [], []
     layout = layout_of(study)
     try:
         for repeat in range(args.repeats):
-            t0 = time.perf_counter()
+            t0, c0 = time.perf_counter(), time.process_time()
             failed = 0
             for task in study.tasks:
                 files = run_array_task(task, layout, study.array_text, study.array_path,
                                        study.side)
                 failed += files.failed
             serial.append(time.perf_counter() - t0)
+            serial_cpu.append(time.process_time() - c0)
             out = tempfile.mkdtemp(prefix="bench_array_batch_")
             try:
+                before = client.run(time.process_time)
                 t0 = time.perf_counter()
                 report = run_study(study, out, client=client, progress=None)
                 dask.append(time.perf_counter() - t0)
+                after = client.run(time.process_time)
+                dask_cpu.append(sum(after[w] - before[w] for w in after))
             finally:
                 shutil.rmtree(out, ignore_errors=True)
             assert report.complete and not report.errors, report
-            print(f"repeat {repeat + 1}: serial {serial[-1]:.1f} s, Dask {dask[-1]:.1f} s "
-                  f"({failed} failed tasks; load average {os.getloadavg()[0]:.1f})")
+            print(f"repeat {repeat + 1}: serial {serial[-1]:.1f} s ({serial_cpu[-1]:.1f} CPU-s), "
+                  f"Dask {dask[-1]:.1f} s ({dask_cpu[-1]:.1f} CPU-s of the workers) ({failed} "
+                  f"failed tasks; load average {os.getloadavg()[0]:.1f})")
     finally:
         client.close()
         cluster.close()
     s, d = statistics.median(serial), statistics.median(dask)
+    sc, dc = statistics.median(serial_cpu), statistics.median(dask_cpu)
     print(f"serial (1 process, no Dask): {n / s:.3f} tasks/s, {rows / s:,.0f} whisker-ticks/s, "
-          f"{s / n:.2f} core-s per task (median of {len(serial)})")
-    print(f"Dask, {args.workers} workers: {n / d:.3f} tasks/s, {rows / d:,.0f} whisker-ticks/s "
-          f"(median of {len(dask)}); {s / d:.2f}x the serial throughput")
-    per_tick = s / rows  # core-seconds per whisker-tick
+          f"{sc / n:.2f} CPU-s per task (medians of {len(serial)})")
+    print(f"Dask, {args.workers} workers: {n / d:.3f} tasks/s, {rows / d:,.0f} whisker-ticks/s, "
+          f"{dc / n:.2f} CPU-s per task (medians of {len(dask)}); {s / d:.2f}x the serial "
+          f"throughput, {dc / sc:.2f}x its CPU time")
+    per_tick = dc / rows  # core-seconds per whisker-tick on the workers
     total = ZHUANG_SWEEPS * ZHUANG_FRAMES * WHISKERS * per_tick / 3600.0
     print(f"Zhuang et al. 2017's size ({ZHUANG_SWEEPS:,} sweeps x {ZHUANG_FRAMES} frames x "
           f"{WHISKERS} whiskers), at this contact density: {total:,.0f} core-hours; "
