@@ -119,11 +119,12 @@ def main() -> None:
     print(f"Dask, {args.workers} workers: {n / d:.3f} tasks/s, {rows / d:,.0f} whisker-ticks/s, "
           f"{dc / n:.2f} CPU-s per task (medians of {len(dask)}); {s / d:.2f}x the serial "
           f"throughput, {dc / sc:.2f}x its CPU time")
-    done = rows * (n - failed) // n  # the whisker-ticks of the tasks that ran (not failed)
+    ran = max(1, n - failed)
+    done = rows * ran // n  # the whisker-ticks of the tasks that ran (not failed)
     per_tick = dc / done  # core-seconds per whisker-tick on the workers
     print(f"{n - failed} of {n} tasks ran ({failed} failed at the start: a peg drawn inside a "
           f"whisker); {1e3 * per_tick:.2f} CPU-ms per whisker-tick, "
-          f"{dc / (n - failed):.1f} CPU-s per task that ran")
+          f"{dc / ran:.1f} CPU-s per task that ran")
     total = ZHUANG_SWEEPS * ZHUANG_FRAMES * WHISKERS * per_tick / 3600.0
     print(f"Zhuang et al. 2017's size ({ZHUANG_SWEEPS:,} sweeps x {ZHUANG_FRAMES} frames x "
           f"{WHISKERS} whiskers), at this contact density: {total:,.0f} core-hours; "
