@@ -56,8 +56,10 @@ setup(
         ("share/" + package_name + "/launch", glob("launch/*.launch.xml")),
     ],
     python_requires=">=3.10",
-    # pyyaml 5.1: safe_dump(sort_keys=False) of scene files
-    install_requires=["setuptools", "numpy>=1.24", "scipy>=1.10", "pyyaml>=5.1"],
+    # pyyaml 5.1: safe_dump(sort_keys=False) of scene files; numba 0.57: the first release that
+    # supports numpy 1.24 (our lowest); the 3D whisker's kernels use only njit(cache=True,
+    # nogil=True), loops, math and np.dot, which are older
+    install_requires=["setuptools", "numpy>=1.24", "scipy>=1.10", "pyyaml>=5.1", "numba>=0.57"],
     extras_require={
         # ROS 2 Jazzy from PyPI wheels (no sourcing needed), for the node and its tools
         "ros": ROS + PLOTS,

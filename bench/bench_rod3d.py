@@ -16,6 +16,10 @@ the tracker's own solution (its contact s, f and base load): the cheapest a shoo
 be. Set OPENBLAS_NUM_THREADS=1 (the Jacobians are ~70 x 70; BLAS threads only add overhead):
 the script sets it when it is unset, before numpy loads.
 
+The solver runs its compiled kernels (numba) unless VIBRISSA_NO_JIT=1 selects the numpy
+reference; the first line says which, and how long the kernels took to load (from numba's
+on-disk cache) or, the first time, to compile.
+
 Run: OPENBLAS_NUM_THREADS=1 python bench/bench_rod3d.py [--poses 600] [--baseline 8]
 """
 
@@ -36,6 +40,8 @@ from vibrissa_ros.core.checks.rod3d_shooting import shoot_contacts  # noqa: E402
 from vibrissa_ros.core.rod3d import (  # noqa: E402
     BasePose, Cylinder, RodShape, RodTracker, Sphere,
 )
+from vibrissa_ros.core.rod3d import _jit  # noqa: E402
+from vibrissa_ros.core.rod3d.model import warm_up  # noqa: E402
 from vibrissa_ros.core.rod3d.pose import quat_about, quat_multiply  # noqa: E402
 
 
@@ -113,6 +119,13 @@ def main(argv=None):
     args = parser.parse_args(argv)
     print(f"OPENBLAS_NUM_THREADS={os.environ.get('OPENBLAS_NUM_THREADS')}; numpy "
           f"{np.__version__}")
+    if _jit.ENABLED:
+        t0 = time.perf_counter()
+        warm_up()
+        print(f"compiled kernels (numba {_jit.numba.__version__}): ready in "
+              f"{time.perf_counter() - t0:.2f} s")
+    else:
+        print("numpy reference (VIBRISSA_NO_JIT=1 or numba missing)")
     for name, obstacles, shape, poses, contacts in _streams(args.poses):
         _measure(name, obstacles, shape, poses, contacts, args.baseline)
 

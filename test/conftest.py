@@ -70,6 +70,11 @@ def installed(tmp_path_factory, ros_env):
     """Build the package with ``colcon build`` (the CI build check) into a temporary workspace."""
     from ros_harness import colcon_build
 
+    from vibrissa_ros.core.rod3d.model import warm_up
+
+    # the 3D whisker's compiled kernels, into numba's cache that the installed copy shares: a
+    # node under test then loads them (~0.2 s) instead of compiling them while it is probed
+    warm_up()
     return colcon_build(tmp_path_factory.mktemp("ws"), ros_env)
 
 

@@ -17,6 +17,7 @@ messages :mod:`.messages`', recording :mod:`.recorder`'s and queueing :mod:`.bac
 from __future__ import annotations
 
 import math
+import threading
 import time
 from typing import Dict, Optional
 
@@ -26,6 +27,7 @@ from geometry_msgs.msg import PoseStamped, WrenchStamped
 from rclpy.node import Node
 from std_srvs.srv import Trigger
 
+from ..core.rod3d.model import warm_up
 from ..node.edge import contact_records, event_record, header_ns, rod_phase
 from ..logs.mcap_log import LogError
 from ..node.config import PARAMETERS, WhiskerConfig, build_config
@@ -69,6 +71,10 @@ class WhiskerNode(Node):
         self.create_timer(0.25, self._watch_recording)
         self._start_recording(self.config.values["record.path"])
         self._publish_obstacle()
+        if self.config.rod3d:
+            # the 3D whisker's compiled kernels: loaded from numba's cache (~0.2 s) or, the first
+            # time, compiled (~10 s) while the first poses (free ones need no kernel) arrive
+            threading.Thread(target=warm_up, name="rod3d_warm_up", daemon=True).start()
         self.get_logger().info(f"ready: {self.config.describe()}; poses on {self._sub.topic_name}")
 
     @property

@@ -49,6 +49,7 @@ from scipy.linalg.lapack import dgetrf as _getrf, dgetrs as _getrs
 
 from ..errors import ConvergenceError, ParameterError
 from ..general.model import chebyshev_operators
+from . import _jit
 from .pose import BasePose, quat_matrix, quat_multiply
 from .shape import RodShape
 
@@ -76,15 +77,15 @@ _TRUSTED_CHORD = 1e-4
 _S_EXTEND = 1.25
 
 
-def _lu_factor(J: np.ndarray):
+def _lu_factor(J: np.ndarray, finite: bool = False):
     """
     Return the LU factorization (lu, piv) of J, as scipy.linalg.lu_factor gives it.
 
     LAPACK's getrf directly: scipy.linalg's wrappers cost more than the factorization of these
-    small matrices. A non-finite J raises ValueError; an exactly singular one
-    numpy.linalg.LinAlgError.
+    small matrices. A non-finite J raises ValueError (``finite``: J is known to be finite); an
+    exactly singular one numpy.linalg.LinAlgError.
     """
-    if not np.all(np.isfinite(J)):
+    if not finite and not np.all(np.isfinite(J)):
         raise ValueError("the Jacobian has non-finite entries")
     lu, piv, info = _getrf(J)
     if info > 0:
@@ -126,9 +127,24 @@ def _probe_tip(shape: RodShape, n: int) -> np.ndarray:
     vec = solver.solve_loaded(1.0, pose, (0.0, f, f), (couple, 0.0, 0.0), ramp=4)
     full = np.concatenate((vec, [1.0, 0.0]))
     modes = (RodContactMode("side", 0),)
-    tip = solver.centerline(modes, full, pose, [1.0])[0]
+    # numpy: a new process reaches here before its first contact, and need not wait for the
+    # kernels to compile (warm_up)
+    tip = solver._centerline_numpy(modes, full, pose, np.array([1.0]))[0]
     q = solver.quaternions(modes, full, pose, [1.0])[0]
     return np.concatenate((tip, quat_matrix(q / np.linalg.norm(q)).ravel()))
+
+
+def warm_up() -> None:
+    """
+    Compile the solver's kernels now (or load them from numba's cache), once per process.
+
+    The solver does it itself before their first use: about 10 s the first time on a machine
+    (numba compiles them and caches them on disk), about 0.2 s afterwards. A program that must
+    answer its first poses at once (the ROS node) calls it at start, in a thread. Nothing
+    happens when VIBRISSA_NO_JIT=1 selects the numpy code (doc/mechanics/rod3d.md).
+
+    """
+    _jit.warm_up()
 
 
 @lru_cache(maxsize=64)
@@ -543,6 +559,16 @@ class RodSolver:
         self._free_tip_cache = None
         self._chord_rate = 1.0
         self._identity_columns = {}
+        # the compiled kernels' view of the shape (vibrissa_ros.core.rod3d._jit)
+        self._kinds = {}
+        self._finite_jacobian = None
+        self._jit_sp = -1.0 if self._sp is None else float(self._sp)
+        if shape.parabola is not None:
+            self._jit_grid, self._jit_table = shape._u_table()
+        else:
+            self._jit_grid = self._jit_table = np.zeros(2)
+        self._jit_shape = np.array((shape.taper, self._nu1, shape.k0, shape.k1,
+                                    shape.parabola or 0.0, float(shape.parabola is not None)))
 
     # -- operators ----------------------------------------------------------------------------
     def _template(self, k: int) -> np.ndarray:
@@ -628,6 +654,51 @@ class RodSolver:
             (residual, Jacobian or None, pose sensitivity or None).
 
         """
+        if _jit.ENABLED:
+            return self._residual_compiled(modes, vec, pose, jacobian, pose_sensitivity)
+        return self._residual_numpy(modes, vec, pose, jacobian, pose_sensitivity)
+
+    def _kinds_of(self, modes) -> np.ndarray:
+        """Return the contacts' kinds as the kernels take them (1 side, 0 tip), cached."""
+        if not isinstance(modes, tuple):
+            modes = tuple(modes)
+        kinds = self._kinds.get(modes)
+        if kinds is None:
+            kinds = np.array([m.kind == "side" for m in modes], dtype=np.int64)
+            self._kinds[modes] = kinds
+        return kinds
+
+    def _residual_compiled(self, modes, vec, pose, jacobian, pose_sensitivity):
+        """:meth:`residual` by the compiled kernels (:mod:`._jit`)."""
+        if not _jit.WARM:
+            _jit.warm_up()
+        self.evaluations += 1
+        n = self.n
+        k = len(modes)
+        kinds = self._kinds_of(modes)
+        vec = np.ascontiguousarray(vec, dtype=float)
+        T = self._template(k)
+        s, w, ds, dw, kinv, kap0, slope, dkinv, r = _jit.prepare(
+            vec, n, kinds, self._tau, self._jit_sp, T, pose.p, self._jit_shape, self._jit_grid,
+            self._jit_table)
+        dist = np.empty(k)
+        normal = np.empty((k, 3))
+        hess = np.empty((k, 3, 3))
+        for c, m in enumerate(modes):
+            sp = self.obstacles[m.obstacle].surface(r[(c + 1) * n - 1])
+            dist[c] = sp.distance
+            normal[c] = sp.normal
+            hess[c] = sp.hessian
+        res, J, sens, finite = _jit.equations(vec, pose.q, n, kinds, T, w, ds, dw, kinv, kap0,
+                                              slope, dkinv, r, self._nu1, dist, normal, hess,
+                                              jacobian, pose_sensitivity)
+        if finite:
+            # checked by the kernel: _lu_factor need not look again
+            self._finite_jacobian = J
+        return res, (J if jacobian else None), (sens if pose_sensitivity else None)
+
+    def _residual_numpy(self, modes, vec, pose, jacobian=True, pose_sensitivity=False):
+        """:meth:`residual` in numpy: the reference the compiled kernels are tested against."""
         self.evaluations += 1
         k = len(modes)
         lay = _Layout(self, self.breaks_of(modes, vec))
@@ -814,7 +885,7 @@ class RodSolver:
               start: Optional["Solved"] = None, exact_jacobian: bool = False,
               trusted: bool = False,
               max_iterations: int = _NEWTON_ITERATIONS,
-              max_step: Optional[float] = None) -> "Solved":
+              max_step: Optional[float] = None, fail_fast: bool = False) -> "Solved":
         """
         Solve a configuration's equilibrium from ``guess``: chord iterations, then Newton.
 
@@ -843,6 +914,11 @@ class RodSolver:
             Bound on the iterations.
         max_step : float or None, optional
             Refuse (ConvergenceError) an iteration step longer than this (max norm).
+        fail_fast : bool, optional
+            Give up (ConvergenceError) as soon as a Newton step, from the third on, is longer
+            than 0.9 times the one before: for trial steps of a continuation, where a shorter
+            step is the remedy (past a fold Newton wanders and would spend every iteration; at a
+            singular solution, a bifurcation, it still contracts by about 1/2 per step).
 
         Returns
         -------
@@ -884,11 +960,12 @@ class RodSolver:
                         break
                     last = size
                 last = math.inf
+            newton = 0
             for it in range(it, max_iterations):
                 # at a converged chord solution this evaluation gives the Jacobian and the
                 # sensitivities there; its Newton step is one more (tiny) correction
                 res, J, sens = self.residual(modes, vec, pose, pose_sensitivity=True)
-                lu = _lu_factor(J)
+                lu = _lu_factor(J, finite=J is self._finite_jacobian)
                 step = _lu_solve(lu, res)
                 size = self._take(step, max_step)
                 vec = vec - step
@@ -903,8 +980,11 @@ class RodSolver:
                         or (trusted and it == 0 and size <= _TRUSTED_STEP)):
                     if exact_jacobian:
                         _, J, sens = self.residual(modes, vec, pose, pose_sensitivity=True)
-                        lu = _lu_factor(J)
+                        lu = _lu_factor(J, finite=J is self._finite_jacobian)
                     return Solved(vec, lu, sens)
+                newton += 1
+                if fail_fast and newton >= 3 and size > 0.9 * last:
+                    raise ConvergenceError("3D whisker: Newton is not contracting")
                 converged = False
                 last = size
         except (ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
@@ -1203,6 +1283,13 @@ class RodSolver:
         p = pose.p
         if not modes:
             return p + self.shape.free_centerline(s) @ pose.rotation.T
+        if _jit.ENABLED:
+            return self._centerline_compiled(modes, vec, pose, s)
+        return self._centerline_numpy(modes, vec, pose, s)
+
+    def _centerline_numpy(self, modes, vec, pose, s):
+        """:meth:`centerline` (with contacts) in numpy: the reference of the kernels."""
+        p = pose.p
         lay = _Layout(self, self.breaks_of(modes, vec))
         Q = vec[:4 * lay.N].reshape(lay.N, 4)
         R = _rotations(Q)
@@ -1222,6 +1309,41 @@ class RodSolver:
             off = self.shape.intrinsic_offset(end, s[~inside])
             out[~inside] = r_nodes[-1] + off[:, :1] * R[-1, :, 0] + off[:, 1:] * R[-1, :, 1]
         return out
+
+    def _centerline_compiled(self, modes, vec, pose, s):
+        """:meth:`centerline` (with contacts) by the compiled kernels."""
+        vec = np.ascontiguousarray(vec, dtype=float)
+        s = np.ascontiguousarray(s)
+        breaks, w, r_nodes, frames = self._nodes(modes, vec, pose)
+        end = breaks[-1]
+        last = frames[-1]
+        beyond = s > end
+        n_beyond = int(np.count_nonzero(beyond))
+        if n_beyond == 0:
+            return _jit.sample(s, vec, self.n, breaks, w, r_nodes, self._jit_sp,
+                               self._int_matrix)
+        tail = s if n_beyond == s.size else s[beyond]
+        if self.shape.parabola is not None:
+            off = _jit.parabola_tail(end, tail, self.shape.parabola, self._jit_grid,
+                                     self._jit_table)
+        else:
+            off = self.shape.intrinsic_offset(end, tail)
+        pts = r_nodes[-1] + off[:, :1] * last[:, 0] + off[:, 1:] * last[:, 1]
+        if n_beyond == s.size:
+            return pts
+        out = np.empty((s.size, 3))
+        out[beyond] = pts
+        out[~beyond] = _jit.sample(s[~beyond], vec, self.n, breaks, w, r_nodes, self._jit_sp,
+                                   self._int_matrix)
+        return out
+
+    def _nodes(self, modes, vec, pose):
+        """Return (breaks, w, r at the nodes, frames at the contacts) by the compiled kernel."""
+        if not _jit.WARM:
+            _jit.warm_up()
+        k = len(modes)
+        return _jit.nodes(np.ascontiguousarray(vec, dtype=float), self.n, self._kinds_of(modes),
+                          self._tau, self._jit_sp, self._template(k), pose.p)
 
     def equilibrium(self, modes: Sequence[RodContactMode], vec: np.ndarray, pose: BasePose
                     ) -> RodEquilibrium:
@@ -1248,24 +1370,40 @@ class RodSolver:
         if modes:
             breaks = self.breaks_of(modes, vec)
             fs = self.forces_of(modes, vec)
-            lay = _Layout(self, breaks)
-            Q = vec[:4 * lay.N].reshape(lay.N, 4)
-            R = _rotations(Q[lay.ends])
-            r_ends = p + lay.G[lay.ends] @ _tangents(Q)
+            if _jit.ENABLED:
+                _, _, r_nodes, R = self._nodes(modes, vec, pose)
+                r_ends = r_nodes[self.n - 1::self.n]
+                Q_last = vec[4 * self.n * len(modes) - 4:4 * self.n * len(modes)]
+            else:
+                lay = _Layout(self, breaks)
+                Q = vec[:4 * lay.N].reshape(lay.N, 4)
+                R = _rotations(Q[lay.ends])
+                r_ends = p + lay.G[lay.ends] @ _tangents(Q)
+                Q_last = Q[-1]
             pts = r_ends
             forces = np.array([f * np.asarray(self.obstacles[m.obstacle].surface(x).normal)
                                for m, f, x in zip(modes, fs, pts)])
             end = breaks[-1]
-            frame = R[-1] / np.linalg.norm(Q[-1]) ** 2
+            frame = R[-1] / np.linalg.norm(Q_last) ** 2
             tip = r_ends[-1]
             if end < 1.0:
                 off, phi = self.shape.tail(end)
                 tip = tip + off[0] * frame[:, 0] + off[1] * frame[:, 1]
                 c, sn = math.cos(phi), math.sin(phi)
-                frame = np.column_stack((c * frame[:, 0] + sn * frame[:, 1],
-                                         -sn * frame[:, 0] + c * frame[:, 1], frame[:, 2]))
+                turned = np.empty((3, 3))
+                turned[:, 0] = c * frame[:, 0] + sn * frame[:, 1]
+                turned[:, 1] = -sn * frame[:, 0] + c * frame[:, 1]
+                turned[:, 2] = frame[:, 2]
+                frame = turned
             force = forces.sum(axis=0)
-            moment = _cross(pts - p, forces).sum(axis=0)
+            # sum_c (x_c - p) x F_c, in floats (as _cross(pts - p, forces).sum(axis=0))
+            px, py, pz = pose.position
+            moment = None
+            for (x, y, z), (fx, fy, fz) in zip(pts.tolist(), forces.tolist()):
+                ax, ay, az = x - px, y - py, z - pz
+                mc = (ay * fz - az * fy, az * fx - ax * fz, ax * fy - ay * fx)
+                moment = mc if moment is None else tuple(u + v for u, v in zip(moment, mc))
+            moment = np.array(moment)
         else:
             breaks, fs = (), ()
             pts = np.zeros((0, 3))

@@ -50,6 +50,7 @@ from ..errors import (
     ParameterError,
     VibrissaError,
 )
+from . import _jit
 from .model import RodContactMode, RodSolver, _lu_solve
 from .pose import BasePose, quat_conjugate, quat_matrix, quat_multiply
 from .shape import RodShape
@@ -69,6 +70,10 @@ _CUT = -1e-10
 #: the whisker's sample points for the clearance (and the bound on the distance between them)
 _SAMPLES = np.linspace(0.0, 1.0, 81)
 _HALF_SPACING = 0.5 / 80.0
+#: the unloaded whisker's samples (it is drawn, not solved: finer samples are cheap and keep the
+#: exact minimum, a bounded search, to where the whisker is within 0.5/320 L of an obstacle)
+_FREE_SAMPLES = np.linspace(0.0, 1.0, 321)
+_FREE_HALF_SPACING = 0.5 / 320.0
 #: clearance below which the distance is refined by a minimisation in s
 _NEAR = 0.05
 _NUMERICAL_ERRORS = (ArithmeticError, ValueError, np.linalg.LinAlgError)
@@ -78,6 +83,10 @@ _TAIL_SAMPLES = np.linspace(0.125, 1.0, 8)
 _TAIL_CUT = -1e-9
 #: the last step continues this one when their pose increments' angle has this cosine or more
 _LINE_COSINE = 0.999
+#: a touch this near a prism's edge [L] is a touch of the edge
+_EDGE_NEAR = 1e-6
+#: the reason of a snap at a fold of the branch
+_FOLDS = "the equilibrium branch folds (no solution beyond this pose)"
 #: a pose stream is extrapolated when its poses' fourth difference is below this part of a step
 _STREAM_TOLERANCE = 0.01
 
@@ -307,6 +316,8 @@ def _aligned(q: np.ndarray, ref: np.ndarray) -> np.ndarray:
 def _det_measure(lu) -> float:
     """Sign of det J times the geometric mean of |U_ii|: continuous, zero where J is singular."""
     lu_, piv = lu
+    if _jit.ENABLED:
+        return _jit.det_measure(lu_, piv)
     d = np.diag(lu_)
     swaps = int(np.count_nonzero(piv != np.arange(piv.size)))
     sign = -1.0 if (swaps + int(np.count_nonzero(d < 0.0))) % 2 else 1.0
@@ -352,7 +363,7 @@ class RodTracker:
         self.max_evaluations = int(max_evaluations)
         self.recover = bool(recover)
         self._nested = False
-        self._free_points = self.shape.free_centerline(_SAMPLES)
+        self._free_points = self.shape.free_centerline(_FREE_SAMPLES)
         # only prisms have edges (a polygon's corners, a point peg)
         self._edges = any(getattr(ob, "planar", None) is not None for ob in self.obstacles)
         pose = _as_pose(pose)
@@ -379,6 +390,7 @@ class RodTracker:
         self._solved = None
         self._sign = 1.0
         self._gap_cache = None
+        self._fold_prev = None
         self._last_step = None
         self._history = []
         self._state = self._make_state()
@@ -523,16 +535,24 @@ class RodTracker:
                              self.solver.evaluations - self._start)
 
     # -- the free whisker ---------------------------------------------------------------------
-    def _free_gap(self, pose: BasePose, exact: bool = False, skip=()):
-        """(clearance, obstacle, s): a lower bound of the free whisker's distance, exact near."""
+    def _free_gap(self, pose: BasePose, exact: bool = False, skip=(), certify: bool = False):
+        """
+        (clearance, obstacle, s): a lower bound of the free whisker's distance, exact near.
+
+        With ``certify`` a positive lower bound (the samples' distance less half their spacing)
+        is returned as it is, without the exact minimum: enough to size a free sub-step and to
+        know there is no touch; the exact minimum is taken only where the bound is not positive.
+        """
         pts = np.array(pose.position) + self._free_points @ pose.rotation.T
-        return self._gap_of_points(pts, lambda s: self._free_point(pose, s), exact, skip)
+        return self._gap_of_points(pts, lambda s: self._free_point(pose, s), exact, skip,
+                                   certify, _FREE_SAMPLES, _FREE_HALF_SPACING)
 
     def _free_point(self, pose: BasePose, s: float) -> np.ndarray:
         off = self.shape.free_centerline([s])[0]
         return np.array(pose.position) + pose.rotation @ off
 
-    def _gap_of_points(self, pts, point_at, exact, skip):
+    def _gap_of_points(self, pts, point_at, exact, skip, certify=False, samples=_SAMPLES,
+                       half=_HALF_SPACING):
         best = (math.inf, -1, 0.0)
         for k, ob in enumerate(self.obstacles):
             if k in skip:
@@ -540,25 +560,25 @@ class RodTracker:
             d = ob.signed_distance(pts)
             j = int(np.argmin(d))
             dmin = float(d[j])
-            if dmin > _NEAR and not exact:
-                value, s = dmin - _HALF_SPACING, float(_SAMPLES[j])
+            if (dmin > _NEAR and not exact) or (certify and dmin - half > 0.0):
+                value, s = dmin - half, float(samples[j])
             else:
-                value, s = self._refine(ob, point_at, j, dmin)
+                value, s = self._refine(ob, point_at, j, dmin, samples)
             if value < best[0]:
                 best = (value, k, s)
         return best
 
-    def _refine(self, ob, point_at, j, dmin):
+    def _refine(self, ob, point_at, j, dmin, samples=_SAMPLES):
         """Return the distance's minimum over s near sample j (bounded Brent in s)."""
-        lo = float(_SAMPLES[max(j - 1, 0)])
-        hi = float(_SAMPLES[min(j + 1, _SAMPLES.size - 1)])
+        lo = float(samples[max(j - 1, 0)])
+        hi = float(samples[min(j + 1, samples.size - 1)])
 
         def d(s):
             return float(ob.signed_distance(point_at(s)[None, :])[0])
 
         res = minimize_scalar(d, bounds=(lo, hi), method="bounded",
                               options={"xatol": 1e-12, "maxiter": 200})
-        cands = [(dmin, float(_SAMPLES[j])), (float(res.fun), float(res.x))]
+        cands = [(dmin, float(samples[j])), (float(res.fun), float(res.x))]
         for s_end in (lo, hi):
             cands.append((d(s_end), s_end))
         return min(cands)
@@ -575,7 +595,7 @@ class RodTracker:
             t_new = min(1.0, t + move / path.speed)
             pose_new = path.pose(t_new)
             gap_new, k, s = self._free_gap(pose_new, exact=gap - 2 * path.speed * (t_new - t)
-                                           < _NEAR)
+                                           < _NEAR, certify=True)
             if gap_new < _CUT:
                 return self._free_touch(path, t, t_new, events)
             t, gap = t_new, gap_new
@@ -661,6 +681,8 @@ class RodTracker:
         dt = min(1.0 - t, h, _MAX_MOVE / path.speed)
         if big > 0.0:
             dt = min(dt, _MAX_CHANGE / big)
+        limited = self._fold_limit(path, t, tan, dt)
+        near_fold, dt = limited < dt, limited
         stream = self._extrapolate(path) if t == 0.0 and dt == 1.0 else None
         curve = self._second_order(path, t, tan) if stream is None else None
         for _ in range(64):
@@ -673,13 +695,16 @@ class RodTracker:
                 guess = stream
             try:
                 solved = sol.solve(self._modes, path.pose(t_new), guess, start=self._solved,
-                                   max_step=0.5, trusted=stream is not None and t_new == 1.0)
+                                   max_step=0.5, trusted=stream is not None and t_new == 1.0,
+                                   fail_fast=near_fold)
                 break
             except ConvergenceError:
+                if near_fold and dt * 0.25 < _H_MIN:
+                    near_fold = False  # before it is called a fold: one solve in full
+                    continue
                 dt *= 0.25
                 if dt < _H_MIN:
-                    self._snap(path, t, events, "the equilibrium branch folds (no solution "
-                               "beyond this pose)")
+                    self._snap(path, t, events, _FOLDS)
                     return t, 1.0
         else:
             raise ConvergenceError("the continuation step could not be shortened enough")
@@ -694,6 +719,31 @@ class RodTracker:
             self._accept(solved, path.pose(t_new))
             return t_new, min(1.0, 2.0 * dt)
         return self._first_event(path, t, t_new, crossed, events), 1.0
+
+    def _fold_limit(self, path: _Path, t: float, tan: np.ndarray, dt: float) -> float:
+        """
+        Return the sub-step shortened to stay short of a fold the tangent announces.
+
+        Near a fold the solution goes like v_f + a sqrt(t_f - t), so 1 / norm(dv/dt)^2 falls
+        linearly to 0 at t_f: two sub-steps of the same configuration along the same path give
+        t_f. Aiming at 90% of the way there, the fold is approached by a factor 10 per sub-step
+        instead of being found by quartering failed steps, and the trial steps there give up as
+        soon as Newton stops contracting (past a fold it wanders and would spend every
+        iteration). Only the sub-step length changes: the fold is still located to _H_MIN by a
+        failed step, and every accepted sub-step is an ordinary converged solve.
+        """
+        g = 1.0 / max(float(tan @ tan), 1e-300)
+        prev = self._fold_prev
+        self._fold_prev = (path, self._modes, t, g)
+        if prev is None or prev[0] is not path or prev[1] != self._modes or not prev[2] < t:
+            return dt
+        t_prev, g_prev = prev[2], prev[3]
+        if not g < 0.5 * g_prev:  # the tangent must grow markedly
+            return dt
+        left = g * (t - t_prev) / (g_prev - g)
+        if left >= dt:
+            return dt
+        return 0.9 * left if 0.9 * left >= _H_MIN else 4.0 * _H_MIN
 
     def _extrapolate(self, path: _Path) -> Optional[np.ndarray]:
         """
@@ -712,10 +762,15 @@ class RodTracker:
         p0, v0 = self._pose, self._vec
         target = path.b
 
-        def flat(pose):
-            return np.concatenate((pose.p, _aligned(pose.q, p0.q)))
-
-        x3, x2, x1, x0, xt = (flat(p) for p in (p3, p2, p1, p0, target))
+        # (p, q) of each pose, q on the side of p0's (one array: fewer numpy calls per pose)
+        rw, rx, ry, rz = p0.quaternion
+        rows = []
+        for pose in (p3, p2, p1, p0, target):
+            w, x, y, z = q = pose.quaternion
+            if w * rw + x * rx + y * ry + z * rz < 0.0:
+                q = (-w, -x, -y, -z)
+            rows.append(pose.position + q)
+        x3, x2, x1, x0, xt = np.array(rows)
         step = float(np.linalg.norm(xt - x0))
         if step == 0.0:
             return None
@@ -866,6 +921,7 @@ class RodTracker:
 
     def _snap(self, path, t, events, reason):
         """Find where the whisker goes when its equilibrium is lost at t, and go there."""
+        self._fold_prev = None  # the tangent before the jump says nothing about the branch after
         sol = self.solver
         pose = path.pose(t)
         before = len(self._modes)
@@ -874,9 +930,10 @@ class RodTracker:
         forces = sol.forces_of(old_modes, old_vec)
         t_after = min(1.0, t + 1e-6)
         pose_after = path.pose(t_after)
-        # 1. a stable equilibrium of the same contacts, off the lost one (a bifurcated branch)
+        # 1. a stable equilibrium of the same contacts, off the lost one (a bifurcated branch);
+        # not at a fold, where the branch of these contacts turns back (unstable) and ends
         null = _null_vector(self._solved.lu)
-        for amp in (1e-3, -1e-3, 1e-2, -1e-2, 1e-1, -1e-1):
+        for amp in (() if reason == _FOLDS else (1e-3, -1e-3, 1e-2, -1e-2, 1e-1, -1e-1)):
             try:
                 solved = sol.solve(old_modes, pose_after, old_vec + amp * null, max_step=0.5)
             except ConvergenceError:
@@ -993,8 +1050,16 @@ class RodTracker:
             )
 
     def _check_touch_feature(self, k, point):
-        if self.obstacles[k].surface(point).feature == "edge":
+        """Refuse a touch on an edge, or within _EDGE_NEAR of one (where it is located)."""
+        ob = self.obstacles[k]
+        near = ob.surface(point)
+        if near.feature == "edge":
             self._refuse_edge(k, point)
+        # the touch's arc length is a minimum's location, known to ~1e-7: a touch that close
+        # to a corner is the corner's
+        for v in getattr(getattr(ob, "planar", None), "vertices", ()):
+            if v.convex and math.hypot(near.point[0] - v.x, near.point[1] - v.y) <= _EDGE_NEAR:
+                self._refuse_edge(k, point)
 
     def _refuse_edge(self, k, x):
         name = getattr(self.obstacles[k], "name", f"obstacle {k}")

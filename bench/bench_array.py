@@ -1,0 +1,127 @@
+"""
+Speed of the whole whisker array (the rat's mystacial pad), whisking against a peg.
+
+The array of ``config/rat_array.yaml`` (one side: 30 whiskers; both: 60), the head fixed, every
+whisker whisking with the built-in cosine whisk (8 Hz, -20 deg to +20 deg about its rest
+orientation, the rows' elevation and roll slopes), sampled at 1 kHz (one tick per millisecond),
+against a vertical peg (radius 1.5 mm at x = 30 mm, y = -16 mm of the head frame, and its mirror
+image for the left side) that the whiskers of columns 0-2 hit during protraction.
+
+Printed per run: the tick time (median, p90, p99, max), ticks/s = 1 / median, the share of
+ticks that meet 1 ms, the number of whiskers in contact per tick (its distribution), and the time
+of ticks by how many whiskers are in contact. Baseline in the same run, on the same ticks: every
+whisker's own :class:`RodTracker` stepped in a plain loop (no clearance test), the cost the array
+stepper is there to avoid. For the reference simulator, WHISKiT Physics needs about 15 ms of CPU
+per whisker per 1-ms sample on this kind of machine (/work/shared/reference/rat_array.md's
+figure; one side: about 0.45 s per tick).
+
+Run: OPENBLAS_NUM_THREADS=1 python bench/bench_array.py [--cycles 2] [--side right|both]
+     [--baseline-ticks 250]
+"""
+
+from __future__ import annotations
+
+import os
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+import argparse  # noqa: E402
+import math  # noqa: E402
+import time  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+from vibrissa_ros.core.arrays import ArrayTracker, CosineWhisk  # noqa: E402
+from vibrissa_ros.core.rod3d import BasePose, Cylinder, RodTracker, Scene3D  # noqa: E402
+from vibrissa_ros.scan.array_file import load_array  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+HEAD = BasePose((0.0, 0.0, 0.0))
+#: WHISKiT Physics, CPU per whisker per 1-ms sample on this kind of machine [s]
+WHISKIT_PER_WHISKER = 15e-3
+
+
+def _setup(side: str):
+    array = load_array(ROOT / "config" / "rat_array.yaml")
+    if side != "both":
+        array = array.side(side)
+    pegs = [Cylinder((0.03, -0.016, 0.0), (0, 0, 1), 0.0015, "peg_right")]
+    if side == "both":
+        pegs.append(Cylinder((-0.03, -0.016, 0.0), (0, 0, 1), 0.0015, "peg_left"))
+    elif side == "left":
+        pegs = [Cylinder((-0.03, -0.016, 0.0), (0, 0, 1), 0.0015, "peg_left")]
+    whisk = CosineWhisk(8.0, -math.radians(20.0), math.radians(20.0))
+    return array, Scene3D(tuple(pegs)), whisk
+
+
+def _pct(values, q):
+    return float(np.percentile(values, q)) * 1e3
+
+
+def run(side: str, cycles: float, baseline_ticks: int, dt: float = 1e-3) -> None:
+    array, scene, whisk = _setup(side)
+    t0 = time.perf_counter()
+    tracker = ArrayTracker(array, scene, HEAD, whisk.angle(0.0))
+    setup = time.perf_counter() - t0
+    ticks = int(round(cycles / whisk.frequency / dt))
+    times, contacts, solved, errors = [], [], [], 0
+    for k in range(1, ticks + 1):
+        t0 = time.perf_counter()
+        step = tracker.step(HEAD, whisk.angle(k * dt))
+        times.append(time.perf_counter() - t0)
+        contacts.append(step.in_contact)
+        solved.append(int(step.solved.sum()))
+        errors += len(step.errors)
+    times, contacts = np.array(times), np.array(contacts)
+    med = float(np.median(times))
+    print(f"\n== {side} side(s): {len(array)} whiskers, {ticks} ticks of 1 ms "
+          f"({cycles:g} whisk cycles at {whisk.frequency:g} Hz); set-up {setup:.2f} s")
+    print(f"   tick: median {med * 1e3:.3f} ms, p90 {_pct(times, 90):.3f}, p99 "
+          f"{_pct(times, 99):.3f}, max {times.max() * 1e3:.1f} ms -> {1.0 / med:,.0f} ticks/s; "
+          f"{np.mean(times <= 1e-3) * 100:.0f}% of ticks within 1 ms; errors {errors}")
+    print(f"   whiskers in contact per tick: max {contacts.max()}, distribution "
+          f"{dict(enumerate(np.bincount(contacts).tolist()))}; trackers stepped per tick: "
+          f"median {np.median(solved):.0f}")
+    for c in range(contacts.max() + 1):
+        m = contacts == c
+        if m.any():
+            print(f"   {c} in contact: {m.sum():4d} ticks, median {np.median(times[m]) * 1e3:.3f} "
+                  f"ms, p99 {_pct(times[m], 99):.3f} ms")
+    whiskit = WHISKIT_PER_WHISKER * len(array)
+    print(f"   WHISKiT Physics (15 ms CPU per whisker per sample): {whiskit * 1e3:.0f} ms per "
+          f"tick, {whiskit / med:,.0f}x this median")
+    if baseline_ticks <= 0:
+        return
+    # the baseline: every whisker's own tracker stepped on the same poses, no clearance test
+    n = min(baseline_ticks, ticks)
+    singles = [RodTracker(tracker._scenes[i], p, shape=array.rod(i).shape)
+               for i, p in enumerate(tracker.whisker_poses(HEAD, whisk.angle(0.0)))]
+    base, mine = [], times[:n]
+    for k in range(1, n + 1):
+        poses = tracker.whisker_poses(HEAD, whisk.angle(k * dt))
+        t0 = time.perf_counter()
+        for single, pose in zip(singles, poses):
+            single.step(pose)
+        base.append(time.perf_counter() - t0)
+    base = np.array(base)
+    print(f"   baseline (every whisker's tracker stepped, same {n} ticks): median "
+          f"{np.median(base) * 1e3:.3f} ms, p99 {_pct(base, 99):.3f} ms; array/baseline median "
+          f"{np.median(mine) / np.median(base):.3f}")
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--cycles", type=float, default=2.0, help="whisk cycles (default 2)")
+    parser.add_argument("--side", choices=("right", "left", "both"), default=None,
+                        help="one run (default: right, then both)")
+    parser.add_argument("--baseline-ticks", type=int, default=250,
+                        help="ticks of the plain-loop baseline (0: none)")
+    args = parser.parse_args(argv)
+    for side in ((args.side,) if args.side else ("right", "both")):
+        run(side, args.cycles, args.baseline_ticks)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

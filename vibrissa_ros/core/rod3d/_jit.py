@@ -1,0 +1,759 @@
+"""
+Compiled kernels of the 3D whisker's collocation equations (numba, cached on disk).
+
+The same equations as :meth:`.model.RodSolver.residual_reference` (the numpy reference, which the
+tests compare these kernels with), written as loops over the nodes: one kernel places the nodes
+and evaluates the shape there (:func:`prepare`), one evaluates the residual, its Jacobian and its
+pose sensitivities (:func:`equations`) from those and the obstacles' surface data at the
+contacts (the obstacles stay Python objects). ``VIBRISSA_NO_JIT=1`` in the environment, or numba
+missing, selects the numpy reference everywhere (``ENABLED`` is then False).
+
+Shapes: n points per segment, k segments (contacts), N = n k nodes; contact kinds as integers
+(1 side, 0 tip).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import os
+import threading
+
+import numpy as np
+
+ENABLED = os.environ.get("VIBRISSA_NO_JIT", "").strip() not in ("1", "true", "yes", "on")
+try:  # pragma: no cover - numba is a dependency; without it the numpy reference runs
+    import numba
+except ImportError:  # pragma: no cover
+    numba = None
+    ENABLED = False
+
+#: set once every kernel is compiled (or loaded from numba's cache) in this process
+WARM = False
+_WARMING = threading.RLock()
+
+
+def warm_up() -> None:
+    """
+    Compile every kernel (or load it from the on-disk cache) now, once per process.
+
+    The first use of a kernel compiles it (~10 s the first time on a machine, ~0.2 s from the
+    cache afterwards); this does it at once, in one thread: the solver calls it before a
+    kernel's first use, and the ROS node starts it in the background when it starts. Other
+    threads wait for it to finish (numba must not compile one kernel in two threads at once).
+    """
+    global WARM
+    if WARM or not ENABLED:
+        return
+    with _WARMING:
+        if WARM:
+            return
+        # imported here: model imports this module
+        from .model import RodContactMode, RodSolver, _lu_factor
+        from .obstacles import Sphere
+        from .pose import BasePose
+        from .shape import RodShape
+
+        solver = RodSolver(RodShape(), (Sphere((0.5, 0.1, 0.0), 0.1),), n=8)
+        modes = (RodContactMode("side", 0),)
+        pose = BasePose((0.0, 0.0, 0.0))
+        vec = solver.guess(modes, (0.5,), (0.1,), lambda s: solver.free_quaternions(pose, s))
+        WARM = True  # the calls below would otherwise come back here
+        try:
+            _, J, _ = solver._residual_compiled(modes, vec, pose, True, True)
+            solver._residual_compiled(modes, vec, pose, False, False)
+            solver._nodes(modes, vec, pose)
+            solver._centerline_compiled(modes, vec, pose, np.array([0.25, 1.0]))
+            parabola_tail(0.5, np.array([1.0]), 1.0, *RodShape(parabola=1.0)._u_table())
+            det_measure(*_lu_factor(J))
+        except BaseException:
+            WARM = False
+            raise
+
+
+def _shared_cache() -> None:
+    """
+    Cache the kernels by this file's content, in the user's numba cache, for every copy of it.
+
+    numba caches by the source file's path by default: a colcon install (a copy) would compile
+    everything again (~10 s). The locator below keys the cache directory on the file's content
+    instead, so a source tree and its installs share one cache (and a changed file gets a new
+    one). It uses numba's cache locator classes; where they differ (another numba release) the
+    default per-path cache is kept.
+    """
+    try:
+        from numba.core import caching
+        base = getattr(caching, "UserWideCacheLocator", None) or caching._UserWideCacheLocator
+        impl = getattr(caching, "CacheImpl", None) or caching._CacheImpl
+    except (ImportError, AttributeError):  # pragma: no cover - another numba layout
+        return
+    source = os.path.abspath(__file__)
+    with open(source, "rb") as fh:
+        digest = hashlib.sha256(fh.read()).hexdigest()
+
+    class _SharedLocator(base):
+        def __init__(self, py_func, py_file):
+            super().__init__(py_func, py_file)
+            root = numba.config.CACHE_DIR or os.path.dirname(self._cache_path)
+            self._cache_path = os.path.join(root, "vibrissa_ros_rod3d_" + digest[:16])
+
+        def get_source_stamp(self):
+            return digest
+
+        @classmethod
+        def from_function(cls, py_func, py_file):
+            if os.path.abspath(py_file) != source:
+                return None
+            return super().from_function(py_func, py_file)
+
+    if not any(getattr(c, "__name__", "") == "_SharedLocator" for c in impl._locator_classes):
+        impl._locator_classes.insert(0, _SharedLocator)
+
+
+if numba is not None:
+    _shared_cache()
+
+    def _kernel(func):
+        return numba.njit(cache=True, nogil=True)(func)
+else:  # pragma: no cover
+    def _kernel(func):
+        return func
+
+
+@_kernel
+def _breaks(vec, n, kinds):
+    """Contact arc lengths (k,) from the unknown vector (tip contacts at s = 1)."""
+    k = kinds.size
+    out = np.empty(k)
+    o = 4 * n * k
+    for c in range(k):
+        if kinds[c] == 1:
+            out[c] = vec[o]
+            o += 2
+        else:
+            out[c] = 1.0
+            o += 1
+    return out
+
+
+@_kernel
+def _parabola_u(s, A, grid, table):
+    """Return u = 2 A x(s) on the parabola y = A x^2 (as RodShape._u: table, then Newton)."""
+    m = s.size
+    u = np.empty(m)
+    a = abs(A)
+    top = grid[-1]
+    inside = True
+    for i in range(m):
+        if not s[i] <= top:
+            inside = False
+    h = grid[1] - grid[0]
+    for i in range(m):
+        x = s[i]
+        if x > top or not x == x:
+            u[i] = 0.5 * 4.0 * a * x
+        else:
+            j = min(int(x / h), grid.size - 1)
+            while j > 0 and grid[j] > x:
+                j -= 1
+            while j < grid.size - 1 and grid[j + 1] <= x:
+                j += 1
+            if j == grid.size - 1 or grid[j] == x:
+                u[i] = table[j]
+            else:
+                slope = (table[j + 1] - table[j]) / (grid[j + 1] - grid[j])
+                u[i] = slope * (x - grid[j]) + table[j]
+    steps = 2 if inside else 60
+    for i in range(m):
+        target = 4.0 * a * s[i]
+        v = u[i]
+        for _ in range(steps):
+            root = math.sqrt(1.0 + v * v)
+            v = v - (v * root + math.asinh(v) - target) / (2.0 * root)
+        u[i] = math.copysign(1.0, A) * v
+    return u
+
+
+@_kernel
+def _weights(vec, n, kinds, tau, sp):
+    """Return the breaks (k,), the nodes' arc lengths and weights (N,) and the cone's logs (k,)."""
+    k = kinds.size
+    N = n * k
+    b = _breaks(vec, n, kinds)
+    s = np.empty(N)
+    w = np.empty(N)
+    Ls = np.zeros(k)
+    for c in range(k):
+        a = 0.0 if c == 0 else b[c - 1]
+        if sp <= 0.0:
+            h = b[c] - a
+            for j in range(n):
+                s[c * n + j] = a + h * tau[j]
+                w[c * n + j] = h
+        else:
+            L = math.log((sp - b[c]) / (sp - a))
+            Ls[c] = L
+            for j in range(n):
+                gap = (sp - a) * math.exp(tau[j] * L)
+                s[c * n + j] = sp - gap
+                w[c * n + j] = -L * gap
+    return b, s, w, Ls
+
+
+@_kernel
+def nodes(vec, n, kinds, tau, sp, T, p):
+    """
+    Return (breaks (k,), w (N,), r (N, 3), frames at the contacts (k, 3, 3)) of a solution.
+
+    The centerline at the nodes, r = p + G d1, and R(q) at the segments' ends, for sampling a
+    solution (:meth:`.model.RodSolver.centerline`, :meth:`.model.RodSolver.equilibrium`).
+    """
+    k = kinds.size
+    N = n * k
+    b, s, w, Ls = _weights(vec, n, kinds, tau, sp)
+    r = _positions(vec, T, w, p, N)
+    frames = np.empty((k, 3, 3))
+    for c in range(k):
+        e = (c + 1) * n - 1
+        _rotation(vec[4 * e:4 * e + 4], frames[c])
+    return b, w, r, frames
+
+
+@_kernel
+def prepare(vec, n, kinds, tau, sp, T, p, shape, grid, table):
+    """
+    Return the nodes, the shape at them and the centerline there, for one unknown vector.
+
+    ``shape`` = (taper, 1 + nu, k0, k1, A, parabola flag); ``sp`` the cone's apex (or <= 0
+    for a cylinder). Returns (s, w, ds, dw, kinv, kap0, kap0_slope, dkinv, r): the nodes' arc
+    lengths and integration weights (N,), their derivatives by each contact's arc length (k, N),
+    (nu1/B, 1/B, 1/B) (N, 3), kappa0 and its slope (N,), d(1/B)/ds (N,), and r (N, 3).
+    """
+    k = kinds.size
+    N = n * k
+    b, s, w, Ls = _weights(vec, n, kinds, tau, sp)
+    ds = np.zeros((k, N))
+    dw = np.zeros((k, N))
+    cone = sp > 0.0
+    for c in range(k):
+        for j in range(n):
+            i = c * n + j
+            if not cone:
+                ds[c, i] = tau[j]
+                dw[c, i] = 1.0
+            else:
+                ds[c, i] = tau[j] * (sp - s[i]) / (sp - b[c])
+                dw[c, i] = (sp - s[i]) * (1.0 + Ls[c] * tau[j]) / (sp - b[c])
+            if c + 1 < k:
+                i2 = (c + 1) * n + j
+                if not cone:
+                    ds[c, i2] = 1.0 - tau[j]
+                    dw[c, i2] = -1.0
+                else:
+                    ds[c, i2] = (1.0 - tau[j]) * (sp - s[i2]) / (sp - b[c])
+                    dw[c, i2] = ((sp - s[i2]) * (-1.0 + Ls[c + 1] * (1.0 - tau[j]))
+                                 / (sp - b[c]))
+    taper, nu1, k0, k1, A, parabola = (shape[0], shape[1], shape[2], shape[3], shape[4],
+                                       shape[5])
+    kinv = np.empty((N, 3))
+    kap0 = np.empty(N)
+    slope = np.empty(N)
+    dkinv = np.empty(N)
+    t1 = 1.0 - taper
+    for i in range(N):
+        x = 1.0 - t1 * s[i]
+        B = x ** 4.0
+        inv = 1.0 / B
+        kinv[i, 0] = nu1 * inv
+        kinv[i, 1] = inv
+        kinv[i, 2] = inv
+        dkinv[i] = -(-4.0 * t1 * x ** 3.0) * inv ** 2.0
+    if parabola != 0.0:
+        u = _parabola_u(s, A, grid, table)
+        for i in range(N):
+            ww = 1.0 + u[i] * u[i]
+            kap0[i] = 2.0 * A / ww ** 1.5
+            slope[i] = -12.0 * A ** 2.0 * u[i] / ww ** 3.0
+    else:
+        for i in range(N):
+            kap0[i] = k0 + k1 * s[i]
+            slope[i] = k1 + 0.0 * s[i]
+    r = _positions(vec, T, w, p, N)
+    return s, w, ds, dw, kinv, kap0, slope, dkinv, r
+
+
+@_kernel
+def _positions(vec, T, w, p, N):
+    """Return r = p + G d1 (N, 3) at the nodes, G = T diag(w)."""
+    d1 = np.empty((N, 3))
+    for j in range(N):
+        qw, qx, qy, qz = vec[4 * j], vec[4 * j + 1], vec[4 * j + 2], vec[4 * j + 3]
+        d1[j, 0] = (qw * qw + qx * qx - qy * qy - qz * qz) * w[j]
+        d1[j, 1] = 2.0 * (qx * qy + qw * qz) * w[j]
+        d1[j, 2] = 2.0 * (qx * qz - qw * qy) * w[j]
+    r = np.empty((N, 3))
+    for i in range(N):
+        a0 = 0.0
+        a1 = 0.0
+        a2 = 0.0
+        for j in range(N):
+            t = T[i, j]
+            a0 += t * d1[j, 0]
+            a1 += t * d1[j, 1]
+            a2 += t * d1[j, 2]
+        r[i, 0] = p[0] + a0
+        r[i, 1] = p[1] + a1
+        r[i, 2] = p[2] + a2
+    return r
+
+
+@_kernel
+def _rotation(q, R):
+    """Fill R (3, 3) with R(q) (the unit-quaternion formula, as model._rotations)."""
+    w, x, y, z = q[0], q[1], q[2], q[3]
+    ww, xx, yy, zz = w * w, x * x, y * y, z * z
+    xy, xz, yz, wx, wy, wz = x * y, x * z, y * z, w * x, w * y, w * z
+    R[0, 0] = ww + xx - yy - zz
+    R[0, 1] = 2.0 * (xy - wz)
+    R[0, 2] = 2.0 * (xz + wy)
+    R[1, 0] = 2.0 * (xy + wz)
+    R[1, 1] = ww - xx + yy - zz
+    R[1, 2] = 2.0 * (yz - wx)
+    R[2, 0] = 2.0 * (xz - wy)
+    R[2, 1] = 2.0 * (yz + wx)
+    R[2, 2] = ww - xx - yy + zz
+
+
+@_kernel
+def _left(q, Lv):
+    """Fill Lv (4, 3) with q * (0, v) = Lv v."""
+    w, x, y, z = q[0], q[1], q[2], q[3]
+    Lv[0, 0], Lv[0, 1], Lv[0, 2] = -x, -y, -z
+    Lv[1, 0], Lv[1, 1], Lv[1, 2] = w, -z, y
+    Lv[2, 0], Lv[2, 1], Lv[2, 2] = z, w, -x
+    Lv[3, 0], Lv[3, 1], Lv[3, 2] = -y, x, w
+
+
+@_kernel
+def _drot(q, dR):
+    """Fill dR (4, 3, 3) with dR/dq_k (k = w, x, y, z)."""
+    w, x, y, z = 2.0 * q[0], 2.0 * q[1], 2.0 * q[2], 2.0 * q[3]
+    dR[0, 0, 0], dR[0, 0, 1], dR[0, 0, 2] = w, -z, y
+    dR[0, 1, 0], dR[0, 1, 1], dR[0, 1, 2] = z, w, -x
+    dR[0, 2, 0], dR[0, 2, 1], dR[0, 2, 2] = -y, x, w
+    dR[1, 0, 0], dR[1, 0, 1], dR[1, 0, 2] = x, y, z
+    dR[1, 1, 0], dR[1, 1, 1], dR[1, 1, 2] = y, -x, -w
+    dR[1, 2, 0], dR[1, 2, 1], dR[1, 2, 2] = z, w, -x
+    dR[2, 0, 0], dR[2, 0, 1], dR[2, 0, 2] = -y, x, w
+    dR[2, 1, 0], dR[2, 1, 1], dR[2, 1, 2] = x, y, z
+    dR[2, 2, 0], dR[2, 2, 1], dR[2, 2, 2] = -w, z, -y
+    dR[3, 0, 0], dR[3, 0, 1], dR[3, 0, 2] = -z, -w, x
+    dR[3, 1, 0], dR[3, 1, 1], dR[3, 1, 2] = w, -z, y
+    dR[3, 2, 0], dR[3, 2, 1], dR[3, 2, 2] = x, y, z
+
+
+@_kernel
+def _cross3(a0, a1, a2, b0, b1, b2, out, i):
+    """Add (a x b) to out[i]."""
+    out[i, 0] += a1 * b2 - a2 * b1
+    out[i, 1] += a2 * b0 - a0 * b2
+    out[i, 2] += a0 * b1 - a1 * b0
+
+
+@_kernel
+def equations(vec, qb, n, kinds, T, w, ds, dw, kinv, kap0, slope, dkinv, r, nu1,
+              dist, normal, hess, jacobian, sensitivity):
+    """
+    Return (residual, Jacobian, pose sensitivity, Jacobian finite) of the collocation system.
+
+    ``dist`` (k,), ``normal`` (k, 3), ``hess`` (k, 3, 3): the obstacles' surface data at the
+    contact points r(s_c). The Jacobian and the sensitivity are (0, 0) arrays unless asked for.
+    """
+    k = kinds.size
+    N = n * k
+    M4 = 4 * N
+    size = M4
+    for c in range(k):
+        size += 2 if kinds[c] == 1 else 1
+    ends = np.empty(k, dtype=np.int64)
+    fs = np.empty(k)
+    o = M4
+    offs = np.empty(k, dtype=np.int64)
+    for c in range(k):
+        ends[c] = (c + 1) * n - 1
+        sz = 2 if kinds[c] == 1 else 1
+        offs[c] = o
+        fs[c] = vec[o + sz - 1]
+        o += sz
+    G = np.empty((N, N))
+    for i in range(N):
+        for j in range(N):
+            G[i, j] = T[i, j] * w[j]
+    F = np.empty((k, 3))
+    for c in range(k):
+        for m in range(3):
+            F[c, m] = fs[c] * normal[c, m]
+    # moments M_i = sum_c [i <= e_c] (r_c - r_i) x F_c
+    M = np.zeros((N, 3))
+    for c in range(k):
+        e = ends[c]
+        for i in range(e + 1):
+            _cross3(r[e, 0] - r[i, 0], r[e, 1] - r[i, 1], r[e, 2] - r[i, 2],
+                    F[c, 0], F[c, 1], F[c, 2], M, i)
+    R = np.empty((N, 3, 3))
+    Lv = np.empty((N, 4, 3))
+    mb = np.empty((N, 3))
+    kap = np.empty((N, 3))
+    g = np.empty((N, 4))
+    for i in range(N):
+        q = vec[4 * i:4 * i + 4]
+        _rotation(q, R[i])
+        _left(q, Lv[i])
+        for m in range(3):
+            mb[i, m] = M[i, 0] * R[i, 0, m] + M[i, 1] * R[i, 1, m] + M[i, 2] * R[i, 2, m]
+            kap[i, m] = kinv[i, m] * mb[i, m]
+        kap[i, 2] += kap0[i]
+        for a in range(4):
+            g[i, a] = 0.5 * (Lv[i, a, 0] * kap[i, 0] + Lv[i, a, 1] * kap[i, 1]
+                             + Lv[i, a, 2] * kap[i, 2])
+    res = np.empty(size)
+    for i in range(N):
+        for a in range(4):
+            acc = 0.0
+            for j in range(N):
+                acc += G[i, j] * g[j, a]
+            res[4 * i + a] = vec[4 * i + a] - qb[a] - acc
+    for c in range(k):
+        o = offs[c]
+        res[o] = dist[c]
+        if kinds[c] == 1:
+            e = ends[c]
+            res[o + 1] = (R[e, 0, 0] * normal[c, 0] + R[e, 1, 0] * normal[c, 1]
+                          + R[e, 2, 0] * normal[c, 2])
+    if not jacobian and not sensitivity:
+        return res, np.zeros((0, 0)), np.zeros((0, 0)), False
+    # D[j, ax, b] = d d1_l / d q_jb;  P = dg/dkappa;  PRt = P R^T = dg/dM
+    dR = np.empty((N, 4, 3, 3))
+    D = np.empty((N, 3, 4))
+    P = np.empty((N, 4, 3))
+    PRt = np.empty((N, 4, 3))
+    for i in range(N):
+        _drot(vec[4 * i:4 * i + 4], dR[i])
+        for b in range(4):
+            for ax in range(3):
+                D[i, ax, b] = dR[i, b, ax, 0]
+        for a in range(4):
+            for m in range(3):
+                P[i, a, m] = 0.5 * Lv[i, a, m] * kinv[i, m]
+            for ax in range(3):
+                PRt[i, a, ax] = (P[i, a, 0] * R[i, ax, 0] + P[i, a, 1] * R[i, ax, 1]
+                                 + P[i, a, 2] * R[i, ax, 2])
+    # dM_i/dp (the normals turn with the contact points)
+    dMdp = np.zeros((N, 3, 3))
+    for c in range(k):
+        e = ends[c]
+        f = fs[c]
+        for i in range(e + 1):
+            v0, v1, v2 = r[e, 0] - r[i, 0], r[e, 1] - r[i, 1], r[e, 2] - r[i, 2]
+            for col in range(3):
+                h0, h1, h2 = hess[c, 0, col], hess[c, 1, col], hess[c, 2, col]
+                dMdp[i, 0, col] += f * (v1 * h2 - v2 * h1)
+                dMdp[i, 1, col] += f * (v2 * h0 - v0 * h2)
+                dMdp[i, 2, col] += f * (v0 * h1 - v1 * h0)
+    J = np.zeros((size, size)) if jacobian else np.zeros((0, 0))
+    sens = np.zeros((size, 7)) if sensitivity else np.zeros((0, 0))
+    if jacobian:
+        # d g_i / d q_j = [i == j] diag_i + V_ij D_j: the moments' part of every pair (i, j)
+        # shares D_j (3 x 4), so G is applied to V (N x N x 4 x 3) and D_j afterwards
+        diag = np.empty((N, 4, 4))
+        Tm = np.empty((3, 4))
+        for i in range(N):
+            # 1/2 Rm(kappa) + P d(R^T M)/dq, Rm(k) q = q * (0, k)
+            for b in range(3):
+                for kk in range(4):
+                    Tm[b, kk] = (dR[i, kk, 0, b] * M[i, 0] + dR[i, kk, 1, b] * M[i, 1]
+                                 + dR[i, kk, 2, b] * M[i, 2])
+            k1_, k2_, k3_ = 0.5 * kap[i, 0], 0.5 * kap[i, 1], 0.5 * kap[i, 2]
+            diag[i, 0, 0], diag[i, 0, 1], diag[i, 0, 2], diag[i, 0, 3] = 0.0, -k1_, -k2_, -k3_
+            diag[i, 1, 0], diag[i, 1, 1], diag[i, 1, 2], diag[i, 1, 3] = k1_, 0.0, k3_, -k2_
+            diag[i, 2, 0], diag[i, 2, 1], diag[i, 2, 2], diag[i, 2, 3] = k2_, -k3_, 0.0, k1_
+            diag[i, 3, 0], diag[i, 3, 1], diag[i, 3, 2], diag[i, 3, 3] = k3_, k2_, -k1_, 0.0
+            for a in range(4):
+                for kk in range(4):
+                    diag[i, a, kk] += (P[i, a, 0] * Tm[0, kk] + P[i, a, 1] * Tm[1, kk]
+                                       + P[i, a, 2] * Tm[2, kk])
+        # C_ci = PRt_i (f_c [r_c - r_i]_x H_c - [F_c]_x) (the normal turns with the contact
+        # point) and A_i = PRt_i sum_c [i <= e_c] [F_c]_x, so that
+        # V_ij = G_ij A_i + sum_c [i <= e_c] G_cj C_ci
+        C = np.zeros((k, N, 4, 3))
+        A = np.zeros((N, 4, 3))
+        for c in range(k):
+            e = ends[c]
+            f = fs[c]
+            F0, F1, F2 = F[c, 0], F[c, 1], F[c, 2]
+            for i in range(e + 1):
+                v0, v1, v2 = r[e, 0] - r[i, 0], r[e, 1] - r[i, 1], r[e, 2] - r[i, 2]
+                for col in range(3):
+                    h0, h1, h2 = hess[c, 0, col], hess[c, 1, col], hess[c, 2, col]
+                    # column col of [F]_x
+                    x0 = 0.0 if col == 0 else (-F2 if col == 1 else F1)
+                    x1 = F2 if col == 0 else (0.0 if col == 1 else -F0)
+                    x2 = -F1 if col == 0 else (F0 if col == 1 else 0.0)
+                    y0 = f * (v1 * h2 - v2 * h1) - x0
+                    y1 = f * (v2 * h0 - v0 * h2) - x1
+                    y2 = f * (v0 * h1 - v1 * h0) - x2
+                    for a in range(4):
+                        p0, p1, p2 = PRt[i, a, 0], PRt[i, a, 1], PRt[i, a, 2]
+                        C[c, i, a, col] = p0 * y0 + p1 * y1 + p2 * y2
+                        A[i, a, col] += p0 * x0 + p1 * x1 + p2 * x2
+        V = np.empty((N, N * 12))
+        for i in range(N):
+            for j in range(N):
+                gij = G[i, j]
+                base = j * 12
+                for a in range(4):
+                    for col in range(3):
+                        V[i, base + 3 * a + col] = gij * A[i, a, col]
+                for c in range(k):
+                    if i > ends[c]:
+                        continue
+                    gc = G[ends[c], j]
+                    for a in range(4):
+                        for col in range(3):
+                            V[i, base + 3 * a + col] += gc * C[c, i, a, col]
+        GV = np.dot(G, V)
+        for i in range(N):
+            for j in range(N):
+                gij = G[i, j]
+                base = j * 12
+                for a in range(4):
+                    o3 = base + 3 * a
+                    g0, g1, g2 = GV[i, o3], GV[i, o3 + 1], GV[i, o3 + 2]
+                    for b in range(4):
+                        J[4 * i + a, 4 * j + b] = -(g0 * D[j, 0, b] + g1 * D[j, 1, b]
+                                                    + g2 * D[j, 2, b] + gij * diag[j, a, b])
+            for a in range(4):
+                J[4 * i + a, 4 * i + a] += 1.0
+        # the columns of the forces and the rows of the contact equations
+        Z = np.empty((N, 4))
+        for c in range(k):
+            e = ends[c]
+            o = offs[c]
+            sz = 2 if kinds[c] == 1 else 1
+            n0, n1, n2 = normal[c, 0], normal[c, 1], normal[c, 2]
+            for i in range(N):
+                for a in range(4):
+                    Z[i, a] = 0.0
+            for i in range(e + 1):
+                v0, v1, v2 = r[e, 0] - r[i, 0], r[e, 1] - r[i, 1], r[e, 2] - r[i, 2]
+                m0 = v1 * n2 - v2 * n1
+                m1 = v2 * n0 - v0 * n2
+                m2 = v0 * n1 - v1 * n0
+                for a in range(4):
+                    Z[i, a] = PRt[i, a, 0] * m0 + PRt[i, a, 1] * m1 + PRt[i, a, 2] * m2
+            for i in range(N):
+                for a in range(4):
+                    acc = 0.0
+                    for j in range(N):
+                        acc += G[i, j] * Z[j, a]
+                    J[4 * i + a, o + sz - 1] = -acc
+            if kinds[c] == 1:
+                t0, t1_, t2 = R[e, 0, 0], R[e, 1, 0], R[e, 2, 0]
+                hd0 = hess[c, 0, 0] * t0 + hess[c, 0, 1] * t1_ + hess[c, 0, 2] * t2
+                hd1 = hess[c, 1, 0] * t0 + hess[c, 1, 1] * t1_ + hess[c, 1, 2] * t2
+                hd2 = hess[c, 2, 0] * t0 + hess[c, 2, 1] * t1_ + hess[c, 2, 2] * t2
+            for j in range(N):
+                ge = G[e, j]
+                for b in range(4):
+                    J[o, 4 * j + b] = (n0 * D[j, 0, b] + n1 * D[j, 1, b] + n2 * D[j, 2, b]) * ge
+                    if kinds[c] == 1:
+                        val = (hd0 * D[j, 0, b] + hd1 * D[j, 1, b] + hd2 * D[j, 2, b]) * ge
+                        if j == e:
+                            val += n0 * D[j, 0, b] + n1 * D[j, 1, b] + n2 * D[j, 2, b]
+                        J[o + 1, 4 * j + b] = val
+        # the columns of the contact arc lengths: moving nodes and integration weights
+        shared = np.empty((N, 4))
+        for i in range(N):
+            dk0 = nu1 * dkinv[i] * mb[i, 0]
+            dk1 = dkinv[i] * mb[i, 1]
+            dk2 = dkinv[i] * mb[i, 2] + slope[i]
+            for a in range(4):
+                shared[i, a] = 0.5 * (Lv[i, a, 0] * dk0 + Lv[i, a, 1] * dk1 + Lv[i, a, 2] * dk2)
+        dr = np.empty((N, 3))
+        dM = np.empty((N, 3))
+        dg2 = np.empty((N, 4))
+        for c in range(k):
+            if kinds[c] != 1:
+                continue
+            o = offs[c]
+            # dr = dG D1, dG = T diag(dw_c)
+            for i in range(N):
+                a0 = 0.0
+                a1 = 0.0
+                a2 = 0.0
+                for j in range(N):
+                    t = T[i, j] * dw[c, j]
+                    a0 += t * R[j, 0, 0]
+                    a1 += t * R[j, 1, 0]
+                    a2 += t * R[j, 2, 0]
+                dr[i, 0], dr[i, 1], dr[i, 2] = a0, a1, a2
+            for i in range(N):
+                dM[i, 0], dM[i, 1], dM[i, 2] = 0.0, 0.0, 0.0
+            for cp in range(k):
+                e = ends[cp]
+                x0, x1, x2 = dr[e, 0], dr[e, 1], dr[e, 2]
+                f = fs[cp]
+                dF0 = f * (hess[cp, 0, 0] * x0 + hess[cp, 0, 1] * x1 + hess[cp, 0, 2] * x2)
+                dF1 = f * (hess[cp, 1, 0] * x0 + hess[cp, 1, 1] * x1 + hess[cp, 1, 2] * x2)
+                dF2 = f * (hess[cp, 2, 0] * x0 + hess[cp, 2, 1] * x1 + hess[cp, 2, 2] * x2)
+                for i in range(e + 1):
+                    _cross3(x0 - dr[i, 0], x1 - dr[i, 1], x2 - dr[i, 2],
+                            F[cp, 0], F[cp, 1], F[cp, 2], dM, i)
+                    _cross3(r[e, 0] - r[i, 0], r[e, 1] - r[i, 1], r[e, 2] - r[i, 2],
+                            dF0, dF1, dF2, dM, i)
+            for i in range(N):
+                for a in range(4):
+                    dg2[i, a] = (PRt[i, a, 0] * dM[i, 0] + PRt[i, a, 1] * dM[i, 1]
+                                 + PRt[i, a, 2] * dM[i, 2]) + shared[i, a] * ds[c, i]
+            for i in range(N):
+                for a in range(4):
+                    acc = 0.0
+                    for j in range(N):
+                        acc += T[i, j] * dw[c, j] * g[j, a] + G[i, j] * dg2[j, a]
+                    J[4 * i + a, o] = -acc
+            for cp in range(k):
+                e = ends[cp]
+                op = offs[cp]
+                x0, x1, x2 = dr[e, 0], dr[e, 1], dr[e, 2]
+                J[op, o] = normal[cp, 0] * x0 + normal[cp, 1] * x1 + normal[cp, 2] * x2
+                if kinds[cp] == 1:
+                    acc = 0.0
+                    for ax in range(3):
+                        acc += R[e, ax, 0] * (hess[cp, ax, 0] * x0 + hess[cp, ax, 1] * x1
+                                              + hess[cp, ax, 2] * x2)
+                    J[op + 1, o] = acc
+    if sensitivity:
+        for c in range(k):
+            e = ends[c]
+            o = offs[c]
+            for ax in range(3):
+                sens[o, ax] = normal[c, ax]
+            if kinds[c] == 1:
+                for ax in range(3):
+                    sens[o + 1, ax] = (hess[c, ax, 0] * R[e, 0, 0] + hess[c, ax, 1] * R[e, 1, 0]
+                                       + hess[c, ax, 2] * R[e, 2, 0])
+        PM = np.empty((N, 4, 3))
+        for i in range(N):
+            for a in range(4):
+                for col in range(3):
+                    PM[i, a, col] = (PRt[i, a, 0] * dMdp[i, 0, col]
+                                     + PRt[i, a, 1] * dMdp[i, 1, col]
+                                     + PRt[i, a, 2] * dMdp[i, 2, col])
+        for i in range(N):
+            for a in range(4):
+                for col in range(3):
+                    acc = 0.0
+                    for j in range(N):
+                        acc += G[i, j] * PM[j, a, col]
+                    sens[4 * i + a, col] = -acc
+                sens[4 * i + a, 3 + a] = -1.0
+    finite = jacobian
+    if jacobian:
+        for i in range(size):
+            for j in range(size):
+                if not math.isfinite(J[i, j]):
+                    finite = False
+    return res, J, sens, finite
+
+
+@_kernel
+def det_measure(lu, piv):
+    """
+    Return sign(det J) times the geometric mean of abs(U_ii), from getrf's (lu, piv).
+
+    Continuous in J and zero where J is singular (tracker._det_measure, the stability monitor).
+    """
+    n = piv.size
+    odd = 0
+    total = 0.0
+    for i in range(n):
+        if piv[i] != i:
+            odd += 1
+        d = lu[i, i]
+        if d < 0.0:
+            odd += 1
+        total += math.log(abs(d)) if d != 0.0 else -math.inf
+    sign = -1.0 if odd % 2 else 1.0
+    return sign * math.exp(total / n)
+
+
+@_kernel
+def parabola_tail(end, s, A, grid, table):
+    """
+    Return the unloaded offsets (m, 2) from ``end`` to the arc lengths ``s`` on the parabola.
+
+    In the (d1, d2) components of the frame at ``end``: RodShape.intrinsic_offset of a
+    parabolic whisker (its chord helper, with u from :func:`_parabola_u`).
+    """
+    ua = _parabola_u(np.array([end]), A, grid, table)[0]
+    ub = _parabola_u(s, A, grid, table)
+    root = math.sqrt(1.0 + ua * ua)
+    c, sn = 1.0 / root, ua / root
+    out = np.empty((s.size, 2))
+    for i in range(s.size):
+        dx = (ub[i] - ua) / (2.0 * A)
+        dy = (ub[i] * ub[i] - ua * ua) / (4.0 * A)
+        out[i, 0] = c * dx + sn * dy
+        out[i, 1] = -sn * dx + c * dy
+    return out
+
+
+@_kernel
+def sample(s, vec, n, breaks, w, r, sp, cheb):
+    """
+    Return the centerline (m, 3) at arc lengths ``s`` inside the segments (s <= the last break).
+
+    Each point is located in its segment (local coordinate x in [-1, 1], the node map inverted
+    as model._Layout.locate) and the segment's tangents are integrated from its first node by
+    the Chebyshev integration matrix ``cheb`` ((n + 1) x n, nodal values -> integral from -1).
+    """
+    k = breaks.size
+    m = s.size
+    out = np.empty((m, 3))
+    T = np.empty(n + 1)
+    for p in range(m):
+        x = s[p]
+        c = 0
+        while c < k and breaks[c] < x:
+            c += 1
+        if c > k - 1:
+            c = k - 1
+        a = 0.0 if c == 0 else breaks[c - 1]
+        b = breaks[c]
+        if sp <= 0.0:
+            tau = (x - a) / (b - a)
+        else:
+            tau = math.log((sp - x) / (sp - a)) / math.log((sp - b) / (sp - a))
+        z = min(max(2.0 * tau - 1.0, -1.0), 1.0)
+        T[0] = 1.0
+        T[1] = z
+        for d in range(2, n + 1):
+            T[d] = T[d - 1] * (2.0 * z) - T[d - 2]
+        a0 = 0.0
+        a1 = 0.0
+        a2 = 0.0
+        for j in range(n):
+            wj = 0.0
+            for d in range(n + 1):
+                wj += T[d] * cheb[d, j]
+            i = c * n + j
+            qw, qx, qy, qz = vec[4 * i], vec[4 * i + 1], vec[4 * i + 2], vec[4 * i + 3]
+            wj *= w[i]
+            a0 += wj * (qw * qw + qx * qx - qy * qy - qz * qz)
+            a1 += wj * 2.0 * (qx * qy + qw * qz)
+            a2 += wj * 2.0 * (qx * qz - qw * qy)
+        first = c * n
+        out[p, 0] = r[first, 0] + 0.5 * a0
+        out[p, 1] = r[first, 1] + 0.5 * a1
+        out[p, 2] = r[first, 2] + 0.5 * a2
+    return out
