@@ -93,10 +93,10 @@ def _placement(text: str):
     return tuple(_finite(p) for p in parts)
 
 
-def _foot(text: str):
+def _numbers(text: str):
     parts = text.split(",")
-    if len(parts) != 2 or not all(p.strip() for p in parts):
-        raise argparse.ArgumentTypeError(f"{text!r} is not X,Y (e.g. --whisk=-1.5,0)")
+    if not all(p.strip() for p in parts):
+        raise argparse.ArgumentTypeError(f"{text!r} is not a comma-separated list of numbers")
     return tuple(_finite(p) for p in parts)
 
 
@@ -229,12 +229,14 @@ def build_parser() -> argparse.ArgumentParser:
     )
     scan.add_argument(
         "--whisk",
-        type=_foot,
-        metavar="X,Y",
+        type=_numbers,
+        metavar="X,Y | FREQ,RET,PRO",
         help="whisk instead of sliding: the foot fixed at (X, Y), the heading sweeping from "
         "--from to --to by --step degrees (counter-clockwise from +x; 90 = the paper's set-up), "
         "and back with --back; written as --poses is (columns x,y,heading, heading in rad). Write "
-        "--whisk=-1.5,0 for a negative X",
+        "--whisk=-1.5,0 for a negative X. With --array: FREQ [Hz], RETRACTION and PROTRACTION "
+        "[deg], every whisker's protraction a cosine between them (fully retracted at t = 0), "
+        "e.g. --whisk=8,-20,20",
     )
     scan.add_argument(
         "--poses",
@@ -244,9 +246,40 @@ def build_parser() -> argparse.ArgumentParser:
         "x,y,z,qw,qx,qy,qz (base position, unit quaternion scalar first) make a 3D run",
     )
     scan.add_argument("--back", action="store_true", help="append the sweep back to --from")
-    scan.add_argument("--csv", required=True, help="output CSV ('-' for standard output)")
+    scan.add_argument("--csv", help="output CSV ('-' for standard output); required, except "
+                      "with --array (--out)")
     scan.add_argument("--events", help="output events JSON")
-    scan.add_argument("--plot", metavar="PNG", help="also draw the paper's figures of this scan")
+    scan.add_argument("--plot", metavar="PNG",
+                      help="also draw the paper's figures of this scan; with --array a PREFIX: "
+                      "PREFIX-3d.png, PREFIX-heatmap.png and PREFIX-rows.png")
+    arr = scan.add_argument_group(
+        "whisker arrays", "every whisker of an array file against a 3D scene in metres, SI "
+        "units: --array A.yaml --scene S.yaml (--poses P.csv | --whisk F,RET,PRO [--duration "
+        "S --rate HZ --head ... --velocity ...]) --out OUT.parquet|OUT.csv")
+    arr.add_argument("--array", metavar="ARRAY.yaml",
+                     help="a whisker array file (vibrissa array rat writes the rat's); the "
+                     "--scene file is then read in metres, and --poses has the head's columns "
+                     "t,x,y,z,qw,qx,qy,qz [s, m] with optional protraction or "
+                     "protraction_<WHISKER> columns [rad]")
+    arr.add_argument("--side", choices=("left", "right"),
+                     help="only this side's whiskers of the array (default: all)")
+    arr.add_argument("--duration", type=_positive, metavar="S",
+                     help="without --poses: the run's length [s] (default: one whisk period)")
+    arr.add_argument("--rate", type=_positive, metavar="HZ",
+                     help="without --poses: ticks per second [Hz] (default 1000)")
+    arr.add_argument("--head", type=_numbers, metavar="X,Y,Z[,YAW,PITCH,ROLL]",
+                     help="without --poses: the head's position [m] and orientation [deg] at "
+                     "t = 0 (yaw about z, then pitch about y, then roll about x); default the "
+                     "origin")
+    arr.add_argument("--velocity", type=_numbers, metavar="VX,VY,VZ",
+                     help="without --poses: the head moves at this velocity [m/s] (world "
+                     "frame), its orientation kept; default 0")
+    arr.add_argument("--out", metavar="OUT.parquet",
+                     help="the rows (one per whisker and tick): Parquet for *.parquet (needs "
+                     "pyarrow), else CSV ('-' for standard output)")
+    arr.add_argument("--plot-tick", type=_nonnegative, metavar="T",
+                     help="the time [s] whose whisker shapes --plot draws (default: the first "
+                     "tick with the most whiskers in contact)")
     scan.add_argument(
         "--small-png", action="store_true", help="write the figure with 256 colours (3x smaller)"
     )
@@ -494,7 +527,11 @@ def _cmd_batch(args) -> int:
         print(f"vibrissa batch: error: {args.study}: {exc}", file=sys.stderr)
         return 2
     if args.dry_run:
-        print(f"{args.study}: {len(study.tasks)} tasks, {study.poses} poses")
+        if hasattr(study, "whiskers"):  # an array study: rows of whiskers and ticks
+            print(f"{args.study}: {len(study.tasks)} tasks (array runs of {study.whiskers} "
+                  f"whiskers), {study.poses} rows")
+        else:
+            print(f"{args.study}: {len(study.tasks)} tasks, {study.poses} poses")
         return 0
     try:
         report = run_study(
@@ -568,6 +605,10 @@ def _scan_path(args):
             raise VibrissaError("give either --poses or --from/--to/--step [--back], not both")
         return None, read_poses_csv(args.poses)
     if args.whisk is not None:
+        if len(args.whisk) != 2:
+            raise VibrissaError(f"--whisk {','.join(f'{v:g}' for v in args.whisk)} is not X,Y "
+                                "(the foot's position, e.g. --whisk=-1.5,0); FREQ,RET,PRO is "
+                                "an array's whisk (--array)")
         if any(v is None for v in sweep):
             raise VibrissaError("--whisk X,Y needs the headings: --from, --to and --step [deg]")
         return None, list(whisk_poses(*args.whisk, args.x_from, args.x_to, args.step, args.back))
@@ -597,7 +638,23 @@ def _is_3d_run(args) -> bool:
         return False
 
 
+#: the options of an array run only
+_ARRAY_OPTIONS = ("side", "duration", "rate", "head", "velocity", "out", "plot_tick")
+
+
 def _cmd_scan(args) -> int:
+    if args.array is not None:
+        return _cmd_scan_array(args)
+    try:
+        given = [o for o in _ARRAY_OPTIONS if getattr(args, o) is not None]
+        if given:
+            raise VibrissaError(f"--{given[0].replace('_', '-')} applies to a whisker array's "
+                                "run (--array ARRAY.yaml)")
+        if args.csv is None:
+            raise VibrissaError("the following arguments are required: --csv")
+    except VibrissaError as exc:
+        print(f"vibrissa scan: error: {exc}", file=sys.stderr)
+        return 2
     three_d = _is_3d_run(args)
     try:
         if three_d and args.scene is None:
@@ -840,6 +897,135 @@ def _cmd_scan3d(args) -> int:
         figure = plot_scene_scan3d(scene, result.states, result.events, result.event_steps,
                                    title=title)
         figure.save(args.plot, small=args.small_png)
+    return 0
+
+
+def _check_array_options(args) -> None:
+    """Refuse what an array run does not take, saying why (one line)."""
+    if args.scene is None:
+        raise VibrissaError("--array needs --scene SCENE.yaml (the obstacles, in metres)")
+    if args.profile is not None or args.param or args.place != (0.0, 0.0, 0.0):
+        raise VibrissaError("--array takes its obstacles from --scene (no --profile, --param, "
+                            "--place)")
+    if args.model != "elastica" or args.spring_stiffness is not None or args.solver == "exact":
+        raise VibrissaError("--array runs the 3D whisker (no --model, --spring-stiffness, "
+                            "--solver exact)")
+    shaped = [o for o in ("taper", "curvature", "parabola", "poisson") if getattr(args, o)
+              is not None]
+    if shaped:
+        raise VibrissaError(f"--{shaped[0]}: the array file gives every whisker's shape")
+    if args.friction is not None:
+        raise VibrissaError("--friction: the 3D whisker is frictionless")
+    if args.contacts is not None:
+        raise VibrissaError("--contacts applies to a single whisker's scan; an array's rows "
+                            "have the contact nearest each base (--out)")
+    if any(v is not None for v in (args.x_from, args.x_to, args.step)) or args.back:
+        raise VibrissaError("--array moves the head along --poses or whisks (--whisk "
+                            "FREQ,RET,PRO); no --from/--to/--step/--back")
+    if args.csv is not None:
+        raise VibrissaError("--array writes its rows with --out OUT.parquet or OUT.csv (not "
+                            "--csv)")
+    if args.out is None:
+        raise VibrissaError("--array needs --out OUT.parquet (or OUT.csv, '-' for standard "
+                            "output)")
+    if args.poses is None and args.whisk is None and args.velocity is None:
+        raise VibrissaError("--array needs --poses P.csv (the head's path) and/or --whisk "
+                            "FREQ,RET,PRO (or the head's --velocity)")
+    if args.poses is None and args.whisk is None and args.duration is None:
+        raise VibrissaError("--velocity without --whisk needs --duration S")
+    if args.poses is not None:
+        timed = [o for o in ("duration", "rate", "head", "velocity")
+                 if getattr(args, o) is not None]
+        if timed:
+            raise VibrissaError(f"--{timed[0]}: --poses gives the ticks and the head's path")
+    if args.whisk is not None and len(args.whisk) != 3:
+        raise VibrissaError(f"--whisk {','.join(f'{v:g}' for v in args.whisk)} is not "
+                            "FREQ,RETRACTION,PROTRACTION ([Hz], [deg], [deg], e.g. "
+                            "--whisk=8,-20,20)")
+    if args.head is not None and len(args.head) not in (3, 6):
+        raise VibrissaError("--head is X,Y,Z [m] or X,Y,Z,YAW,PITCH,ROLL [m, deg]")
+    if args.velocity is not None and len(args.velocity) != 3:
+        raise VibrissaError("--velocity is VX,VY,VZ [m/s]")
+    if args.out.endswith(".parquet"):
+        try:
+            import pyarrow.parquet  # noqa: F401
+        except ImportError as exc:
+            raise VibrissaError(f"--out {args.out}: Parquet needs pyarrow ({exc}); pip install "
+                                "'vibrissa_ros[batch]', or write a .csv") from None
+
+
+def _cmd_scan_array(args) -> int:
+    """``vibrissa scan --array A.yaml --scene S.yaml``: every whisker of an array, SI units."""
+    from .core.arrays.whisking import CosineWhisk
+    from .scan.array_file import load_array
+    from .scan.array_scan import (head_pose, plan_array_scan, read_head_poses_csv, timed_path,
+                                  write_array_events_json, write_array_scan)
+    from .scan.scene_file import load_scene3d
+
+    try:
+        _check_array_options(args)
+        array = load_array(args.array)
+        if args.side is not None:
+            if not any(w.side == args.side for w in array):
+                raise VibrissaError(f"--side {args.side}: {args.array} has no whisker on that "
+                                    "side")
+            array = array.side(args.side)
+        scene = load_scene3d(args.scene)
+        whisk = None
+        if args.whisk is not None:
+            f, ret, pro = args.whisk
+            try:
+                whisk = CosineWhisk(f, math.radians(ret), math.radians(pro))
+            except VibrissaError as exc:
+                raise VibrissaError(f"--whisk {','.join(f'{v:g}' for v in args.whisk)}: {exc}"
+                                    ) from None
+        if args.poses is not None:
+            path = read_head_poses_csv(args.poses)
+        else:
+            head = head_pose(*((args.head[:3], *args.head[3:]) if args.head else ((0, 0, 0),)))
+            duration = args.duration if args.duration is not None else 1.0 / whisk.frequency
+            path = timed_path(duration, 1000.0 if args.rate is None else args.rate, head,
+                              args.velocity or (0.0, 0.0, 0.0))
+        plan = plan_array_scan(array, scene, path, whisk)
+    except VibrissaError as exc:
+        print(f"vibrissa scan: error: {exc}", file=sys.stderr)
+        return 2
+    shape_tick = None
+    if args.plot:
+        shape_tick = -1
+        if args.plot_tick is not None:
+            times = path.times
+            shape_tick = min(range(len(times)), key=lambda i: abs(times[i] - args.plot_tick))
+    result = plan.run(shape_tick=shape_tick)
+    try:
+        write_array_scan(result, args.out)
+        if args.events:
+            with open(args.events, "w") as stream:
+                write_array_events_json(result, stream)
+    except OSError as exc:
+        print(f"vibrissa scan: error: {exc.filename or args.out}: {exc.strerror or exc}",
+              file=sys.stderr)
+        return 2
+    touched = int(sum(s.in_contact for s in result.steps))
+    print(f"vibrissa scan: {len(array)} whiskers x {len(result.steps)} ticks, {touched} "
+          f"whisker-ticks in contact -> {args.out}", file=sys.stderr)
+    if result.errors:
+        first = next(e for s in result.steps for e in s.errors)
+        print(f"vibrissa scan: warning: {result.errors} whisker steps failed (the whisker kept "
+              f"its state; column error): first {first.whisker}: {first.message}",
+              file=sys.stderr)
+    if args.plot:
+        try:
+            from .scan.plots_array import plot_array_scan
+        except ImportError as exc:
+            print(f"vibrissa scan: error: --plot needs matplotlib ({exc}); pip install '.[plots]'",
+                  file=sys.stderr)
+            return 2
+        title = (f"{os.path.basename(args.array)}"
+                 f"{'' if args.side is None else ' (' + args.side + ')'} against "
+                 f"{os.path.basename(args.scene)} ({', '.join(scene.names)})")
+        for name, figure in plot_array_scan(scene, result, title=title).items():
+            figure.save(f"{args.plot}-{name}.png", small=args.small_png)
     return 0
 
 

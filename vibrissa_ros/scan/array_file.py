@@ -77,6 +77,32 @@ def load_array(path: Union[str, os.PathLike]) -> WhiskerArray:
         text = Path(path).read_text(encoding="utf-8")
     except OSError as exc:
         raise ParameterError(f"{label}: cannot be read: {exc.strerror or exc}") from None
+    return parse_array(text, label)
+
+
+def parse_array(text: str, label: str = "array text") -> WhiskerArray:
+    """
+    Read a whisker array from an array file's YAML text (as :func:`load_array` reads a file).
+
+    Parameters
+    ----------
+    text : str
+        The YAML text.
+    label : str, optional
+        What errors name first (e.g. the file it came from).
+
+    Returns
+    -------
+    WhiskerArray
+        The array (SI units, head frame).
+
+    Raises
+    ------
+    ParameterError
+        One line starting with ``label``, naming the whisker and the key; also when the text
+        is not valid YAML.
+
+    """
     try:
         data = yaml.safe_load(text)
     except yaml.YAMLError as exc:

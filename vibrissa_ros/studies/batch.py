@@ -26,7 +26,8 @@ from dataclasses import dataclass
 from typing import IO, List, Optional, Tuple
 
 from ..core.errors import VibrissaError
-from .dataset import Layout, StudyWriter, TaskFiles, encode, failure_tables, result_tables
+from .dataset import (Layout, StudyWriter, TaskFiles, encode, failure_tables, layout_of,
+                      result_tables)
 from .study import Study, Task
 
 #: how often Dask re-runs a task that raised an unexpected exception (not a VibrissaError)
@@ -78,6 +79,7 @@ def run_task(task: Task, layout: Layout) -> TaskFiles:
 
 def _client(workers: Optional[int], scheduler: Optional[str]):
     """Connect a Dask client to the cluster at ``scheduler``, or to a new embedded LocalCluster."""
+    import dask
     from distributed import Client, LocalCluster
 
     if scheduler:
@@ -87,9 +89,17 @@ def _client(workers: Optional[int], scheduler: Optional[str]):
         or (len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count())
         or 1
     )
-    cluster = LocalCluster(
-        n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0", silence_logs=40
-    )
+    # Dask's nannies start workers with MALLOC_TRIM_THRESHOLD_=65536; setting it fixes glibc's
+    # mmap threshold too, so every numpy array above 128 kB is mapped and unmapped: the 3D
+    # solver's steps then cost about twice the CPU time (measured on array studies). The
+    # embedded cluster's workers keep glibc's default (the other variables stay: one thread).
+    environ = dict(dask.config.get("distributed.nanny.pre-spawn-environ", {}) or {})
+    environ.pop("MALLOC_TRIM_THRESHOLD_", None)
+    with dask.config.set({"distributed.nanny.pre-spawn-environ": environ}):
+        cluster = LocalCluster(
+            n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0",
+            silence_logs=40
+        )
     return Client(cluster), cluster
 
 
@@ -140,7 +150,7 @@ def run_study(
     writer = StudyWriter.create(out, study)
     done = writer.done()
     todo = [t for t in study.tasks if t.index not in done]
-    layout = Layout.of(study)
+    layout = layout_of(study)
     failed = 0
     errors: List[Tuple[int, str]] = []
     computed = 0
@@ -162,12 +172,21 @@ def run_study(
     )
     earlier_failures = writer.failures()
     pending = iter(todo)
+    function, shared = run_task, {}
+    if getattr(layout, "kind", None) == "array":
+        from .array_study import run_array_task
+
+        # the array file's text goes to every worker once, not with every task
+        function = run_array_task
+        shared = dict(array_text=client.scatter(study.array_text, broadcast=True),
+                      array_label=study.array_path, side=study.side)
 
     def submit(n: int):
         tasks = list(itertools.islice(pending, n))
         keys = [f"vibrissa-task-{study.digest[:12]}-{t.index}" for t in tasks]
         return (
-            client.map(run_task, tasks, layout=layout, key=keys, retries=retries, pure=False)
+            client.map(function, tasks, layout=layout, key=keys, retries=retries, pure=False,
+                       **shared)
             if tasks
             else []
         )

@@ -133,9 +133,16 @@ def parameter_fields(layout: Layout) -> List[pa.Field]:
     return fields
 
 
+def layout_of(study):
+    """Return a study's layout: a :class:`Layout`, or an array study's ``ArrayLayout``."""
+    from .array_study import ArrayLayout, ArrayStudy
+
+    return ArrayLayout() if isinstance(study, ArrayStudy) else Layout.of(study)
+
+
 def schemas(study: Study) -> Dict[str, pa.Schema]:
     """Return the schema of each table of this study's dataset."""
-    return _schemas(Layout.of(study))
+    return layout_of(study).schemas
 
 
 @functools.lru_cache(maxsize=8)
@@ -442,7 +449,7 @@ def _write_text(path: str, text: str) -> None:
 
 
 def manifest(study: Study) -> dict:
-    return {
+    out = {
         "format": FORMAT,
         "vibrissa_ros": __version__,
         "study_sha256": study.digest,
@@ -450,9 +457,16 @@ def manifest(study: Study) -> dict:
         "seed": study.seed,
         "tables": {name: s.names for name, s in schemas(study).items()},
     }
+    if getattr(layout_of(study), "kind", None) == "array":
+        out["kind"] = "array"
+    return out
 
 
 def tasks_table(study: Study) -> pa.Table:
+    from .array_study import ArrayStudy, array_tasks_table
+
+    if isinstance(study, ArrayStudy):
+        return array_tasks_table(study)
     layout = Layout.of(study)
     schema = layout.schemas["tasks"]
     rows = [

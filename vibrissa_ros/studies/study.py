@@ -427,6 +427,10 @@ def parse_study(text: str, base_dir: Optional[str] = None, read_scenes: bool = T
     """
     Validate a study given as YAML text and expand it into its tasks.
 
+    A study of ``kind: array`` is an array study
+    (:func:`~vibrissa_ros.studies.array_study.parse_array_study`), returned as an
+    :class:`~vibrissa_ros.studies.array_study.ArrayStudy`.
+
     Parameters
     ----------
     text : str
@@ -434,12 +438,12 @@ def parse_study(text: str, base_dir: Optional[str] = None, read_scenes: bool = T
     base_dir : str, optional
         Where scene files are found relative to (default: the working directory).
     read_scenes : bool, optional
-        With False the scene files are not read (the tasks then carry no scene text): enough for
-        the dataset's columns, not to run the tasks.
+        With False the scene files (and an array study's array file) are not read (the tasks
+        then carry no scene text): enough for the dataset's columns, not to run the tasks.
 
     Returns
     -------
-    Study
+    Study or ArrayStudy
         The validated study, expanded into its tasks.
 
     Raises
@@ -459,6 +463,13 @@ def parse_study(text: str, base_dir: Optional[str] = None, read_scenes: bool = T
         raise StudyError(f"not a YAML study file{where}: {problem}") from None
     if not isinstance(doc, dict):
         raise StudyError("a study is a YAML mapping with the keys " + ", ".join(TOP_KEYS))
+    if "kind" in doc:
+        if doc["kind"] != "array":
+            raise StudyError(f"kind = {_show(doc['kind'])} is not allowed; kind is array (a "
+                             "whisker array's study), or left out (scans of one whisker)")
+        from .array_study import parse_array_study
+
+        return parse_array_study(doc, text, base_dir, read_scenes)
     _keys("study", doc, TOP_KEYS, required=("obstacles", "motion"))
     seed = _integer("seed", doc.get("seed", 0), minimum=0)
     if "description" in doc and not isinstance(doc["description"], str):
