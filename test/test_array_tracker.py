@@ -255,3 +255,20 @@ def test_whisking_in_the_air():
         assert np.abs(step.base_rotation - R).max() < 1e-15
     with pytest.raises(ParameterError, match="scene"):
         ArrayTracker(_subset(RIGHT, ("RA0",)), 3.0, HEAD)
+
+
+def test_a_snap_that_lands_where_it_left_is_an_error_not_a_loop():
+    """The left C0 whisker at the mirrored peg: its fold's only destination leads back to it."""
+    left = rat_array("left")
+    peg = Cylinder((-0.03, -0.016, 0.0), (0, 0, 1), 0.0015, "peg_left")
+    whisk = CosineWhisk(8.0)
+    tracker = ArrayTracker(_subset(left, ("LC0", "LD1")), Scene3D((peg,)), HEAD,
+                           whisk.angle(0.0))
+    errors = []
+    for k in range(1, 58):
+        step = tracker.step(HEAD, whisk.angle(k * 1e-3))
+        errors += [(k, e) for e in step.errors]
+        assert all(e.kind != "snap" or e.whisker != "LC0" for e in step.events[1:])
+    assert errors and all(e.whisker == "LC0" for _, e in errors)
+    assert "leads straight back to the lost one" in errors[0][1].message
+    assert step.contacts[step.index("LC0")] == 1  # it kept its state

@@ -498,6 +498,7 @@ class RodTracker:
     # -- the step -----------------------------------------------------------------------------
     def _step(self, target: BasePose) -> RodStepResult:
         path = _Path(self._pose, target)
+        self._last_snap = None
         start_pose, start_vec, start_modes = self._pose, self._vec, self._modes
         events: List[RodEvent] = []
         if path.speed == 0.0:
@@ -922,6 +923,15 @@ class RodTracker:
     def _snap(self, path, t, events, reason):
         """Find where the whisker goes when its equilibrium is lost at t, and go there."""
         self._fold_prev = None  # the tangent before the jump says nothing about the branch after
+        if self._last_snap is not None and self._last_snap[0] is path \
+                and abs(self._last_snap[1] - t) <= 1e-9:
+            # the last snap landed back where the branch is lost: a loop, not a destination
+            raise ConvergenceError(
+                f"the whisker snaps at base {tuple(round(v, 6) for v in path.pose(t).position)} "
+                f"({reason}) and the only equilibrium found to jump to leads straight back to "
+                "the lost one: no other stable equilibrium was found (the whisker may have to "
+                "pass to the obstacle's other side, which is not modelled)")
+        self._last_snap = (path, t)
         sol = self.solver
         pose = path.pose(t)
         before = len(self._modes)
