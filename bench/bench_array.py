@@ -12,8 +12,8 @@ ticks that meet 1 ms, the number of whiskers in contact per tick (its distributi
 of ticks by how many whiskers are in contact. Baseline in the same run, on the same ticks: every
 whisker's own :class:`RodTracker` stepped in a plain loop (no clearance test), the cost the array
 stepper is there to avoid. For the reference simulator, WHISKiT Physics needs about 15 ms of CPU
-per whisker per 1-ms sample on this kind of machine (/work/shared/reference/rat_array.md's
-figure; one side: about 0.45 s per tick).
+per whisker per 1-ms sample on this kind of machine (the figure of the reference sheet on the rat
+array; one side: about 0.45 s per tick).
 
 Run: OPENBLAS_NUM_THREADS=1 python bench/bench_array.py [--cycles 2] [--side right|both]
      [--baseline-ticks 250]

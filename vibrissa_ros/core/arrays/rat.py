@@ -1,11 +1,12 @@
 """
 The rat's mystacial pad from the published morphology (Belli et al. 2018, Towal et al. 2011).
 
-Sources (/work/shared/reference/rat_array.md gathers them): Belli, Bresee, Graff & Hartmann 2018,
-PLoS ONE 13:e0194981 (every parameter from the basepoint), as the lab's released code computes it
-(WHISKiT Physics, ``compute_parameters.m``); Towal et al. 2011, PLoS Comput Biol 7:e1001120
-(RatMap: arc length and curvature linear in row and column); Belli et al. 2017, J Neurophysiol
-117:1807 (base diameter); Quist et al. 2011 (Young's modulus), Quist & Hartmann 2012 (taper).
+Sources (the project's reference sheet on the rat array gathers them): Belli, Bresee, Graff &
+Hartmann 2018, PLoS ONE 13:e0194981 (every parameter from the basepoint), as the lab's released
+code computes it (WHISKiT Physics, ``compute_parameters.m``); Towal et al. 2011, PLoS Comput
+Biol 7:e1001120 (RatMap: arc length and curvature linear in row and column); Belli et al. 2017,
+J Neurophysiol 117:1807 (base diameter); Quist et al. 2011 (Young's modulus), Quist & Hartmann
+2012 (taper).
 
 Numbering. The equations use Belli numbering: row r = 1 (A) ... 5 (E) and column c with the Greek
 column = 1; a whisker's ``column`` here is the standard one (Greek = 0), so c = column + 1. With
