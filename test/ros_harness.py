@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Dict, List, Optional
 
 import rclpy
+import yaml
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PointStamped, PoseStamped, Vector3Stamped, WrenchStamped
 from nav_msgs.msg import Path as PathMsg
@@ -60,6 +61,20 @@ def colcon_build(workdir: Path, env: Dict[str, str]) -> Path:
     if proc.returncode != 0:
         raise RuntimeError(f"colcon build failed:\n{proc.stdout}\n{proc.stderr}")
     return workdir / "install"
+
+
+def read_params(path: Path, node: str = "/**") -> Dict[str, object]:
+    """Read a ROS 2 parameter file's values with dotted names (the inverse of write_params)."""
+    def flatten(tree, prefix=""):
+        out: Dict[str, object] = {}
+        for key, value in tree.items():
+            if isinstance(value, dict):
+                out.update(flatten(value, f"{prefix}{key}."))
+            else:
+                out[f"{prefix}{key}"] = value
+        return out
+
+    return flatten(yaml.safe_load(Path(path).read_text())[node]["ros__parameters"])
 
 
 def write_params(path: Path, values: Dict[str, object], node: str = "/**") -> Path:

@@ -10,10 +10,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 import rclpy
-import yaml
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseStamped
-from ros_harness import LATCHED, ROOT, start_installed_node, stop, write_params
+from ros_harness import LATCHED, ROOT, read_params, start_installed_node, stop, write_params
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState, PointCloud2
@@ -34,18 +33,8 @@ KEEP_ALL = QoSProfile(history=HistoryPolicy.KEEP_ALL, depth=1000,
 WRENCH = ("fx", "fy", "fz", "mx", "my", "mz")
 
 
-def _flatten(tree, prefix=""):
-    out = {}
-    for key, value in tree.items():
-        if isinstance(value, dict):
-            out.update(_flatten(value, f"{prefix}{key}."))
-        else:
-            out[f"{prefix}{key}"] = value
-    return out
-
-
 def _shipped():
-    return _flatten(yaml.safe_load(SHIPPED.read_text())["/**"]["ros__parameters"])
+    return read_params(SHIPPED)
 
 
 class ArrayProbe:

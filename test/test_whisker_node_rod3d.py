@@ -8,9 +8,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import yaml
 from geometry_msgs.msg import PoseStamped
-from ros_harness import ROOT, Probe, stamp_of, start_installed_node, stop, write_params
+from ros_harness import (
+    ROOT, Probe, read_params, stamp_of, start_installed_node, stop, write_params,
+)
 from visualization_msgs.msg import Marker
 
 from vibrissa_ros.core.rod3d import BasePose, RodTracker
@@ -26,19 +27,9 @@ VIBRISSA = str(Path(sys.executable).with_name("vibrissa"))
 PREFIX = "/rod3d/whisker_node"
 
 
-def _flatten(tree, prefix=""):
-    out = {}
-    for key, value in tree.items():
-        if isinstance(value, dict):
-            out.update(_flatten(value, f"{prefix}{key}."))
-        else:
-            out[f"{prefix}{key}"] = value
-    return out
-
-
 def _shipped_values():
     """Read the shipped parameter file's values, its package:// scene named by its source path."""
-    values = _flatten(yaml.safe_load(SHIPPED.read_text())["/**"]["ros__parameters"])
+    values = read_params(SHIPPED)
     assert values["model"] == "rod3d"
     assert values["obstacle.scene_file"] == "package://vibrissa_ros/config/scene_sphere_m.yaml"
     return dict(values, **{"obstacle.scene_file": str(SCENE_M)})

@@ -9,10 +9,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import yaml
 from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
 from rcl_interfaces.srv import SetParameters
-from ros_harness import ROOT, Probe, pose_msg, stamp_of, start_installed_node, stop, write_params
+from ros_harness import (
+    ROOT, Probe, pose_msg, read_params, stamp_of, start_installed_node, stop, write_params,
+)
 from visualization_msgs.msg import Marker
 
 from vibrissa_ros.core.scenes.tracker import SceneTracker
@@ -27,19 +28,9 @@ SCENE_M = ROOT / "config" / "scene_two_pegs_m.yaml"
 VIBRISSA = str(Path(sys.executable).with_name("vibrissa"))
 
 
-def _flatten(tree, prefix=""):
-    out = {}
-    for key, value in tree.items():
-        if isinstance(value, dict):
-            out.update(_flatten(value, f"{prefix}{key}."))
-        else:
-            out[f"{prefix}{key}"] = value
-    return out
-
-
 def _shipped_values():
     """Read the shipped parameter file's values, its package:// scene named by its source path."""
-    values = _flatten(yaml.safe_load(SHIPPED.read_text())["/**"]["ros__parameters"])
+    values = read_params(SHIPPED)
     assert values["obstacle.scene_file"] == "package://vibrissa_ros/config/scene_two_pegs_m.yaml"
     return dict(values, **{"obstacle.scene_file": str(SCENE_M)})
 
