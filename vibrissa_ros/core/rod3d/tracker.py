@@ -549,8 +549,9 @@ class RodTracker:
                                    certify, _FREE_SAMPLES, _FREE_HALF_SPACING)
 
     def _free_point(self, pose: BasePose, s: float) -> np.ndarray:
-        off = self.shape.free_centerline([s])[0]
-        return np.array(pose.position) + pose.rotation @ off
+        x, y = self.shape.free_point(s)
+        R = pose.rotation
+        return pose.p + x * R[:, 0] + y * R[:, 1]
 
     def _gap_of_points(self, pts, point_at, exact, skip, certify=False, samples=_SAMPLES,
                        half=_HALF_SPACING):
