@@ -67,6 +67,8 @@ _CHORD_ITERATIONS = 8
 _TOL = 1e-13
 #: Newton steps this small that no longer shrink are rounding noise
 _NOISE = 1e-12
+#: Newton gives up after this many iterations without a markedly shorter step
+_STALL = 5
 #: chord iterations stop here; the closing Newton step squares the error
 _CHORD_TOL = 1e-8
 #: the longest closing Newton step after a trusted guess (its error is ~C 1e-14)
@@ -961,6 +963,7 @@ class RodSolver:
                     last = size
                 last = math.inf
             newton = 0
+            shortest, since = math.inf, 0
             for it in range(it, max_iterations):
                 # at a converged chord solution this evaluation gives the Jacobian and the
                 # sensitivities there; its Newton step is one more (tiny) correction
@@ -985,6 +988,16 @@ class RodSolver:
                 newton += 1
                 if fail_fast and newton >= 3 and size > 0.9 * last:
                     raise ConvergenceError("3D whisker: Newton is not contracting")
+                # stalled: no step shorter than 0.9 times the shortest yet for _STALL iterations,
+                # from the (2 _STALL)-th on (past a fold Newton halves its steps for a while, then
+                # wanders at ~1e-7; at a singular solution it goes on halving them to convergence;
+                # from a far guess its first steps may grow before they shrink)
+                if size < 0.9 * shortest:
+                    shortest, since = size, 0
+                else:
+                    since += 1
+                    if since >= _STALL and newton >= 2 * _STALL and size > _NOISE:
+                        raise ConvergenceError("3D whisker: Newton has stalled")
                 converged = False
                 last = size
         except (ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
