@@ -8,8 +8,10 @@ against a vertical peg (radius 1.5 mm at x = 30 mm, y = -16 mm of the head frame
 image for the left side) that the whiskers of columns 0-2 hit during protraction.
 
 Printed per run: the tick time (median, p90, p99, max), ticks/s = 1 / median, the share of
-ticks that meet 1 ms, the number of whiskers in contact per tick (its distribution), and the time
-of ticks by how many whiskers are in contact. Baseline in the same run, on the same ticks: every
+ticks that meet 1 ms, the number of whiskers in contact per tick (its distribution), the time
+of ticks by how many whiskers are in contact, and the solver's work in evaluations (per tick, and
+the share of the ticks with a snap, touch or release): counts that compare exactly between runs
+on a busy machine, where times do not. Baseline in the same run, on the same ticks: every
 whisker's own :class:`RodTracker` stepped in a plain loop (no clearance test), the cost the array
 stepper is there to avoid. For the reference simulator, WHISKiT Physics needs about 15 ms of CPU
 per whisker per 1-ms sample on this kind of machine (the figure of the reference sheet on the rat
@@ -56,6 +58,11 @@ def _setup(side: str):
     return array, Scene3D(tuple(pegs)), whisk
 
 
+def _evaluations(tracker) -> int:
+    """Return the solver evaluations every whisker's tracker has spent so far."""
+    return sum(tracker.tracker(name).solver.evaluations for name in tracker.names)
+
+
 def _pct(values, q):
     return float(np.percentile(values, q)) * 1e3
 
@@ -66,17 +73,20 @@ def run(side: str, cycles: float, baseline_ticks: int, dt: float = 1e-3) -> None
     tracker = ArrayTracker(array, scene, HEAD, whisk.angle(0.0))
     setup = time.perf_counter() - t0
     ticks = int(round(cycles / whisk.frequency / dt))
-    times, contacts, solved, errors = [], [], [], 0
+    times, contacts, solved, errors, work, kinds = [], [], [], 0, [], []
     for k in range(1, ticks + 1):
+        before = _evaluations(tracker)
         t0 = time.perf_counter()
         step = tracker.step(HEAD, whisk.angle(k * dt))
         times.append(time.perf_counter() - t0)
+        work.append(_evaluations(tracker) - before)
+        kinds.append({e.kind for e in step.events})
         contacts.append(step.in_contact)
         solved.append(int(step.solved.sum()))
         errors += len(step.errors)
         for e in step.errors:
             print(f"   tick {k}: {e.whisker}: {e.message}")
-    times, contacts = np.array(times), np.array(contacts)
+    times, contacts, work = np.array(times), np.array(contacts), np.array(work)
     med = float(np.median(times))
     print(f"\n== {side} side(s): {len(array)} whiskers, {ticks} ticks of 1 ms "
           f"({cycles:g} whisk cycles at {whisk.frequency:g} Hz); set-up {setup:.2f} s")
@@ -91,6 +101,15 @@ def run(side: str, cycles: float, baseline_ticks: int, dt: float = 1e-3) -> None
         if m.any():
             print(f"   {c} in contact: {m.sum():4d} ticks, median {np.median(times[m]) * 1e3:.3f} "
                   f"ms, p99 {_pct(times[m], 99):.3f} ms")
+    # the solver's work: counts, not seconds, so runs on a busy machine compare exactly
+    print(f"   solver evaluations (a residual, with or without its Jacobian): {work.sum():,} in "
+          f"all, per tick median {np.median(work):.0f}, p99 {np.percentile(work, 99):.0f}")
+    for kind in ("snap", "touch", "release", "tip", "tangential", "reset"):
+        m = np.array([kind in ks for ks in kinds])
+        if m.any():
+            print(f"   ticks with a {kind}: {m.sum():3d}, {work[m].sum():,} evaluations "
+                  f"({work[m].sum() / work.sum():.0%}), {times[m].sum():.2f} s "
+                  f"({times[m].sum() / times.sum():.0%} of the time)")
     whiskit = WHISKIT_PER_WHISKER * len(array)
     print(f"   WHISKiT Physics (15 ms CPU per whisker per sample): {whiskit * 1e3:.0f} ms per "
           f"tick, {whiskit / med:,.0f}x this median")

@@ -57,7 +57,7 @@ from .shape import RodShape
 DEFAULT_SEGMENT_POINTS = 16
 #: the discretization error :func:`points_for` asks for on its probe load [L]
 POINTS_TOLERANCE = 1e-11
-_POINTS_LADDER = (16, 20, 24, 32, 40, 48)
+_POINTS_LADDER = (16, 20, 24, 28, 32, 36, 40, 48)
 _POINTS_REFERENCE = 64
 KINDS = ("side", "tip")
 _E3 = np.array([0.0, 0.0, 1.0])
