@@ -22,6 +22,7 @@ from vibrissa_ros.core.rod3d import (
     BasePose, Cylinder, Plane, Prism, RodContactMode, RodShape, RodSolver, RodTracker, Scene3D,
     Sphere,
 )
+from vibrissa_ros.core.rod3d.pose import quat_about
 from vibrissa_ros.core.scenes.scene import obstacle_from_dict
 from vibrissa_ros.core.scenes.tracker import SceneTracker
 from vibrissa_ros.scan.scene_file import load_scene
@@ -282,3 +283,36 @@ def test_planes_and_cylinders_hold_a_tip_and_a_side_contact():
             assert c.f >= -1e-12
     names = {c.name for c in tracker.state.contacts}
     assert "floor" in names
+
+
+@pytest.mark.parametrize("shape", [RodShape(), RodShape(taper=0.3, k0=0.8, k1=-0.4),
+                                   RodShape(taper=1 / 15, parabola=0.34),
+                                   RodShape(parabola=-1.5)])
+def test_the_touch_search_newton_minimum_equals_the_brent_search(shape):
+    # the free whisker's distance minimized over s near its nearest sample: Newton on
+    # d'(s) = n . t (RodTracker._refine with the whisker's geometry) against a bounded Brent
+    # search in s, for every kind of obstacle, the minimum inside the samples or at the tip
+    obstacles = [Sphere((0.6, 0.25, 0.1), 0.2), Cylinder((0.5, 0.0, 0.0), (0.3, 0.2, 1.0), 0.15),
+                 Plane((0.0, 0.0, -0.2), (0.2, 0.1, 1.0)),
+                 Prism(obstacle_from_dict({"type": "peg", "x": 0.7, "y": 0.3, "r": 0.1}, "peg"))]
+    tracker = RodTracker((), BasePose((0.0, 0.0, 0.0)), shape=shape)
+    rng = np.random.default_rng(3)
+    compared = 0
+    for ob in obstacles:
+        tracker.obstacles = (ob,)
+        for _ in range(12):
+            axis = rng.normal(size=3)
+            q = quat_about(axis / np.linalg.norm(axis), rng.uniform(-0.6, 0.6))
+            pose = BasePose(tuple(rng.uniform(-0.2, 0.2, 3)), tuple(q))
+            pts = pose.p + tracker._free_points @ pose.rotation.T
+            d = ob.signed_distance(pts)
+            j = int(np.argmin(d))
+            samples = np.linspace(0.0, 1.0, pts.shape[0])
+            newton = tracker._refine(ob, lambda s: tracker._free_point(pose, s), j, float(d[j]),
+                                     samples, lambda s: tracker._free_geometry(pose, s))
+            brent = tracker._refine(ob, lambda s: tracker._free_point(pose, s), j, float(d[j]),
+                                    samples)
+            assert newton[0] <= brent[0] + 1e-15
+            assert abs(newton[0] - brent[0]) <= 1e-14 and abs(newton[1] - brent[1]) <= 1e-6
+            compared += 1
+    assert compared == 48

@@ -427,6 +427,29 @@ class RodShape:
         off = self.intrinsic_offset(0.0, [s])[0]
         return float(off[0]), float(off[1])
 
+    def free_frame(self, s: float) -> Tuple[float, float, float, float]:
+        """
+        Return the unloaded whisker at one arc length in its base frame, in plain floats.
+
+        Parameters
+        ----------
+        s : float
+            Arc length [L].
+
+        Returns
+        -------
+        tuple of float
+            (x, y, phi, kappa0): the point [L], the slope against the base frame's +x [rad]
+            and the intrinsic curvature [1/L] there.
+
+        """
+        s = float(s)
+        x, y = self.free_point(s)
+        if self.parabola is not None:
+            u = self._u(s)
+            return x, y, math.atan(u), 2.0 * self.parabola / (1.0 + u * u) ** 1.5
+        return x, y, self.k0 * s + 0.5 * self.k1 * s * s, self.k0 + self.k1 * s
+
     def free_centerline(self, s) -> np.ndarray:
         """
         Return points of the unloaded whisker in its base frame, shape (m, 3).

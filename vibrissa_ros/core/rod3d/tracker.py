@@ -85,6 +85,9 @@ _TAIL_CUT = -1e-9
 _LINE_COSINE = 0.999
 #: a touch this near a prism's edge [L] is a touch of the edge
 _EDGE_NEAR = 1e-6
+#: Newton for the distance's minimum along the unloaded whisker: tolerance in s and iterations
+_MINIMUM_XTOL = 1e-13
+_MINIMUM_ITERATIONS = 12
 #: the reason of a snap at a fold of the branch
 _FOLDS = "the equilibrium branch folds (no solution beyond this pose)"
 #: a pose stream is extrapolated when its poses' fourth difference is below this part of a step
@@ -546,15 +549,24 @@ class RodTracker:
         """
         pts = np.array(pose.position) + self._free_points @ pose.rotation.T
         return self._gap_of_points(pts, lambda s: self._free_point(pose, s), exact, skip,
-                                   certify, _FREE_SAMPLES, _FREE_HALF_SPACING)
+                                   certify, _FREE_SAMPLES, _FREE_HALF_SPACING,
+                                   lambda s: self._free_geometry(pose, s))
 
     def _free_point(self, pose: BasePose, s: float) -> np.ndarray:
         x, y = self.shape.free_point(s)
         R = pose.rotation
         return pose.p + x * R[:, 0] + y * R[:, 1]
 
+    def _free_geometry(self, pose: BasePose, s: float):
+        """Return the unloaded whisker's point, unit tangent and its s-derivative at s (world)."""
+        x, y, phi, kappa = self.shape.free_frame(s)
+        R = pose.rotation
+        c, sn = math.cos(phi), math.sin(phi)
+        e1, e2 = R[:, 0], R[:, 1]
+        return (pose.p + x * e1 + y * e2, c * e1 + sn * e2, kappa * (c * e2 - sn * e1))
+
     def _gap_of_points(self, pts, point_at, exact, skip, certify=False, samples=_SAMPLES,
-                       half=_HALF_SPACING):
+                       half=_HALF_SPACING, geometry_at=None):
         best = (math.inf, -1, 0.0)
         for k, ob in enumerate(self.obstacles):
             if k in skip:
@@ -565,22 +577,33 @@ class RodTracker:
             if (dmin > _NEAR and not exact) or (certify and dmin - half > 0.0):
                 value, s = dmin - half, float(samples[j])
             else:
-                value, s = self._refine(ob, point_at, j, dmin, samples)
+                value, s = self._refine(ob, point_at, j, dmin, samples, geometry_at)
             if value < best[0]:
                 best = (value, k, s)
         return best
 
-    def _refine(self, ob, point_at, j, dmin, samples=_SAMPLES):
-        """Return the distance's minimum over s near sample j (bounded Brent in s)."""
+    def _refine(self, ob, point_at, j, dmin, samples=_SAMPLES, geometry_at=None):
+        """
+        Return the distance's minimum over s near sample j.
+
+        With ``geometry_at`` (s -> point, unit tangent and its s-derivative) Newton on
+        d'(s) = n . t, d''(s) = t . H t + n . t' from the sample (the obstacle's normal n and
+        distance Hessian H at the point), kept in the samples' bracket; a bounded Brent search
+        in s where it is not given or Newton does not settle there.
+        """
         lo = float(samples[max(j - 1, 0)])
         hi = float(samples[min(j + 1, samples.size - 1)])
 
         def d(s):
             return float(ob.signed_distance(point_at(s)[None, :])[0])
 
-        res = minimize_scalar(d, bounds=(lo, hi), method="bounded",
-                              options={"xatol": 1e-12, "maxiter": 200})
-        cands = [(dmin, float(samples[j])), (float(res.fun), float(res.x))]
+        found = None if geometry_at is None else _newton_minimum(ob, geometry_at,
+                                                                  float(samples[j]), lo, hi)
+        if found is None:
+            res = minimize_scalar(d, bounds=(lo, hi), method="bounded",
+                                  options={"xatol": 1e-12, "maxiter": 200})
+            found = float(res.x)
+        cands = [(dmin, float(samples[j])), (d(found), found)]
         for s_end in (lo, hi):
             cands.append((d(s_end), s_end))
         return min(cands)
@@ -1109,6 +1132,35 @@ class RodTracker:
         return RodState(self._pose, tuple(contacts), tuple(eq.force.tolist()),
                         tuple(eq.moment.tolist()), tuple(eq.tip.tolist()),
                         tuple(eq.tip_frame[:, 0].tolist()), eq)
+
+
+def _newton_minimum(ob, geometry_at, s: float, lo: float, hi: float) -> Optional[float]:
+    """
+    Return where the distance to ``ob`` along a curve is stationary in [lo, hi], or None.
+
+    Newton on d'(s) = 0 from s, each iterate a local minimum's (d'' > 0); a step out of the
+    bracket stops at its end, which is returned where d still falls toward it there (the
+    whisker's tip touching first, say). None where d'' <= 0, or Newton has not settled to
+    _MINIMUM_XTOL in _MINIMUM_ITERATIONS.
+    """
+    bound = None
+    for _ in range(_MINIMUM_ITERATIONS):
+        point, t, dt = geometry_at(s)
+        sp = ob.surface(point)
+        normal = np.asarray(sp.normal, dtype=float)
+        d1 = float(normal @ t)
+        if bound is not None and (d1 <= 0.0 if bound == hi else d1 >= 0.0):
+            return bound
+        d2 = float(t @ (np.asarray(sp.hessian, dtype=float) @ t)) + float(normal @ dt)
+        if not (d2 > 0.0 and math.isfinite(d1)):
+            return None
+        step = d1 / d2
+        s, bound = s - step, None
+        if s > hi or s < lo:
+            s = bound = hi if s > hi else lo
+        elif abs(step) <= _MINIMUM_XTOL:
+            return s
+    return None
 
 
 def _null_vector(lu) -> np.ndarray:
