@@ -257,18 +257,71 @@ def test_whisking_in_the_air():
         ArrayTracker(_subset(RIGHT, ("RA0",)), 3.0, HEAD)
 
 
-def test_a_snap_that_lands_where_it_left_is_an_error_not_a_loop():
-    """The left C0 whisker at the mirrored peg: its fold's only destination leads back to it."""
-    left = rat_array("left")
-    peg = Cylinder((-0.03, -0.016, 0.0), (0, 0, 1), 0.0015, "peg_left")
+def test_the_two_sides_whisk_as_mirror_images():
+    """Twins of the two pads against mirrored pegs feel mirrored loads, tick by tick."""
+    # the left C0 whisker's base quaternion (w >= 0 from its rotation matrix) changes sign at
+    # ticks 56 and 70; the tracker follows such a pose with the sign nearest the last one's (before, it
+    # could not reach the flipped target and called it a fold)
+    both = rat_array("both")
+    pegs = (Cylinder((0.03, -0.016, 0.0), (0, 0, 1), 0.0015, "peg_right"),
+            Cylinder((-0.03, -0.016, 0.0), (0, 0, 1), 0.0015, "peg_left"))
+    names = ("RC0", "RD1", "LC0", "LD1")
     whisk = CosineWhisk(8.0)
-    tracker = ArrayTracker(_subset(left, ("LC0", "LD1")), Scene3D((peg,)), HEAD,
-                           whisk.angle(0.0))
-    errors = []
-    for k in range(1, 58):
+    tracker = ArrayTracker(_subset(both, names), Scene3D(pegs), HEAD, whisk.angle(0.0))
+    flip = np.diag((1.0, 1.0, -1.0))  # a left base frame is its right twin's mirror, z flipped
+    flips, events = [], []
+    last = tracker.whisker_poses(HEAD, whisk.angle(0.0))[2].q
+    for k in range(1, 90):
+        q = tracker.whisker_poses(HEAD, whisk.angle(k * 1e-3))[2].q
+        if q @ last < 0.0:
+            flips.append(k)
+        last = q
         step = tracker.step(HEAD, whisk.angle(k * 1e-3))
-        errors += [(k, e) for e in step.errors]
-        assert all(e.kind != "snap" or e.whisker != "LC0" for e in step.events[1:])
-    assert errors and all(e.whisker == "LC0" for _, e in errors)
-    assert "leads straight back to the lost one" in errors[0][1].message
-    assert step.contacts[step.index("LC0")] == 1  # it kept its state
+        assert not step.errors
+        events += [(k, e.whisker[1:], e.kind) for e in step.events]
+        for right, left in ((0, 2), (1, 3)):
+            scale = max(np.abs(step.force_base[right]).max(), 1e-9)
+            assert np.abs(flip @ step.force_base[right] - step.force_base[left]).max() <= (
+                1e-9 * scale)
+            assert np.abs(-flip @ step.moment_base[right] - step.moment_base[left]).max() <= (
+                1e-9 * max(np.abs(step.moment_base[right]).max(), 1e-12))
+    assert flips == [56, 70]  # its quaternion changes sign twice on the way, in contact
+    assert [e for e in events if e[1] == "C0"][:2] == [(46, "C0", "touch")] * 2
+    assert sorted(events) == sorted(events[0::2] + events[1::2])  # every event twice
+
+
+def test_a_snap_that_lands_where_it_left_is_an_error_not_a_loop():
+    """A fold whose only destination is the lost equilibrium itself: an error, not a loop."""
+    # the right D1 whisker slips off the peg at tick 44; here the unloaded whisker is made to cut
+    # the peg (no free landing) and the swing-in to land back on the lost equilibrium: the step
+    # fails (ConvergenceError), and the whisker, clear of the peg at the tick's pose, is re-placed
+    # there (RodTracker's recover)
+    whisk = CosineWhisk(8.0)
+    tracker = ArrayTracker(_subset(RIGHT, ("RD1", "RC1")), Scene3D((PEG,)), HEAD,
+                           whisk.angle(0.0))
+    single = tracker.tracker("RD1")
+    real_snap = RodTracker._snap
+
+    def snap(self, *args, **kwargs):
+        if self is not single:
+            return real_snap(self, *args, **kwargs)
+        self._free_gap = lambda *a, **k: (-1.0, 0, 0.5)
+        self._swing_in = lambda pose: (self._modes, self._solved)
+        try:
+            return real_snap(self, *args, **kwargs)
+        finally:
+            del self._free_gap, self._swing_in
+
+    RodTracker._snap = snap
+    try:
+        events = []
+        for k in range(1, 46):
+            step = tracker.step(HEAD, whisk.angle(k * 1e-3))
+            assert not step.errors
+            events += [(k, e) for e in step.events if e.whisker == "RD1"]
+    finally:
+        RodTracker._snap = real_snap
+    k, reset = events[-1]
+    assert k == 44 and reset.kind == "reset" and reset.contacts_before == 1
+    assert "leads straight back to the lost one" in reset.reason
+    assert step.contacts[step.index("RD1")] == 0

@@ -316,3 +316,27 @@ def test_the_touch_search_newton_minimum_equals_the_brent_search(shape):
             assert abs(newton[0] - brent[0]) <= 1e-14 and abs(newton[1] - brent[1]) <= 1e-6
             compared += 1
     assert compared == 48
+
+
+def test_a_pose_given_with_the_other_quaternion_sign_is_the_same_pose():
+    # q and -q are the same rotation: a stream that flips the sign (a rotation matrix's
+    # quaternion taken with w >= 0 as w crosses 0) must not change the whisker's state
+    shape = RodShape(taper=0.4, parabola=0.5)
+    ball = Sphere((0.55, 0.35, 0.1), 0.12, "ball")
+    q0 = np.array([math.cos(0.3), math.sin(0.3), 0.0, 0.0])
+    plain = RodTracker([ball], BasePose((0.0, -0.3, 0.0), tuple(q0)), shape=shape)
+    flipping = RodTracker([ball], BasePose((0.0, -0.3, 0.0), tuple(q0)), shape=shape)
+    in_contact = 0
+    for k, y in enumerate(np.linspace(-0.3, 0.3, 41)[1:]):
+        pose = BasePose((0.0, float(y), 0.0), tuple(q0))
+        given = BasePose(pose.position, tuple(-q0)) if k % 3 else pose
+        a, b = plain.step(pose), flipping.step(given)
+        assert [e.kind for e in b.events] == [e.kind for e in a.events]
+        a = a.state
+        assert b.state.pose == given and flipping.pose == given
+        assert np.allclose(a.force, b.state.force, rtol=0, atol=1e-12)
+        assert np.allclose(a.moment, b.state.moment, rtol=0, atol=1e-12)
+        assert np.allclose(a.tip, b.state.tip, rtol=0, atol=1e-12)
+        assert np.allclose(a.centerline(21), b.state.centerline(21), rtol=0, atol=1e-12)
+        in_contact += bool(a.contacts)
+    assert in_contact >= 10

@@ -37,7 +37,7 @@ Every loop is bounded; all draw on one budget of solver evaluations per step
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, List, Optional, Sequence, Tuple
 
 import numpy as np
@@ -405,8 +405,8 @@ class RodTracker:
 
     @property
     def pose(self) -> BasePose:
-        """Return the current base pose."""
-        return self._pose
+        """Return the current base pose (as it was given)."""
+        return self._state.pose
 
     # -- the public step ----------------------------------------------------------------------
     def step(self, pose: BasePose) -> RodStepResult:
@@ -433,18 +433,29 @@ class RodTracker:
             is re-placed instead, and the result has one event ``reset``.
 
         """
-        target = _as_pose(pose)
+        given = _as_pose(pose)
+        # q and -q are the same rotation; the unknowns follow the sign of the base quaternion,
+        # so the path is followed with the sign nearest the last pose's (a pose stream may flip
+        # it, e.g. a rotation matrix's quaternion with w >= 0 as w crosses 0) and the state
+        # reports the pose as it was given
+        target = given
+        if float(np.dot(given.q, self._pose.q)) < 0.0:
+            target = BasePose(given.position, tuple(-v for v in given.quaternion))
         self._start = self.solver.evaluations
         saved = (self._pose, self._modes, self._vec, self._solved, self._sign, self._state)
         try:
-            return self._step_checked(target)
+            result = self._step_checked(target)
+            if target is not given:
+                self._state = replace(self._state, pose=given)
+                result = replace(result, state=self._state)
+            return result
         except (ModelAssumptionError, ConvergenceError) as exc:
             (self._pose, self._modes, self._vec, self._solved, self._sign, self._state) = saved
             if not self.recover:
                 raise
             spent = self.solver.evaluations - self._start
             try:
-                result = self.reset(target, reason=str(exc))
+                result = self.reset(given, reason=str(exc))
             except InvalidPoseError:
                 raise exc from None
             return RodStepResult(result.state, result.events, 0, spent + result.evaluations)
@@ -475,7 +486,7 @@ class RodTracker:
             The unloaded whisker would cut an obstacle at ``pose`` (the state is kept).
 
         """
-        target = self._pose if pose is None else _as_pose(pose)
+        target = self._state.pose if pose is None else _as_pose(pose)
         before = len(self._modes)
         self._check_placeable(target, "the reset pose")
         self._place(target)
