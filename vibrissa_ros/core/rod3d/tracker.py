@@ -667,13 +667,14 @@ class RodTracker:
     def _accept(self, solved, pose):
         self._solved, self._vec, self._pose = solved, solved.vec, pose
 
-    def _solve_at(self, path, t, t_new, solved):
+    def _solve_at(self, path, t, t_new, solved, exact=True):
+        """Solve at t_new from the solution at t (``exact``: the Jacobian at the solution)."""
         pose = path.pose(t)
         tan = self.solver.tangent(solved, path.rate(pose))
         guess = solved.vec + (t_new - t) * tan
         pose_new = path.pose(t_new)
         return self.solver.solve(self._modes, pose_new, guess, start=solved, max_step=0.5,
-                                 exact_jacobian=True)
+                                 exact_jacobian=exact)
 
     def _event_values(self, path, t, vec, lu):
         """Named inequality values (>= 0 admissible) of the configuration at (t, vec)."""
@@ -862,13 +863,17 @@ class RodTracker:
     def _first_event(self, path, t_a, t_b, crossed, events) -> float:
         solved_a = self._solved
         cache = {}
+        # the determinant's zero is located to rounding only with the Jacobian at the solution
+        # itself; the other events are values of the solution (and the Jacobian of its last
+        # Newton step is as fresh as every accepted solution's)
+        exact = any(key[0] == "stable" for key in crossed)
 
         def solution(tau):
             if tau not in cache:
                 if tau == t_a:
                     cache[tau] = solved_a
                 else:
-                    cache[tau] = self._solve_at(path, t_a, tau, solved_a)
+                    cache[tau] = self._solve_at(path, t_a, tau, solved_a, exact)
             return cache[tau]
 
         best = None
