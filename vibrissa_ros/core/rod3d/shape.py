@@ -444,10 +444,11 @@ class RodShape:
 
         """
         s = float(s)
-        x, y = self.free_point(s)
         if self.parabola is not None:
+            a = self.parabola
             u = self._u(s)
-            return x, y, math.atan(u), 2.0 * self.parabola / (1.0 + u * u) ** 1.5
+            return u / (2.0 * a), u * u / (4.0 * a), math.atan(u), 2.0 * a / (1.0 + u * u) ** 1.5
+        x, y = self.free_point(s)
         return x, y, self.k0 * s + 0.5 * self.k1 * s * s, self.k0 + self.k1 * s
 
     def free_centerline(self, s) -> np.ndarray:
