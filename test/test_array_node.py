@@ -1,5 +1,6 @@
 """Launch-free integration tests of array_node (the rat's right whisker pad), over real DDS."""
 
+from collections import Counter
 import json
 import math
 import subprocess
@@ -21,7 +22,7 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from vibrissa_ros.core.arrays import ArrayTracker
 from vibrissa_ros.core.rod3d import BasePose
-from vibrissa_ros.logs.tools import resimulate
+from vibrissa_ros.logs.tools import log_info, resimulate
 from vibrissa_ros.node.array import build_array_config, output_rows
 from vibrissa_ros.node.edge import header_ns, set_stamp
 from vibrissa_ros.ros.array_messages import decode_cloud
@@ -250,6 +251,23 @@ def test_the_external_run_is_reproduced_by_resim(external):
     assert sim.dropped == {"joint_names": 1, "joint_lengths": 1, "not_finite": 1,
                            "quaternion_not_unit": 1, "wrong_frame_id": 1}
     assert sim.compared["wrenches.fx"] >= 30 * len(external["inputs"])
+
+
+def test_vibrissa_info_summarizes_an_array_log(external):
+    info = log_info(str(external["log"]))
+    kinds = Counter(e["kind"] for e in info.events)
+    assert kinds["touch"] >= 3 and all(set(e) == {"whisker", "kind", "obstacle", "s",
+                                                  "contacts_before", "contacts_after", "reason"}
+                                       for e in info.events)
+    proc = subprocess.run([VIBRISSA, "info", str(external["log"])], capture_output=True,
+                          text=True, timeout=120)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    out = proc.stdout
+    assert "/ext/array_node/wrenches" in out and f"events:    {len(info.events)}" in out
+    assert f"touch {kinds['touch']}" in out.splitlines()[out.splitlines().index(
+        f"events:    {len(info.events)}") + 1]
+    for name in {e["whisker"] for e in info.events}:
+        assert any(line.split()[:1] == [name] for line in out.splitlines())
 
 
 def test_builtin_whisk_skips_ticks_in_real_time_and_resim_reproduces_it(

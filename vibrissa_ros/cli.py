@@ -328,7 +328,8 @@ def build_parser() -> argparse.ArgumentParser:
         help="what a recorded log holds: topics, counts, duration, configuration, "
         "phases and events",
     )
-    info.add_argument("log", help="an MCAP log written by whisker_node (record.path)")
+    info.add_argument("log", help="an MCAP log written by whisker_node or array_node "
+                      "(record.path)")
     info.set_defaults(func=_cmd_info)
 
     replay = sub.add_parser(
@@ -1104,6 +1105,27 @@ def _log_tool(verb: str, action) -> int:
         return 1
 
 
+def _print_array_events(events, first: int = 20) -> None:
+    """Print array_node's events: counts per kind and per whisker, then the first ones."""
+    kinds: Dict[str, int] = {}
+    per: Dict[str, Dict[str, int]] = {}
+    for e in events:
+        kinds[e["kind"]] = kinds.get(e["kind"], 0) + 1
+        row = per.setdefault(e["whisker"], {})
+        row[e["kind"]] = row.get(e["kind"], 0) + 1
+    print("  by kind:    " + ", ".join(f"{k} {n}" for k, n in sorted(kinds.items())))
+    for name, row in per.items():
+        print(f"  {name:<10}  " + ", ".join(f"{k} {n}" for k, n in sorted(row.items())))
+    for e in events[:first]:
+        where = "" if e.get("s") is None else f" at s = {e['s']:.6g} m"
+        on = "" if e.get("obstacle") is None else f" on {e['obstacle']}"
+        reason = f" ({e['reason']})" if e.get("reason") else ""
+        print(f"  {e['kind']:<8} {e['whisker']}{on}{where}, contacts "
+              f"{e['contacts_before']} -> {e['contacts_after']}{reason}")
+    if len(events) > first:
+        print(f"  ... and {len(events) - first} more")
+
+
 def _cmd_info(args) -> int:
     def run():
         from .logs.tools import log_info
@@ -1124,6 +1146,9 @@ def _cmd_info(args) -> int:
         phases = ", ".join(f"phase {p}: {n}" for p, n in info.phases.items()) or "none recorded"
         print(f"phases:    {phases}")
         print(f"events:    {len(info.events)}")
+        if info.events and "whisker" in info.events[0]:  # array_node's: counted per whisker
+            _print_array_events(info.events)
+            return 0
         for e in info.events:
             what = (f"{e['from_phase']} -> {e['to_phase']}" if "from_phase" in e
                     else f"{e['contact']} on obstacle {e['obstacle']}")  # a scene's event

@@ -97,18 +97,23 @@ def log_info(path: str) -> LogInfo:
     }
     phases: Counter = Counter()
     events = []
+    recorded = configurations(metadata)
+    array = bool(recorded) and is_array_log(recorded[0][1])
     for m in messages:
         if m.topic.endswith("/phase"):
             phases[decode(m).data] += 1
         elif m.topic.endswith("/events"):
-            # the payload's fields (a scene's event has no phases, a profile's no obstacle)
-            events.append(json.loads(encode_event(decode_event(decode(m).data))))
+            if array:  # array_node's: whisker, kind, obstacle, s, contacts before and after
+                events.append(json.loads(decode(m).data))
+            else:
+                # the payload's fields (a scene's event has no phases, a profile's no obstacle)
+                events.append(json.loads(encode_event(decode_event(decode(m).data))))
     times = [m.log_time for m in messages] or [0]
     return LogInfo(
         topics={t: (types.get(t, ""), counts.get(t, 0)) for t in sorted(types)},
         start_ns=min(times),
         end_ns=max(times),
-        configurations=configurations(metadata),
+        configurations=recorded,
         phases=dict(sorted(phases.items())),
         events=events,
     )
