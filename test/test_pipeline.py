@@ -12,7 +12,9 @@ from vibrissa_ros.core.rod3d.pose import quat_about, quat_matrix, quat_multiply
 from vibrissa_ros.node.edge import (BadInput, decode_event, encode_event, event_record,
                                     sensor_reading, yaw_quaternion)
 from vibrissa_ros.node.config import build_config
-from vibrissa_ros.node.pipeline import DROP_REASONS, PosePipeline, PoseStats, drop_reason
+from vibrissa_ros.node.pipeline import (
+    DROP_REASONS, PosePipeline, PoseStats, drop_reason, interrupted,
+)
 
 HALF_PI = math.pi / 2
 CATENARY = {"obstacle.type": "catenary", "obstacle.c": 0.06, "obstacle.apex_y": 0.05}
@@ -198,3 +200,26 @@ def test_rod3d_reset_on_request_and_its_event_payload():
     assert (record.x, record.y, record.z) == pytest.approx((0.001, -0.002, 0.0005), rel=1e-12)
     assert record.orientation == pytest.approx((q[1], q[2], q[3], q[0]), abs=1e-15)
     assert record.yaw == pytest.approx(0.2, rel=1e-12) and record.contact is None
+
+
+def test_a_ctrl_c_inside_a_compiled_kernel_stops_the_node_rather_than_dropping_a_pose():
+    # numba hands a KeyboardInterrupt that arrived during a kernel back as a SystemError caused
+    # by it (seen when array_node was stopped with SIGINT mid-tick): the nodes stop on it
+    def kernel_interrupted():
+        try:
+            raise KeyboardInterrupt
+        except KeyboardInterrupt as ctrl_c:
+            raise SystemError("CPUDispatcher(<function equations>) returned a result with an "
+                              "exception set") from ctrl_c
+
+    with pytest.raises(SystemError) as caught:
+        kernel_interrupted()
+    assert interrupted(caught.value) and drop_reason(caught.value) == "internal_error"
+    try:
+        try:
+            1 / 0
+        except ZeroDivisionError:
+            raise ValueError("a bug in the core")
+    except ValueError as exc:
+        assert not interrupted(exc)
+    assert interrupted(KeyboardInterrupt()) and not interrupted(RuntimeError())

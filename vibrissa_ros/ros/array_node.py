@@ -43,7 +43,7 @@ from ..node.array import (
     output_rows,
 )
 from ..node.edge import BadInput
-from ..node.pipeline import drop_reason
+from ..node.pipeline import drop_reason, interrupted
 from . import array_messages as am
 from . import messages as m
 from .params import NodeParameters
@@ -235,6 +235,8 @@ class ArrayNode(Node):
         try:
             step = self._pipeline.tick()
         except Exception as exc:  # noqa: BLE001 - nothing from the core may kill the node
+            if interrupted(exc):  # Ctrl-C inside a compiled kernel: stop, as on any other
+                raise KeyboardInterrupt from exc
             self._drop("tick", exc)
             return
         rows = output_rows(step, self._scene)

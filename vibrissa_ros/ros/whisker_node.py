@@ -33,7 +33,7 @@ from ..core.rod3d.model import warm_up
 from ..node.edge import contact_records, event_record, header_ns, rod_phase
 from ..logs.mcap_log import LogError
 from ..node.config import PARAMETERS, WhiskerConfig, build_config
-from ..node.pipeline import PosePipeline, PoseStats, drop_reason
+from ..node.pipeline import PosePipeline, PoseStats, drop_reason, interrupted
 from . import cdr
 from . import messages as m
 from .backlog import PoseBacklog
@@ -207,6 +207,8 @@ class WhiskerNode(Node):
             state, events = self._pipeline.handle(msg.header.frame_id, header_ns(msg),
                                                   (p.x, p.y, p.z), (q.x, q.y, q.z, q.w))
         except Exception as exc:  # noqa: BLE001 - nothing from the core may kill the node
+            if interrupted(exc):  # Ctrl-C inside a compiled kernel: stop, as on any other
+                raise KeyboardInterrupt from exc
             self._drop(drop_reason(exc), f"{type(exc).__name__}: {exc}")
             return
         self._stats.accepted(time.perf_counter_ns() - t0, events)
