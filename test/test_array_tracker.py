@@ -325,3 +325,22 @@ def test_a_snap_that_lands_where_it_left_is_an_error_not_a_loop():
     assert k == 44 and reset.kind == "reset" and reset.contacts_before == 1
     assert "leads straight back to the lost one" in reset.reason
     assert step.contacts[step.index("RD1")] == 0
+
+
+def test_a_trial_step_on_the_unstable_sibling_branch_is_not_a_loss_of_stability():
+    """Short of a fold, Newton may land on the unstable branch: a shorter sub-step, no event."""
+    # the right B2 whisker's tip slides off the peg every whisk cycle; at tick 33114 of the
+    # built-in whisk (8 Hz, 1 kHz) a trial sub-step within 1e-12 of the fold converged to the
+    # unstable sibling of the tip contact's branch: the determinant's sign changed, no event could
+    # be located between the two branches and the whisker was reset (twice in a 60-s recording).
+    # A free whisker has no history, so the replay from a free pose before the touch is exact
+    whisk = CosineWhisk(8.0)
+    tracker = ArrayTracker(_subset(RIGHT, ("RB2",)), Scene3D((PEG,)), HEAD,
+                           whisk.angle(33084 / 1000.0))
+    events = []
+    for k in range(33085, 33117):
+        step = tracker.step(HEAD, whisk.angle(k / 1000.0))
+        assert not step.errors
+        events += [(k, e.kind, e.reason) for e in step.events]
+    assert [e[:2] for e in events] == [(33105, "touch"), (33114, "snap")]
+    assert events[1][2] == "the equilibrium branch folds (no solution beyond this pose)"

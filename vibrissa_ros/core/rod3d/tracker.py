@@ -762,6 +762,17 @@ class RodTracker:
         if not crossed:
             self._accept(solved, path.pose(t_new))
             return t_new, min(1.0, 2.0 * dt)
+        if ("stable", -1) in crossed:
+            # short of a fold the stable branch and its unstable sibling, v_f +- a sqrt(t_f - t),
+            # lie close together and Newton may land on the sibling: the determinant's sign
+            # changes, but the tangent there points back (a loss of stability on one branch keeps
+            # its direction). Not an event: a shorter sub-step, as for a failed trial step
+            back = -sol.tangent(solved, path.rate(path.pose(t_new)))
+            if float(back @ tan) > 0.0:
+                if dt * 0.25 < _H_MIN:
+                    self._snap(path, t, events, _FOLDS)
+                    return t, 1.0
+                return t, 0.25 * dt
         return self._first_event(path, t, t_new, crossed, events), 1.0
 
     def _fold_limit(self, path: _Path, t: float, tan: np.ndarray, dt: float):
