@@ -260,8 +260,8 @@ def test_whisking_in_the_air():
 def test_the_two_sides_whisk_as_mirror_images():
     """Twins of the two pads against mirrored pegs feel mirrored loads, tick by tick."""
     # the left C0 whisker's base quaternion (w >= 0 from its rotation matrix) changes sign at
-    # ticks 56 and 70; the tracker follows such a pose with the sign nearest the last one's (before, it
-    # could not reach the flipped target and called it a fold)
+    # ticks 56 and 70; the tracker follows such a pose with the sign nearest the last one's
+    # (before, it could not reach the flipped target and called it a fold)
     both = rat_array("both")
     pegs = (Cylinder((0.03, -0.016, 0.0), (0, 0, 1), 0.0015, "peg_right"),
             Cylinder((-0.03, -0.016, 0.0), (0, 0, 1), 0.0015, "peg_left"))

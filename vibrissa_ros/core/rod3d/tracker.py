@@ -405,7 +405,7 @@ class RodTracker:
 
     @property
     def pose(self) -> BasePose:
-        """Return the current base pose (as it was given)."""
+        """Return the current base pose, as it was given."""
         return self._state.pose
 
     # -- the public step ----------------------------------------------------------------------
@@ -608,8 +608,9 @@ class RodTracker:
         def d(s):
             return float(ob.signed_distance(point_at(s)[None, :])[0])
 
-        found = None if geometry_at is None else _newton_minimum(ob, geometry_at,
-                                                                  float(samples[j]), lo, hi)
+        found = None
+        if geometry_at is not None:
+            found = _newton_minimum(ob, geometry_at, float(samples[j]), lo, hi)
         if found is None:
             res = minimize_scalar(d, bounds=(lo, hi), method="bounded",
                                   options={"xatol": 1e-12, "maxiter": 200})
