@@ -167,14 +167,8 @@ class _MomentFit:
         return np.concatenate((self._solved[s], [s, 0.0]))
 
     def _guess(self, s: float) -> np.ndarray:
-        """Return a guess at the nodes of [0, s]: the nearest solution (continued) or the shot."""
-        if self._solved:
-            near = min(self._solved, key=lambda t: abs(t - s))
-            full = self._full(near)
-            field = lambda x: self.solver.quaternions(_MODES, full, self.pose, x)  # noqa: E731
-        else:
-            field = self._start
-        return self.solver.guess(_MODES, [s], [0.0], field)[:-2]
+        """Return a guess at the nodes of [0, s]: the shot from the base, the reading's branch."""
+        return self.solver.guess(_MODES, [s], [0.0], self._start)[:-2]
 
     def solve(self, s: float) -> np.ndarray:
         """Return the quaternions of the whisker loaded by F at s (ConvergenceError if none)."""
