@@ -399,37 +399,13 @@ class RodShape:
                 float(quad(lambda u: 1.0 / float(self.stiffness(u)), 0.0, s, epsabs=0.0,
                            epsrel=1e-10, limit=200)[0]))
 
-    def free_point(self, s: float) -> Tuple[float, float]:
-        """
-        Return one point of the unloaded whisker in its base frame: (x, y), z = 0.
-
-        In plain floats (:meth:`free_centerline` for one arc length, without its arrays): the
-        touch search minimizes the distance over s with ~20 such points per base pose.
-
-        Parameters
-        ----------
-        s : float
-            Arc length [L].
-
-        Returns
-        -------
-        tuple of float
-            (x, y) [L].
-
-        """
-        s = float(s)
-        if self.is_straight:
-            return s, 0.0
-        if self.parabola is not None:
-            a = self.parabola
-            u = self._u(s)
-            return u / (2.0 * a), u * u / (4.0 * a)
-        off = self.intrinsic_offset(0.0, [s])[0]
-        return float(off[0]), float(off[1])
-
     def free_frame(self, s: float) -> Tuple[float, float, float, float]:
         """
         Return the unloaded whisker at one arc length in its base frame, in plain floats.
+
+        :meth:`free_centerline` for one arc length, without its arrays, with the slope and the
+        curvature: the touch search minimizes the distance over s with a few such points per
+        base pose.
 
         Parameters
         ----------
@@ -448,7 +424,9 @@ class RodShape:
             a = self.parabola
             u = self._u(s)
             return u / (2.0 * a), u * u / (4.0 * a), math.atan(u), 2.0 * a / (1.0 + u * u) ** 1.5
-        x, y = self.free_point(s)
+        if self.is_straight:
+            return s, 0.0, 0.0, 0.0
+        x, y = (float(v) for v in self.intrinsic_offset(0.0, [s])[0])
         return x, y, self.k0 * s + 0.5 * self.k1 * s * s, self.k0 + self.k1 * s
 
     def free_centerline(self, s) -> np.ndarray:

@@ -564,7 +564,7 @@ class RodTracker:
                                    lambda s: self._free_geometry(pose, s))
 
     def _free_point(self, pose: BasePose, s: float) -> np.ndarray:
-        x, y = self.shape.free_point(s)
+        x, y = self.shape.free_frame(s)[:2]
         R = pose.rotation
         return pose.p + x * R[:, 0] + y * R[:, 1]
 
