@@ -40,8 +40,10 @@ DATASET_READERS = ["dask[dataframe]>=2024.8.0", "polars>=1.0"]
 # changelogs: myst-parser 2.0: fenced directives, (label)= targets, myst_heading_anchors and the
 # dollarmath, deflist, colon_fence extensions, on Sphinx 6 or 7 (hence sphinx 6); numpydoc 1.6: a
 # validator that handles properties and decorated functions (numpydoc_validation_checks and
-# numpydoc_validation_exclude); sphinx-rtd-theme 2.0: the first release for Sphinx 7
-DOC = ["sphinx>=6.1", "myst-parser>=2.0", "numpydoc>=1.6", "sphinx-rtd-theme>=2.0"] + PLOTS
+# numpydoc_validation_exclude); sphinx-rtd-theme 2.0: the first release for Sphinx 7; the API
+# pages import the log and dataset modules, hence mcap and pyarrow (as ROS and BATCH bound them)
+DOC = ["sphinx>=6.1", "myst-parser>=2.0", "numpydoc>=1.6", "sphinx-rtd-theme>=2.0",
+       "mcap>=1.5", "pyarrow>=16.0"] + PLOTS
 # the core's own tests: they also run on numpy 1.x (.ci/run), without ROS
 CORE_TEST = ["pytest>=7", "mpmath>=1.3", "hypothesis>=6.100"]
 
