@@ -290,7 +290,7 @@ def test_the_two_sides_whisk_as_mirror_images():
     assert sorted(events) == sorted(events[0::2] + events[1::2])  # every event twice
 
 
-def test_a_snap_that_lands_where_it_left_is_an_error_not_a_loop():
+def test_a_snap_that_lands_where_it_left_is_an_error_not_a_loop(monkeypatch):
     """A fold whose only destination is the lost equilibrium itself: an error, not a loop."""
     # the right D1 whisker slips off the peg at tick 44; here the unloaded whisker is made to cut
     # the peg (no free landing) and the swing-in to land back on the lost equilibrium: the step
@@ -312,15 +312,12 @@ def test_a_snap_that_lands_where_it_left_is_an_error_not_a_loop():
         finally:
             del self._free_gap, self._swing_in
 
-    RodTracker._snap = snap
-    try:
-        events = []
-        for k in range(1, 46):
-            step = tracker.step(HEAD, whisk.angle(k * 1e-3))
-            assert not step.errors
-            events += [(k, e) for e in step.events if e.whisker == "RD1"]
-    finally:
-        RodTracker._snap = real_snap
+    monkeypatch.setattr(RodTracker, "_snap", snap)
+    events = []
+    for k in range(1, 46):
+        step = tracker.step(HEAD, whisk.angle(k * 1e-3))
+        assert not step.errors
+        events += [(k, e) for e in step.events if e.whisker == "RD1"]
     k, reset = events[-1]
     assert k == 44 and reset.kind == "reset" and reset.contacts_before == 1
     assert "leads straight back to the lost one" in reset.reason

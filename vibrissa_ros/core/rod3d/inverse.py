@@ -20,12 +20,13 @@ alone (the 3D form of the planar general inverse, :mod:`vibrissa_ros.core.genera
 integrated with DOP853; ‖M(s)‖ = ‖F‖ times the distance from r(s) to the force's line of action,
 and its local minima on a grid of s are the candidate contacts. The shot is unique, so it follows
 the reading's own equilibrium branch where a given load at a given point has several (a strongly
-bent whisker). (2) The fit: from each candidate (its first loaded solve started from the shot,
-the next ones from the nearest solved s), Gauss-Newton on ‖g(s)‖^2 with dg/ds by a difference of
-warm-started loaded solves, kept inside the candidate's basin, each step halved until ‖g‖
-decreases. Exact data have g(s_c) = 0 and Gauss-Newton converges quadratically (to the forward
-model's 1e-12). Noisy data leave a residual ‖g(s_c)‖; divided by ‖F‖ it is the distance [L] by
-which the force's line of action misses the fitted contact point.
+bent whisker). (2) The fit: from each candidate (every loaded solve started from the shot, the
+reading's branch: a start from a nearby solved s could carry a jump to another branch along),
+Gauss-Newton on ‖g(s)‖^2 with dg/ds by a difference of loaded solves, kept inside the
+candidate's basin, each step halved until ‖g‖ decreases. Exact data have g(s_c) = 0 and
+Gauss-Newton converges quadratically (to the forward model's 1e-12). Noisy data leave a
+residual ‖g(s_c)‖; divided by ‖F‖ it is the distance [L] by which the force's line of action
+misses the fitted contact point.
 
 Only "no contact couple" is assumed, not the frictionless condition: a side contact with friction
 inverts the same way. The whisker's tangent at the fitted contact is reported, so that a user can
@@ -148,9 +149,10 @@ class _MomentFit:
     """
     g(s) = (r(s) - p) x F - M0 for the whisker loaded by F at s, on one branch (internal).
 
-    The first solve starts from ``start`` (s (m,) -> quaternions (m, 4): the shot from the
-    base); every later one from the nearest solved load's solution, so the fit stays on the
-    branch it started on. Solves are cached by s.
+    Every solve starts from ``start`` (s (m,) -> quaternions (m, 4): the shot from the base, the
+    reading's own branch), so that the fit stays on it; from the nearest solved load's solution
+    instead, one solve that jumped to another branch would hold the fit there. Solves are cached
+    by s.
     """
 
     def __init__(self, solver: RodSolver, pose: BasePose, F: np.ndarray, M0: np.ndarray,
