@@ -559,6 +559,7 @@ class RodSolver:
         self._sp = None if shape.taper == 1.0 else 1.0 / (1.0 - shape.taper)
         self.evaluations = 0
         self._free_tip_cache = None
+        self._nodes_cache = None
         self._chord_rate = 1.0
         self._identity_columns = {}
         # the compiled kernels' view of the shape (vibrissa_ros.core.rod3d._jit)
@@ -1351,12 +1352,27 @@ class RodSolver:
         return out
 
     def _nodes(self, modes, vec, pose):
-        """Return (breaks, w, r at the nodes, frames at the contacts) by the compiled kernel."""
+        """
+        Return (breaks, w, r at the nodes, frames at the contacts) by the compiled kernel.
+
+        The last answer is kept: an accepted solution is sampled several times (its tail
+        checked, its state made) with the same vector and pose. The cache holds a copy of the
+        vector and is used only for an equal one; the arrays are shared, and no caller writes
+        into them (marking them read-only would make numba compile its kernels again for
+        read-only arguments).
+        """
         if not _jit.WARM:
             _jit.warm_up()
-        k = len(modes)
-        return _jit.nodes(np.ascontiguousarray(vec, dtype=float), self.n, self._kinds_of(modes),
-                          self._tau, self._jit_sp, self._template(k), pose.p)
+        modes = tuple(modes)
+        vec = np.ascontiguousarray(vec, dtype=float)
+        last = self._nodes_cache
+        if (last is not None and last[1] == pose and last[2] == modes
+                and np.array_equal(last[0], vec)):
+            return last[3]
+        out = _jit.nodes(vec, self.n, self._kinds_of(modes), self._tau, self._jit_sp,
+                         self._template(len(modes)), pose.p)
+        self._nodes_cache = (vec.copy(), pose, modes, out)
+        return out
 
     def equilibrium(self, modes: Sequence[RodContactMode], vec: np.ndarray, pose: BasePose
                     ) -> RodEquilibrium:
