@@ -17,6 +17,7 @@ from std_msgs.msg import Float64, String
 
 from vibrissa_ros.logs.mcap_log import (
     LogError,
+    LogReader,
     LogWriter,
     TopicSpec,
     message_definition,
@@ -196,3 +197,67 @@ def test_write_errors_are_log_errors_with_the_reason(tmp_path):
             for i in range(100):
                 log.write(cid, serialize_message(Float64(data=float(i))), i)
                 log.flush()
+
+
+def test_the_streamed_messages_are_read_logs_in_log_time_order(tmp_path):
+    msgs = _messages(40)
+    path = tmp_path / "shuffled.mcap"
+    log = LogWriter(str(path), chunk_size=2000)  # many chunks, overlapping in log time
+    ids = {t: log.channel(TopicSpec(t, ty)) for t, ty in TYPES.items()}
+    log.metadata("vibrissa_ros.configuration", {"whisker.length": "0.1"})
+    n = len(msgs)
+    times = [1_000_000_000 + (i * 37 % n) * 1000 for i in range(n)]  # a permutation
+    times[5] = times[6]  # a tie: file order
+    for (topic, msg), t in zip(msgs, times):
+        log.write(ids[topic], serialize_message(msg), t)
+    log.close()
+    schemas, channels, metadata, listed = read_log(str(path))
+    with LogReader(str(path)) as reader:
+        assert reader.metadata[0].metadata == {"whisker.length": "0.1"}  # before any message
+        assert (reader.schemas, reader.channels) == (schemas, channels)
+        stream = reader.messages()
+        assert iter(stream) is stream  # an iterator, not a list
+        streamed = list(stream)
+        wrenches = list(reader.messages(["/w/wrench"]))
+    assert streamed == listed and len(streamed) == n
+    assert [m.log_time for m in streamed] == sorted(times)
+    in_order = sorted(zip(times, msgs), key=lambda item: item[0])  # stable: ties in file order
+    assert [m.data for m in streamed] == [serialize_message(msg) for _, (_, msg) in in_order]
+    assert wrenches == [m for m in listed if m.topic == "/w/wrench"] and wrenches
+    with pytest.raises(FileNotFoundError):
+        LogReader(str(tmp_path / "none.mcap"))
+    unfinished = _write(tmp_path / "unfinished.mcap", msgs[:10], finish=False, flush_period=0.0)
+    unfinished._stream.flush()
+    with pytest.raises(LogError, match="repair"):
+        LogReader(str(tmp_path / "unfinished.mcap"))
+
+
+def test_streaming_holds_a_chunk_at_a_time_not_the_log(tmp_path):
+    import tracemalloc
+
+    path = tmp_path / "big.mcap"
+    log = LogWriter(str(path), chunk_size=1 << 18)
+    cid = log.channel(TopicSpec("/w/events", TYPES["/w/events"]))
+    payloads = [serialize_message(String(data=os.urandom(4000).hex())) for _ in range(1500)]
+    for i, data in enumerate(payloads):
+        log.write(cid, data, 1_000_000_000 + i)
+    log.close()
+    total = sum(len(d) for d in payloads)  # 12 MB of messages
+    del payloads
+
+    def peak(read):
+        tracemalloc.start()
+        try:
+            count = read()
+            return count, tracemalloc.get_traced_memory()[1]
+        finally:
+            tracemalloc.stop()
+
+    def streamed():
+        with LogReader(str(path)) as reader:
+            return sum(1 for _ in reader.messages())
+
+    count, streaming = peak(streamed)
+    listed, whole = peak(lambda: len(read_log(str(path))[3]))
+    assert count == listed == 1500
+    assert whole > total and streaming < total / 4, (streaming, whole, total)

@@ -22,7 +22,7 @@ import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import BinaryIO, Dict, List, Optional, Tuple
+from typing import BinaryIO, Dict, Iterable, Iterator, List, Optional, Tuple
 
 from mcap.exceptions import McapError
 from mcap.reader import make_reader
@@ -372,9 +372,122 @@ class LogMessage:
     data: bytes
 
 
+#: what a damaged or cut file raises in the mcap reader
+_READ_ERRORS = (McapError, struct.error, ValueError, EOFError)
+
+
+def _damaged(path, exc) -> LogError:
+    return LogError(
+        f"cannot read {path}: {exc}; if it was not finished, 'vibrissa repair' rewrites it"
+    )
+
+
+class LogReader:
+    """
+    A finished MCAP log, open for reading: its summary and metadata at once, its messages streamed.
+
+    Opening reads the summary (schemas, channels) and the metadata records (the recorded
+    configuration), not the messages: :meth:`messages` yields them one at a time, in log-time
+    order, decompressing one chunk after another, so that a long log never has to fit in
+    memory. Use it as a context manager (or call :meth:`close`).
+
+    Parameters
+    ----------
+    path : str or path-like
+        The log file.
+
+    Attributes
+    ----------
+    schemas : dict
+        The MCAP schemas by id.
+    channels : dict
+        The MCAP channels by id.
+    metadata : list
+        The MCAP metadata records, in file order.
+
+    Raises
+    ------
+    FileNotFoundError
+        When there is no such file.
+    LogError
+        When the file has no summary (not finished: ``vibrissa repair`` rewrites it) or is
+        damaged.
+
+    """
+
+    def __init__(self, path: str):
+        if not Path(path).is_file():
+            raise FileNotFoundError(2, "no such file", str(path))
+        self.path = str(path)
+        self._stream = open(path, "rb")
+        try:
+            self._reader = make_reader(self._stream)
+            summary = self._reader.get_summary()
+            if summary is None:
+                raise LogError(
+                    f"{path} has no summary (not finished?): run 'vibrissa repair' on it"
+                )
+            self.schemas, self.channels = summary.schemas, summary.channels
+            self.metadata = list(self._reader.iter_metadata())
+        except _READ_ERRORS as exc:
+            self._stream.close()
+            raise _damaged(path, exc) from None
+        except BaseException:
+            self._stream.close()
+            raise
+
+    def messages(self, topics: Optional[Iterable[str]] = None) -> Iterator[LogMessage]:
+        """
+        Yield the log's messages in log-time order, one at a time.
+
+        Parameters
+        ----------
+        topics : iterable of str, optional
+            Only these topics (default: all). The others are skipped before a message object
+            is made.
+
+        Yields
+        ------
+        LogMessage
+            The messages, as :func:`read_log` lists them (ties in log time in file order).
+
+        Raises
+        ------
+        LogError
+            When a chunk is damaged (raised where the iteration reaches it).
+
+        """
+        wanted = None if topics is None else list(topics)
+        try:
+            for schema, channel, message in self._reader.iter_messages(
+                    topics=wanted, log_time_order=True):
+                yield LogMessage(
+                    channel.topic,
+                    schema.name if schema else "",
+                    message.log_time,
+                    message.publish_time,
+                    message.data,
+                )
+        except _READ_ERRORS as exc:
+            raise _damaged(self.path, exc) from None
+
+    def close(self) -> None:
+        """Close the file (a message iteration still running then stops with an error)."""
+        self._stream.close()
+
+    def __enter__(self) -> "LogReader":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
 def read_log(path: str):
     """
     Read a finished MCAP: (schemas, channels by id, metadata, messages in log-time order).
+
+    Every message is in the returned list: a long log is better streamed with
+    :class:`LogReader`.
 
     Parameters
     ----------
@@ -401,32 +514,8 @@ def read_log(path: str):
         damaged.
 
     """
-    if not Path(path).is_file():
-        raise FileNotFoundError(2, "no such file", str(path))
-    try:
-        with open(path, "rb") as stream:
-            reader = make_reader(stream)
-            summary = reader.get_summary()
-            if summary is None:
-                raise LogError(
-                    f"{path} has no summary (not finished?): run 'vibrissa repair' on it"
-                )
-            metadata = list(reader.iter_metadata())
-            messages = [
-                LogMessage(
-                    channel.topic,
-                    schema.name if schema else "",
-                    message.log_time,
-                    message.publish_time,
-                    message.data,
-                )
-                for schema, channel, message in reader.iter_messages(log_time_order=True)
-            ]
-            return summary.schemas, summary.channels, metadata, messages
-    except (McapError, struct.error, ValueError, EOFError) as exc:  # a damaged or cut file
-        raise LogError(
-            f"cannot read {path}: {exc}; if it was not finished, 'vibrissa repair' rewrites it"
-        ) from None
+    with LogReader(path) as log:
+        return log.schemas, log.channels, log.metadata, list(log.messages())
 
 
 def repair(path: str, output: str) -> int:
