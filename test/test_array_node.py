@@ -22,7 +22,7 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from vibrissa_ros.core.arrays import ArrayTracker
 from vibrissa_ros.core.rod3d import BasePose
-from vibrissa_ros.logs.tools import log_info, resimulate
+from vibrissa_ros.logs.tools import decode, log_info, resimulate
 from vibrissa_ros.node.array import build_array_config, output_rows
 from vibrissa_ros.node.edge import header_ns, set_stamp
 from vibrissa_ros.ros.array_messages import decode_cloud
@@ -251,6 +251,206 @@ def test_the_external_run_is_reproduced_by_resim(external):
     assert sim.dropped == {"joint_names": 1, "joint_lengths": 1, "not_finite": 1,
                            "quaternion_not_unit": 1, "wrong_frame_id": 1}
     assert sim.compared["wrenches.fx"] >= 30 * len(external["inputs"])
+
+
+def _listwise_resim(configs, messages):
+    """Re-simulate an array log as resim did before streaming: all ticks kept, zipped at last."""
+    from vibrissa_ros.logs.array_resim import COMPARED, _relative
+    from vibrissa_ros.logs.tools import Resimulation
+    from vibrissa_ros.node.array import ARRAY_TEXT, SCENE_TEXT, ArrayPipeline
+    from vibrissa_ros.node.edge import BadInput
+
+    result = Resimulation()
+    values = dict(configs[0][1])
+    node = values.pop("node", "/array_node")
+    recorded = {ARRAY_TEXT: values.pop(ARRAY_TEXT), SCENE_TEXT: values.pop(SCENE_TEXT, "")}
+    values = {k: v for k, v in values.items() if k not in ("vibrissa_ros_version", "resets")}
+    config = build_array_config(values, recorded)
+    pipeline = ArrayPipeline(config)
+    prefix = f"{node}/"
+    expected, got = [], []
+    for m in messages:
+        if not m.topic.startswith(prefix):
+            continue
+        key = m.topic[len(prefix):]
+        if key == "wrenches":
+            cloud = decode(m)
+            got.append((header_ns(cloud), decode_cloud(cloud)))
+            continue
+        if key not in ("head_pose", "whisk", "protraction"):
+            continue
+        msg = decode(m)
+        try:
+            if key == "head_pose":
+                p, q = msg.pose.position, msg.pose.orientation
+                pipeline.set_head(msg.header.frame_id, (p.x, p.y, p.z), (q.x, q.y, q.z, q.w))
+                if config.builtin:
+                    continue
+            else:
+                pipeline.set_joints(msg.name, msg.position)
+        except BadInput as exc:
+            result.dropped[exc.reason] += 1
+            continue
+        step = pipeline.tick()
+        stamp = header_ns(msg)
+        result.states.append((stamp, step))
+        expected.append((stamp, output_rows(step, config.scene)))
+    if len(expected) == len(got) + 1:
+        expected.pop()
+    if len(expected) != len(got):
+        result.mismatches.append(f"wrenches: {len(got)} recorded, {len(expected)} re-simulated")
+    for (s_want, want), (s_have, have) in zip(expected, got):
+        if s_want != s_have:
+            result.mismatches.append(f"wrenches: stamp {s_have} recorded where {s_want} was "
+                                     "expected")
+            break
+        if len(want) != len(have):
+            result.mismatches.append(f"wrenches: {len(have)} whiskers recorded, {len(want)} "
+                                     "re-simulated")
+            break
+        for name in COMPARED:
+            key = f"wrenches.{name}"
+            dev = _relative(have[name], want[name])
+            result.deviations[key] = max(result.deviations.get(key, 0.0), dev)
+            result.compared[key] += len(want)
+    return result
+
+
+def _streamed_resim(configs, messages, **options):
+    """Re-simulate with resim's streaming comparison, the messages given one at a time."""
+    from vibrissa_ros.logs.array_resim import resimulate_array
+    from vibrissa_ros.logs.tools import Resimulation
+
+    sim = resimulate_array(configs, iter(messages), Resimulation(), **options)
+    assert sim.states == []  # no tick kept
+    return sim
+
+
+def _assert_same(streamed, listwise):
+    assert streamed.mismatches == listwise.mismatches
+    assert streamed.deviations == listwise.deviations
+    assert streamed.compared == listwise.compared
+    assert streamed.dropped == listwise.dropped
+    assert streamed.ticks == len(listwise.states)
+
+
+def _recorded(external):
+    from vibrissa_ros.logs.mcap_log import read_log
+    from vibrissa_ros.logs.tools import configurations
+
+    _, _, metadata, messages = read_log(str(external["log"]))
+    return configurations(metadata), messages
+
+
+def _is_wrenches(m):
+    return m.topic == "/ext/array_node/wrenches"
+
+
+def _is_input(m):
+    return m.topic in ("/ext/array_node/whisk", "/ext/array_node/head_pose")
+
+
+def _changed_cloud(m, change):
+    """Return a recorded ``~/wrenches`` message with its rows changed by ``change(rows)``."""
+    from rclpy.serialization import serialize_message
+
+    from vibrissa_ros.logs.mcap_log import LogMessage
+
+    cloud = decode(m)
+    rows = decode_cloud(cloud).copy()
+    change(rows)
+    cloud.data = rows.tobytes()
+    return LogMessage(m.topic, m.type_name, m.log_time, m.publish_time, serialize_message(cloud))
+
+
+def _lagging(messages, lag):
+    """Return the messages with every ``~/wrenches`` moved after the next ``lag`` inputs."""
+    out, late = [], []  # late: [inputs still to pass, message]
+    for m in messages:
+        if _is_wrenches(m):
+            late.append([lag, m])
+            continue
+        out.append(m)
+        if _is_input(m):
+            for item in late:
+                item[0] -= 1
+            out += [item[1] for item in late if item[0] == 0]
+            late = [item for item in late if item[0] > 0]
+    return out + [item[1] for item in late]
+
+
+def test_the_streaming_resim_equals_the_listwise_comparison(external):
+    configs, messages = _recorded(external)
+    listwise = _listwise_resim(configs, messages)
+    streamed = _streamed_resim(configs, messages)
+    _assert_same(streamed, listwise)
+    assert not streamed.mismatches and streamed.worst() <= 1e-12
+    # every input ticked but the five bad ones, the last one with its recorded output
+    inputs = [m for m in messages if _is_input(m)]
+    assert streamed.ticks == len(inputs) - 5 == sum(map(_is_wrenches, messages))
+    assert streamed.compared["wrenches.fx"] == 30 * streamed.ticks
+    # the command line says how many ticks, from the log streamed
+    proc = subprocess.run([VIBRISSA, "resim", str(external["log"])], capture_output=True,
+                          text=True, timeout=300)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert proc.stdout.startswith(f"{streamed.ticks} ticks re-simulated, 5 dropped as recorded")
+
+
+def test_wrenches_recorded_out_of_step_are_reported_as_before(external):
+    configs, messages = _recorded(external)
+    clouds = [i for i, m in enumerate(messages) if _is_wrenches(m)]
+    stamps = [header_ns(decode(messages[i])) for i in clouds]
+    k = len(clouds) // 2
+
+    def check(changed, mismatches, **options):
+        streamed = _streamed_resim(configs, changed, **options)
+        if not options:
+            _assert_same(streamed, _listwise_resim(configs, changed))
+        assert streamed.mismatches == mismatches
+        return streamed
+
+    # outputs recorded after the next input, or three inputs late: compared all the same
+    for lag in (1, 3):
+        late = _lagging(messages, lag)
+        assert late != messages and sorted(late, key=id) == sorted(messages, key=id)
+        sim = check(late, [])
+        assert sim.worst() == 0.0 and sim.compared["wrenches.fx"] == 30 * len(clouds)
+    # a tick's output missing in the middle: its successor's stamp where its own was expected
+    check(messages[:clouds[k]] + messages[clouds[k] + 1:],
+          [f"wrenches: stamp {stamps[k + 1]} recorded where {stamps[k]} was expected"])
+    # the last output missing (the run stopped during its last tick): no mismatch; two: one
+    check(messages[:clouds[-1]] + messages[clouds[-1] + 1:], [])
+    check([m for i, m in enumerate(messages) if i not in clouds[-2:]],
+          [f"wrenches: {len(clouds) - 2} recorded, {len(clouds)} re-simulated"])
+    # an output recorded twice: the counts (first), then the stamps differ
+    check(messages[:clouds[k]] + [messages[clouds[k]]] + messages[clouds[k]:],
+          [f"wrenches: {len(clouds) + 1} recorded, {len(clouds)} re-simulated",
+           f"wrenches: stamp {stamps[k]} recorded where {stamps[k + 1]} was expected"])
+
+    # a deviation injected into one whisker's force in contact
+    def push(rows):
+        i = int(np.flatnonzero(rows["fx"])[0])
+        rows["fx"][i] *= 1.0 + 1e-9
+
+    touching = next(i for i in clouds if np.any(decode_cloud(decode(messages[i]))["fx"]))
+    changed = list(messages)
+    changed[touching] = _changed_cloud(messages[touching], push)
+    sim = check(changed, [])
+    assert sim.deviations["wrenches.fx"] == pytest.approx(1e-9, rel=1e-3)
+    assert max(v for key, v in sim.deviations.items() if key != "wrenches.fx") == 0.0
+    # outputs further from their inputs than the window: reported, not compared (three inputs
+    # late: four ticks wait for their outputs)
+    late = _lagging(messages, 3)
+    assert check(late, [], window=4).compared["wrenches.fx"] == 30 * len(clouds)
+    sim = check(late, [f"wrenches: the recorded tick stamped {stamps[0]} comes more than 3 "
+                       "ticks after its input in the log: not compared"], window=3)
+    assert sim.ticks == len(clouds) and sim.compared["wrenches.fx"] == 0
+
+
+def test_export_refuses_an_array_log(external, tmp_path):
+    proc = subprocess.run([VIBRISSA, "export", str(external["log"]), "--csv",
+                           str(tmp_path / "x.csv")], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 1 and "a run of array_node" in proc.stderr, proc.stderr
 
 
 def test_vibrissa_info_summarizes_an_array_log(external):

@@ -1181,8 +1181,10 @@ def _cmd_resim(args) -> int:
         from .logs.tools import resimulate
 
         sim = resimulate(args.log)
+        # an array log keeps no states, only their number (a long one would not fit in memory)
+        done = (f"{len(sim.states)} poses" if sim.ticks is None else f"{sim.ticks} ticks")
         print(
-            f"{len(sim.states)} poses re-simulated, {sum(sim.dropped.values())} dropped as "
+            f"{done} re-simulated, {sum(sim.dropped.values())} dropped as "
             "recorded" + (f" ({dict(sim.dropped)})" if sim.dropped else "")
         )
         print(f"{'field':<34} {'compared':>9} {'largest relative deviation':>28}")

@@ -13,14 +13,15 @@ import json
 import math
 from collections import Counter, defaultdict
 from dataclasses import dataclass, field
-from typing import Dict, List, Tuple
+from typing import Dict, List, Optional, Tuple
 
 from ..core.errors import VibrissaError
 from ..core.rod3d import RodState
 from ..core.state import WhiskerState
 from ..node.edge import contact_records, decode_event, encode_event, event_record, header_ns
 from .array_resim import is_array_log, resimulate_array
-from .mcap_log import CONFIGURATION_METADATA, RESET_METADATA, LogError, LogMessage, read_log
+from .mcap_log import (CONFIGURATION_METADATA, RESET_METADATA, LogError, LogMessage, LogReader,
+                       read_log)
 from ..node.config import build_config
 from ..node.pipeline import PosePipeline, drop_reason
 
@@ -122,11 +123,18 @@ def log_info(path: str) -> LogInfo:
 # -- resim / export ---------------------------------------------------------------------------
 @dataclass
 class Resimulation:
-    """The recorded poses run again through the node's pipeline, next to the recorded outputs."""
+    """
+    The recorded poses run again through the node's pipeline, next to the recorded outputs.
+
+    ``states`` holds (stamp, state) per accepted pose of a whisker_node log; a log of
+    array_node keeps no states (a long one would not fit in memory): its ``states`` is empty and
+    ``ticks`` counts the ticks re-run (None for a whisker_node log).
+    """
 
     states: List[Tuple[int, WhiskerState]] = field(
         default_factory=list
     )  # (stamp, state) per accepted pose
+    ticks: Optional[int] = None  # an array log's ticks re-run (its states are not kept)
     events: list = field(default_factory=list)  # the events crossed, in order
     event_steps: List[int] = field(
         default_factory=list
@@ -191,8 +199,10 @@ def resimulate(path: str) -> Resimulation:
     """
     Re-run every recorded foot pose with the recorded configuration(s), compare each field.
 
-    A log of array_node is re-run tick by tick (:mod:`.array_resim`): ``states`` holds
-    (stamp, ArrayStep), the fields compared are every whisker's ``wrenches.*``.
+    A log of array_node is re-run tick by tick (:func:`.array_resim.resimulate_array`) as its
+    messages are read, each tick compared with its recorded output at once: the fields
+    compared are every whisker's ``wrenches.*``, ``ticks`` counts the ticks and ``states`` stays
+    empty, so that memory does not grow with the log.
 
     Parameters
     ----------
@@ -211,10 +221,11 @@ def resimulate(path: str) -> Resimulation:
         When the log cannot be read or has no recorded configuration.
 
     """
-    _, channels, metadata, messages = read_log(path)
-    configs = configurations(metadata)
-    if is_array_log(configs[0][1]):  # array_node's: every whisker's row of every tick
-        return resimulate_array(configs, messages, Resimulation())
+    with LogReader(path) as log:
+        configs = configurations(log.metadata)
+        if is_array_log(configs[0][1]):  # array_node's: every whisker's row of every tick
+            return resimulate_array(configs, log.messages(), Resimulation())
+        channels, metadata, messages = log.channels, log.metadata, list(log.messages())
     node = configs[0][1].get("node", "/whisker_node")
     prefix = f"{node}/"
     # logs made before the node had ~/contacts: nothing of it to compare
@@ -356,10 +367,15 @@ def export_rows(path: str):
     ------
     LogError
         When the log cannot be read or has no recorded configuration, or is a run of the 3D
-        whisker (model rod3d: the rows are the planar scan contract; ``vibrissa resim`` checks
-        such a log).
+        whisker (model rod3d) or of array_node: the rows are the planar scan contract;
+        ``vibrissa resim`` checks such a log.
 
     """
+    with LogReader(path) as log:
+        if is_array_log(configurations(log.metadata)[0][1]):
+            raise LogError(f"{path}: a run of array_node: export and plot write the planar scan "
+                           "contract of one whisker; 'vibrissa resim' re-simulates it, and the "
+                           "log itself holds every whisker's row of every tick (~/wrenches)")
     sim = resimulate(path)
     if any(isinstance(state, RodState) for _, state in sim.states):
         raise LogError(f"{path}: a run of the 3D whisker (model rod3d): export and plot write "
