@@ -1,6 +1,7 @@
 """The whole array in one call: whisking, the clearance test, per-whisker equality."""
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -341,3 +342,75 @@ def test_a_trial_step_on_the_unstable_sibling_branch_is_not_a_loss_of_stability(
         events += [(k, e.kind, e.reason) for e in step.events]
     assert [e[:2] for e in events] == [(33105, "touch"), (33114, "snap")]
     assert events[1][2] == "the equilibrium branch folds (no solution beyond this pose)"
+
+
+def _tilted_scene_run(name, first, last):
+    """
+    Return the events and errors of one whisker of the shipped pad, ticks first+1..last.
+
+    The pad whisks (7 Hz, -30 to +25 deg) while the head moves and turns slowly, against two
+    tilted pegs and a ball: a soak of 4,000 ticks of both sides found the whiskers below
+    failing there. Each replay starts from a tick where the whisker is free: a free whisker
+    has no history, so the replay is exact.
+    """
+    from vibrissa_ros.scan.array_file import load_array
+
+    array = load_array(Path(__file__).resolve().parents[1] / "config" / "rat_array.yaml")
+    scene = Scene3D((Cylinder((0.025, -0.012, 0.0), (0, 0.2, 1), 0.002, "peg_right"),
+                     Cylinder((-0.028, -0.018, 0.0), (0.1, 0, 1), 0.001, "peg_left"),
+                     Sphere((0.0, 0.045, -0.005), 0.006, "ball")))
+    whisk = CosineWhisk(7.0, -math.radians(30.0), math.radians(25.0))
+
+    def head(t):
+        turn = 0.05 * math.sin(t)
+        return BasePose((0.004 * math.sin(2 * math.pi * 0.7 * t),
+                         0.003 * math.sin(2 * math.pi * 0.4 * t),
+                         0.002 * math.sin(2 * math.pi * 0.9 * t)),
+                        (math.cos(turn), 0.0, 0.0, math.sin(turn)))
+
+    tracker = ArrayTracker(_subset(array, (name,)), scene, head(first / 1000.0),
+                           whisk.angle(first / 1000.0))
+    events, errors = [], []
+    for k in range(first + 1, last + 1):
+        step = tracker.step(head(k / 1000.0), whisk.angle(k / 1000.0))
+        events += [(k, e.kind, e.contacts_after, e.reason) for e in step.events]
+        errors += [(k, e.message) for e in step.errors]
+    return events, errors
+
+
+def test_a_snap_lands_past_the_fold_not_back_on_the_lost_branch():
+    """The helper that swings the whisker in goes to just past the fold, where the branch ends."""
+    # at the fold itself the lost branch still exists: the helper arrived on it, the step
+    # snapped again where it left and the whisker failed for three ticks (RC2, tick 1023)
+    events, errors = _tilted_scene_run("RC2", 1000, 1026)
+    assert not errors
+    assert [e[:3] for e in events] == [(1017, "touch", 1), (1021, "tangential", 1),
+                                       (1023, "snap", 1), (1026, "release", 0)]
+    assert events[2][3].endswith("it swings out of its plane")
+
+
+def test_a_snap_tries_more_turns_when_the_quarter_turns_about_y_find_nothing():
+    """Both +-90 deg helpers meet folds of their own: a turn about z finds the landing (RA2)."""
+    events, errors = _tilted_scene_run("RA2", 530, 555)
+    assert not errors
+    assert [e[:3] for e in events] == [(543, "touch", 1), (554, "snap", 1), (555, "release", 0)]
+
+
+def test_a_contact_that_can_go_on_neither_at_the_side_nor_at_the_tip_slips_off():
+    """side -> tip, then at once tip -> side: a snap, not 64 events and a reset (LE1)."""
+    events, errors = _tilted_scene_run("LE1", 1740, 1762)
+    assert not errors
+    assert [e[:3] for e in events] == [(1759, "touch", 1), (1759, "tangential", 1),
+                                       (1761, "tip", 1), (1761, "snap", 1),
+                                       (1762, "release", 0)]
+    assert events[3][3].startswith("the contact reaches the tip and can go on neither")
+
+
+def test_an_event_that_cannot_be_located_from_a_long_trial_step_gets_a_shorter_one():
+    """A long trial step converged beyond a fold: shorter sub-steps find the fold (RC2)."""
+    # the trial step's determinant had the other sign, but no solution between could be
+    # followed from the step's start: 'could not be located', and the whisker was reset
+    events, errors = _tilted_scene_run("RC2", 3590, 3627)
+    assert not errors
+    assert [e[:3] for e in events] == [(3596, "touch", 1), (3626, "snap", 0)]
+    assert events[1][3] == "the equilibrium branch folds (no solution beyond this pose)"

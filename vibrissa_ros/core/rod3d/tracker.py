@@ -90,6 +90,11 @@ _MINIMUM_XTOL = 1e-13
 _MINIMUM_ITERATIONS = 12
 #: the reason of a snap at a fold of the branch
 _FOLDS = "the equilibrium branch folds (no solution beyond this pose)"
+#: the base turns a snap's helper trackers start from: (quaternion component, angle)
+_SWINGS = ((2, 0.5 * math.pi), (2, -0.5 * math.pi), (3, 0.5 * math.pi), (3, -0.5 * math.pi),
+           (2, 0.25 * math.pi), (2, -0.25 * math.pi), (3, 0.25 * math.pi), (3, -0.25 * math.pi))
+_SLIPS = ("the contact reaches the tip and can go on neither along the side nor at the tip: it "
+          "slips off the tip")
 #: a pose stream is extrapolated when its poses' fourth difference is below this part of a step
 _STREAM_TOLERANCE = 0.01
 
@@ -265,6 +270,10 @@ class RodStepResult:
     events: Tuple[RodEvent, ...]
     substeps: int
     evaluations: int
+
+
+class _Unlocated(ConvergenceError):
+    """No event could be located between two sub-steps (nothing changed yet) (internal)."""
 
 
 class _Path:
@@ -513,6 +522,7 @@ class RodTracker:
     def _step(self, target: BasePose) -> RodStepResult:
         path = _Path(self._pose, target)
         self._last_snap = None
+        self._last_change = None
         start_pose, start_vec, start_modes = self._pose, self._vec, self._modes
         events: List[RodEvent] = []
         if path.speed == 0.0:
@@ -774,7 +784,15 @@ class RodTracker:
                     self._snap(path, t, events, _FOLDS)
                     return t, 1.0
                 return t, 0.25 * dt
-        return self._first_event(path, t, t_new, crossed, events), 1.0
+        try:
+            return self._first_event(path, t, t_new, crossed, events), 1.0
+        except _Unlocated:
+            # the solutions between the two could not be followed from this one (a long trial
+            # step may have converged to a distant branch): a shorter sub-step, as for a
+            # failed trial step
+            if dt * 0.25 < _H_MIN:
+                raise
+            return t, 0.25 * dt
 
     def _fold_limit(self, path: _Path, t: float, tan: np.ndarray, dt: float):
         """
@@ -907,7 +925,7 @@ class RodTracker:
             if best is None or t_star < best[0]:
                 best = (t_star, key)
         if best is None:
-            raise ConvergenceError("an event between two sub-steps could not be located")
+            raise _Unlocated("an event between two sub-steps could not be located")
         t_star, key = best
         if key[0] == "stable":
             # follow the branch up to the singular point, then snap
@@ -940,6 +958,16 @@ class RodTracker:
     def _change(self, path, t, key, events):
         sol = self.solver
         kind, c = key
+        last, self._last_change = self._last_change, (path, t, kind, c)
+        if (kind in ("tip", "tangential") and last is not None and last[0] is path
+                and abs(last[1] - t) <= 1e-9 and last[3] == c
+                and {last[2], kind} == {"tip", "tangential"}):
+            # side -> tip, then at once tip -> side (or the reverse) at the same pose (within
+            # 1e-9 of the path, as for a snap that lands where it left): the side
+            # contact would pass beyond the tip (s > 1) and the tip contact would cut the
+            # obstacle (d1 . n > 0), so neither goes on. The contact is lost there: a snap
+            self._snap(path, t, events, _SLIPS)
+            return
         pose = path.pose(t)
         modes = list(self._modes)
         breaks = list(sol.breaks_of(self._modes, self._vec))
@@ -1001,9 +1029,11 @@ class RodTracker:
         t_after = min(1.0, t + 1e-6)
         pose_after = path.pose(t_after)
         # 1. a stable equilibrium of the same contacts, off the lost one (a bifurcated branch);
-        # not at a fold, where the branch of these contacts turns back (unstable) and ends
+        # not at a fold, where the branch of these contacts turns back (unstable) and ends, nor
+        # where a contact slips off the tip (its own branches end there)
         null = _null_vector(self._solved.lu)
-        for amp in (() if reason == _FOLDS else (1e-3, -1e-3, 1e-2, -1e-2, 1e-1, -1e-1)):
+        for amp in (() if reason in (_FOLDS, _SLIPS)
+                    else (1e-3, -1e-3, 1e-2, -1e-2, 1e-1, -1e-1)):
             try:
                 solved = sol.solve(old_modes, pose_after, old_vec + amp * null, max_step=0.5)
             except ConvergenceError:
@@ -1039,15 +1069,17 @@ class RodTracker:
                 self._accept(solved, pose)
                 self._sign = math.copysign(1.0, _det_measure(solved.lu))
                 return
-        # 3. the equilibrium reached by swinging the whisker in from out of its plane
+        # 3. the equilibrium reached by swinging the whisker in from out of its plane, just past
+        # the loss: at the loss itself a helper coming in may arrive on the lost branch (it
+        # still exists there, at its fold) and the step would snap again where it left
         if not self._nested:
-            found = self._swing_in(pose)
+            found = self._swing_in(pose_after)
             if found is not None:
                 modes, solved = found
                 events.append(RodEvent("snap", pose, None, None, before, len(modes),
                                        reason + "; it swings out of its plane"))
                 self._modes = modes
-                self._accept(solved, pose)
+                self._accept(solved, pose_after)
                 self._sign = math.copysign(1.0, _det_measure(solved.lu))
                 return
         raise ConvergenceError(
@@ -1057,17 +1089,23 @@ class RodTracker:
 
     def _swing_in(self, pose: BasePose):
         """
-        Return (modes, solved) reached by turning the whisker in from out of its plane, or None.
+        Return (modes, solved) reached by turning the whisker in from a clear pose, or None.
 
         The base is turned about its own y axis by +-90 deg (the whisker out of its plane of
         curvature), where the unloaded whisker is clear, and turned back to ``pose`` by a helper
         tracker with the same scene: the equilibrium it arrives at is stable by construction
         (monitored on the way) and is where an out-of-plane snap lands (the +90 deg side first:
-        doc/mechanics/rod3d.md, "Snaps").
+        doc/mechanics/rod3d.md, "Snaps"). Where neither arrives (each helper meets a fold of its
+        own with nowhere to go), the base is turned about its z axis by +-90 deg (the whisker
+        swept in within its plane, from either side of the obstacle), then about y and z by
+        +-45 deg: the first helper that arrives gives the landing.
         """
-        for angle in (0.5 * math.pi, -0.5 * math.pi):
-            q = quat_multiply(pose.q, np.array([math.cos(0.5 * angle), 0.0,
-                                                math.sin(0.5 * angle), 0.0]))
+        for axis, angle in _SWINGS:
+            self._check_budget()  # the helpers' work counts against this step's bound
+            half = 0.5 * angle
+            turn = np.array([math.cos(half), 0.0, 0.0, 0.0])
+            turn[axis] = math.sin(half)
+            q = quat_multiply(pose.q, turn)
             start = BasePose(pose.position, tuple(q))
             helper = None
             try:
