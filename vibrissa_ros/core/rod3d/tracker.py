@@ -90,6 +90,10 @@ _MINIMUM_XTOL = 1e-13
 _MINIMUM_ITERATIONS = 12
 #: the reason of a snap at a fold of the branch
 _FOLDS = "the equilibrium branch folds (no solution beyond this pose)"
+#: an event value this small and negative at a sub-step's start is a zero's rounding
+_BORN_ZERO = 1e-12
+#: how far on (in the path parameter) such a value's sign is looked at
+_BORN_PROBE = 1e-9
 #: the base turns a snap's helper trackers start from: (quaternion component, angle)
 _SWINGS = ((2, 0.5 * math.pi), (2, -0.5 * math.pi), (3, 0.5 * math.pi), (3, -0.5 * math.pi),
            (2, 0.25 * math.pi), (2, -0.25 * math.pi), (3, 0.25 * math.pi), (3, -0.25 * math.pi))
@@ -916,10 +920,18 @@ class RodTracker:
                     sv = solution(tau)
                     return self._event_values(path, tau, sv.vec, sv.lu)[key]
             try:
-                if g(t_a) < 0.0:
+                g_a = g(t_a)
+                if g_a >= 0.0:
+                    t_star = self._root(g, t_a, t_b)
+                elif g_a < -_BORN_ZERO:
                     t_star = t_a
                 else:
-                    t_star = self._root(g, t_a, t_b)
+                    # a value zero by construction at the sub-step's start (the force of a
+                    # contact just touched, the tip value of a side contact just made from a
+                    # tip one, ...) is negative by rounding: it is crossed there only if it
+                    # is still negative just after; else its crossing is further on
+                    t_probe = t_a + min(_BORN_PROBE, 0.5 * (t_b - t_a))
+                    t_star = t_a if g(t_probe) < 0.0 else self._root(g, t_probe, t_b)
             except ConvergenceError:
                 continue
             if best is None or t_star < best[0]:
