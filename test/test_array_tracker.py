@@ -397,7 +397,7 @@ def test_a_snap_tries_more_turns_when_the_quarter_turns_about_y_find_nothing():
 
 
 def test_a_contact_that_can_go_on_neither_at_the_side_nor_at_the_tip_slips_off():
-    """side -> tip, then at once tip -> side: a snap, not 64 events and a reset (LE1)."""
+    """A contact turned tip and at once side again slips off: a snap, not 64 events (LE1)."""
     events, errors = _tilted_scene_run("LE1", 1740, 1762)
     assert not errors
     assert [e[:3] for e in events] == [(1759, "touch", 1), (1759, "tangential", 1),
