@@ -407,6 +407,7 @@ class RodTracker:
         self._sign = 1.0
         self._gap_cache = None
         self._fold_prev = None
+        self._last_change = None
         self._last_step = None
         self._history = []
         self._state = self._make_state()
@@ -763,8 +764,7 @@ class RodTracker:
                     continue
                 dt *= 0.25
                 if dt < _H_MIN:
-                    self._snap(path, t, events, _FOLDS)
-                    return t, 1.0
+                    return self._snap(path, t, events, _FOLDS), 1.0
         else:
             raise ConvergenceError("the continuation step could not be shortened enough")
         self._check_features(self._modes, solved.vec, path.pose(t_new))
@@ -785,8 +785,7 @@ class RodTracker:
             back = -sol.tangent(solved, path.rate(path.pose(t_new)))
             if float(back @ tan) > 0.0:
                 if dt * 0.25 < _H_MIN:
-                    self._snap(path, t, events, _FOLDS)
-                    return t, 1.0
+                    return self._snap(path, t, events, _FOLDS), 1.0
                 return t, 0.25 * dt
         try:
             return self._first_event(path, t, t_new, crossed, events), 1.0
@@ -931,7 +930,11 @@ class RodTracker:
                     # tip one, ...) is negative by rounding: it is crossed there only if it
                     # is still negative just after; else its crossing is further on
                     t_probe = t_a + min(_BORN_PROBE, 0.5 * (t_b - t_a))
-                    t_star = t_a if g(t_probe) < 0.0 else self._root(g, t_probe, t_b)
+                    try:
+                        after = g(t_probe)
+                    except ConvergenceError:
+                        after = -1.0  # not followed there: at the start, as before
+                    t_star = t_a if after < 0.0 else self._root(g, t_probe, t_b)
             except ConvergenceError:
                 continue
             if best is None or t_star < best[0]:
@@ -943,12 +946,10 @@ class RodTracker:
             # follow the branch up to the singular point, then snap
             if t_star > t_a:
                 self._accept(solution(t_star), path.pose(t_star))
-            self._snap(path, t_star, events, "the equilibrium becomes unstable (the sign of "
-                       "the Jacobian's determinant changes)")
-            return t_star
+            return self._snap(path, t_star, events, "the equilibrium becomes unstable (the "
+                              "sign of the Jacobian's determinant changes)")
         self._accept(solution(t_star), path.pose(t_star))
-        self._change(path, t_star, key, events)
-        return t_star
+        return self._change(path, t_star, key, events)
 
     def _root(self, g, a, b):
         try:
@@ -967,19 +968,21 @@ class RodTracker:
         vec = sol.guess(modes, breaks, forces, quats)
         return sol.solve(modes, pose, vec)
 
-    def _change(self, path, t, key, events):
+    def _change(self, path, t, key, events) -> float:
+        """Make the configuration change ``key`` at t; return the path parameter to go on from."""
         sol = self.solver
         kind, c = key
-        last, self._last_change = self._last_change, (path, t, kind, c)
+        changed = (self._modes[c].obstacle, len(self._modes)) if c >= 0 else None
+        last, self._last_change = self._last_change, (path, t, kind, changed)
         if (kind in ("tip", "tangential") and last is not None and last[0] is path
-                and abs(last[1] - t) <= 1e-9 and last[3] == c
+                and abs(last[1] - t) <= 1e-9 and last[3] == changed
                 and {last[2], kind} == {"tip", "tangential"}):
             # side -> tip, then at once tip -> side (or the reverse) at the same pose (within
-            # 1e-9 of the path, as for a snap that lands where it left): the side
-            # contact would pass beyond the tip (s > 1) and the tip contact would cut the
-            # obstacle (d1 . n > 0), so neither goes on. The contact is lost there: a snap
-            self._snap(path, t, events, _SLIPS)
-            return
+            # 1e-9 of the path, as for a snap that lands where it left; each change made only
+            # where its value is still negative 1e-9 on): the side contact would pass beyond
+            # the tip (s > 1) and the tip contact would cut the obstacle (d1 . n > 0), so
+            # neither goes on. The equilibrium is lost there: a snap
+            return self._snap(path, t, events, _SLIPS)
         pose = path.pose(t)
         modes = list(self._modes)
         breaks = list(sol.breaks_of(self._modes, self._vec))
@@ -1009,6 +1012,7 @@ class RodTracker:
             forces.insert(at, 0.0)
         events.append(RodEvent(kind, pose, obstacle, s_event, before, len(modes)))
         self._set_configuration(pose, tuple(modes), breaks, forces)
+        return t
 
     def _set_configuration(self, pose, modes, breaks, forces):
         if not modes:
@@ -1020,25 +1024,30 @@ class RodTracker:
         self._accept(solved, pose)
         self._sign = math.copysign(1.0, _det_measure(solved.lu))
 
-    def _snap(self, path, t, events, reason):
-        """Find where the whisker goes when its equilibrium is lost at t, and go there."""
+    def _snap(self, path, t, events, reason) -> float:
+        """
+        Find where the whisker goes when its equilibrium is lost at t, and go there.
+
+        Return the path parameter of the state it lands in: t, or t + 1e-6 (cases 1 and 3).
+        """
         self._fold_prev = None  # the tangent before the jump says nothing about the branch after
+        self._last_change = None  # a change after the snap is not the reverse of one before it
         if self._last_snap is not None and self._last_snap[0] is path \
-                and abs(self._last_snap[1] - t) <= 1e-9:
-            # the last snap landed back where the branch is lost: a loop, not a destination
+                and self._last_snap[1] - 1e-9 <= t <= self._last_snap[2] + 1e-9:
+            # the last snap landed back where the branch is lost (between the loss and the
+            # pose it landed at): a loop, not a destination
             raise ConvergenceError(
                 f"the whisker snaps at base {tuple(round(v, 6) for v in path.pose(t).position)} "
                 f"({reason}) and the only equilibrium found to jump to leads straight back to "
-                "the lost one: no other stable equilibrium was found (the whisker may have to "
-                "pass to the obstacle's other side, which is not modelled)")
-        self._last_snap = (path, t)
+                "the lost one: no other stable equilibrium was found")
+        t_after = min(1.0, t + 1e-6)
+        self._last_snap = (path, t, t_after)
         sol = self.solver
         pose = path.pose(t)
         before = len(self._modes)
         old_modes, old_vec = self._modes, self._vec
         breaks = sol.breaks_of(old_modes, old_vec)
         forces = sol.forces_of(old_modes, old_vec)
-        t_after = min(1.0, t + 1e-6)
         pose_after = path.pose(t_after)
         # 1. a stable equilibrium of the same contacts, off the lost one (a bifurcated branch);
         # not at a fold, where the branch of these contacts turns back (unstable) and ends, nor
@@ -1057,7 +1066,7 @@ class RodTracker:
                     and self._contact_gap_at(pose_after, old_modes, vec) >= _CUT):
                 events.append(RodEvent("snap", pose, None, None, before, before, reason))
                 self._accept(solved, pose_after)
-                return
+                return t_after
         # 2. drop contacts: the last ones first, then all
         k = len(old_modes)
         subsets = [tuple(i for i in range(k) if i != j) for j in reversed(range(k))] + [()]
@@ -1069,7 +1078,7 @@ class RodTracker:
                         continue
                     events.append(RodEvent("snap", pose, None, None, before, 0, reason))
                     self._modes, self._vec, self._solved, self._pose = (), np.zeros(0), None, pose
-                    return
+                    return t
                 solved = self._rebuild(pose, modes, [breaks[i] for i in keep],
                                        [forces[i] for i in keep], old_modes, old_vec)
             except ConvergenceError:
@@ -1080,7 +1089,7 @@ class RodTracker:
                 self._modes = modes
                 self._accept(solved, pose)
                 self._sign = math.copysign(1.0, _det_measure(solved.lu))
-                return
+                return t
         # 3. the equilibrium reached by swinging the whisker in from out of its plane, just past
         # the loss: at the loss itself a helper coming in may arrive on the lost branch (it
         # still exists there, at its fold) and the step would snap again where it left
@@ -1088,16 +1097,43 @@ class RodTracker:
             found = self._swing_in(pose_after)
             if found is not None:
                 modes, solved = found
+                how = "; it swings out of its plane"
+                crossed = self._sides_crossed(pose, old_modes, old_vec, pose_after, modes,
+                                              solved.vec)
+                if crossed:
+                    # the tip passed the obstacle in the jump (as a whisker flicks past a peg):
+                    # the quasistatic model does not follow the jump, so which side is the
+                    # first helper's that arrives, and the reason says so
+                    how += f" and lands on the other side of {', '.join(crossed)}"
                 events.append(RodEvent("snap", pose, None, None, before, len(modes),
-                                       reason + "; it swings out of its plane"))
+                                       reason + how))
                 self._modes = modes
                 self._accept(solved, pose_after)
                 self._sign = math.copysign(1.0, _det_measure(solved.lu))
-                return
+                return t_after
         raise ConvergenceError(
             f"the whisker snaps at base {tuple(round(v, 6) for v in pose.position)} ({reason}) "
             "and no stable equilibrium was found to jump to"
         )
+
+    def _sides_crossed(self, pose, modes, vec, pose_new, modes_new, vec_new):
+        """Return the names of the obstacles touched before and after whose normals turned over."""
+        sol = self.solver
+
+        def normals(p, ms, v):
+            pts = sol.centerline(ms, v, p, np.array(sol.breaks_of(ms, v)))
+            out = {}
+            for m, x in zip(ms, pts):
+                out.setdefault(m.obstacle, []).append(
+                    np.asarray(self.obstacles[m.obstacle].surface(x).normal, dtype=float))
+            return out
+
+        before, after = normals(pose, modes, vec), normals(pose_new, modes_new, vec_new)
+        names = []
+        for k in sorted(set(before) & set(after)):
+            if all(float(a @ b) < 0.0 for a in before[k] for b in after[k]):
+                names.append(getattr(self.obstacles[k], "name", f"obstacle {k}"))
+        return names
 
     def _swing_in(self, pose: BasePose):
         """
@@ -1121,8 +1157,9 @@ class RodTracker:
             start = BasePose(pose.position, tuple(q))
             helper = None
             try:
+                left = self.max_evaluations - (self.solver.evaluations - self._start)
                 helper = RodTracker(self.obstacles, start, shape=self.shape, n=self.solver.n,
-                                    max_evaluations=self.max_evaluations, recover=False)
+                                    max_evaluations=max(left, 1), recover=False)
                 helper._nested = True
                 helper.step(pose)
             except VibrissaError:
