@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from vibrissa_ros.core.errors import InvalidPoseError, ModelAssumptionError
+from vibrissa_ros.core.errors import ConvergenceError, InvalidPoseError, ModelAssumptionError
 from vibrissa_ros.core.general.model import WhiskerShape
 from vibrissa_ros.core.rod3d import (
     BasePose, Cylinder, Plane, Prism, RodContactMode, RodShape, RodSolver, RodTracker, Scene3D,
@@ -340,3 +340,94 @@ def test_a_pose_given_with_the_other_quaternion_sign_is_the_same_pose():
         assert np.allclose(a.centerline(21), b.state.centerline(21), rtol=0, atol=1e-12)
         in_contact += bool(a.contacts)
     assert in_contact >= 10
+
+
+# -- event location: the rules found by the array soaks (doc/mechanics/rod3d.md, "Snaps") --------
+
+def _pressed_sphere_tracker():
+    """Return a whisker pressing a ball in one side contact, and a short path on from there."""
+    from vibrissa_ros.core.rod3d.tracker import _Path
+
+    tracker = _sphere_tracker()
+    for y in np.linspace(0.0, 0.2, 41)[1:]:
+        tracker.step(BasePose((0.0, float(y), 0.0)))
+    assert len(tracker.state.contacts) == 1
+    path = _Path(tracker.pose, BasePose((0.0, 0.205, 0.0)))
+    return tracker, path
+
+
+@pytest.mark.parametrize("value, expected", [
+    # negative by rounding at the start, positive just after: the zero further on
+    (lambda tau: -3e-16 + 1e-3 * tau * (0.25 - tau), 0.25),
+    # negative by rounding at the start and still negative after: crossed at the start
+    (lambda tau: -3e-16 - 1e-3 * tau, 0.0),
+    # clearly negative at the start (beyond -1e-12): crossed there, not probed
+    (lambda tau: -1e-9 + 1e-3 * tau * (0.25 - tau), 0.0),
+])
+def test_an_event_value_zero_by_construction_is_judged_just_after_the_start(
+        monkeypatch, value, expected):
+    tracker, path = _pressed_sphere_tracker()
+    monkeypatch.setattr(RodTracker, "_event_values",
+                        lambda self, path, tau, vec, lu: {("release", 0): value(tau)})
+    changes = []
+    monkeypatch.setattr(RodTracker, "_change",
+                        lambda self, path, t, key, events: changes.append((t, key)) or t)
+    t = tracker._first_event(path, 0.0, 0.5, [("release", 0)], [])
+    assert changes == [(t, ("release", 0))]
+    assert t == pytest.approx(expected, abs=1e-10)
+
+
+def test_a_probe_that_cannot_be_solved_leaves_the_event_at_the_start(monkeypatch):
+    tracker, path = _pressed_sphere_tracker()
+    monkeypatch.setattr(RodTracker, "_event_values",
+                        lambda self, path, tau, vec, lu: {("release", 0): -3e-16 + tau})
+    real = RodTracker._solve_at
+
+    def solve_at(self, path, t, t_new, solved, exact=True):
+        if t_new != 0.5:
+            raise ConvergenceError("not followed")
+        return real(self, path, t, t_new, solved, exact)
+
+    monkeypatch.setattr(RodTracker, "_solve_at", solve_at)
+    changes = []
+    monkeypatch.setattr(RodTracker, "_change",
+                        lambda self, path, t, key, events: changes.append((t, key)) or t)
+    assert tracker._first_event(path, 0.0, 0.5, [("release", 0)], []) == 0.0
+
+
+def test_an_event_never_located_shortens_the_sub_step_until_the_step_fails(monkeypatch):
+    """Rule 4 is bounded: each retry quarters the sub-step; below 1e-12 the step fails."""
+    from vibrissa_ros.core.rod3d import tracker as rod_tracker
+
+    tracker, _ = _pressed_sphere_tracker()
+    before = tracker.state
+    trials = []
+
+    def never(self, path, t_a, t_b, crossed, events):
+        trials.append(t_b - t_a)
+        raise rod_tracker._Unlocated("an event between two sub-steps could not be located")
+
+    monkeypatch.setattr(RodTracker, "_first_event", never)
+    monkeypatch.setattr(RodTracker, "_event_values",
+                        lambda self, path, tau, vec, lu: {("release", 0): -1.0})
+    with pytest.raises(ConvergenceError, match="could not be located"):
+        tracker.step(BasePose((0.0, 0.205, 0.0)))
+    assert tracker.state == before
+    assert len(trials) < 30 and trials[-1] < 4e-12
+    assert all(b <= 0.25 * a * (1 + 1e-12) for a, b in zip(trials, trials[1:]))
+
+
+def test_a_tip_change_and_its_reverse_apart_on_the_path_are_not_a_slip(monkeypatch):
+    """Rule 3 fires only for the reverse change of the same contact within 1e-9 of the path."""
+    from vibrissa_ros.core.rod3d.tracker import _SLIPS
+
+    tracker, path = _pressed_sphere_tracker()
+    snaps = []
+    monkeypatch.setattr(RodTracker, "_snap",
+                        lambda self, path, t, events, reason: snaps.append((t, reason)) or t)
+    monkeypatch.setattr(RodTracker, "_set_configuration", lambda self, *a: None)
+    tracker._change(path, 0.1, ("tip", 0), [])
+    tracker._change(path, 0.1 + 1e-6, ("tangential", 0), [])      # apart: two changes
+    assert snaps == []
+    tracker._change(path, 0.1 + 1e-6 + 1e-10, ("tip", 0), [])     # at once: a slip
+    assert snaps == [(0.1 + 1e-6 + 1e-10, _SLIPS)]
