@@ -100,11 +100,12 @@ def log_info(path: str) -> LogInfo:
         phases: Counter = Counter()
         events = []
         start = end = None
-        for m in log.messages():
+        for m in log.messages():  # in log-time order: the first and the last bound it
             counts[m.topic] += 1
             types.setdefault(m.topic, m.type_name)
-            start = m.log_time if start is None else min(start, m.log_time)
-            end = m.log_time if end is None else max(end, m.log_time)
+            if start is None:
+                start = m.log_time
+            end = m.log_time
             if m.topic.endswith("/phase"):
                 phases[decode(m).data] += 1
             elif m.topic.endswith("/events"):
