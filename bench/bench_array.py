@@ -63,6 +63,11 @@ def _evaluations(tracker) -> int:
     return sum(tracker.tracker(name).solver.evaluations for name in tracker.names)
 
 
+def _factorizations(tracker) -> int:
+    """Return the Jacobian factorizations every whisker's tracker has spent so far."""
+    return sum(tracker.tracker(name).solver.factorizations for name in tracker.names)
+
+
 def _pct(values, q):
     return float(np.percentile(values, q)) * 1e3
 
@@ -73,13 +78,14 @@ def run(side: str, cycles: float, baseline_ticks: int, dt: float = 1e-3) -> None
     tracker = ArrayTracker(array, scene, HEAD, whisk.angle(0.0))
     setup = time.perf_counter() - t0
     ticks = int(round(cycles / whisk.frequency / dt))
-    times, contacts, solved, errors, work, kinds = [], [], [], 0, [], []
+    times, contacts, solved, errors, work, kinds, factorized = [], [], [], 0, [], [], []
     for k in range(1, ticks + 1):
-        before = _evaluations(tracker)
+        before, lus = _evaluations(tracker), _factorizations(tracker)
         t0 = time.perf_counter()
         step = tracker.step(HEAD, whisk.angle(k * dt))
         times.append(time.perf_counter() - t0)
         work.append(_evaluations(tracker) - before)
+        factorized.append(_factorizations(tracker) - lus)
         kinds.append({e.kind for e in step.events})
         contacts.append(step.in_contact)
         solved.append(int(step.solved.sum()))
@@ -103,7 +109,9 @@ def run(side: str, cycles: float, baseline_ticks: int, dt: float = 1e-3) -> None
                   f"ms, p99 {_pct(times[m], 99):.3f} ms")
     # the solver's work: counts, not seconds, so runs on a busy machine compare exactly
     print(f"   solver evaluations (a residual, with or without its Jacobian): {work.sum():,} in "
-          f"all, per tick median {np.median(work):.0f}, p99 {np.percentile(work, 99):.0f}")
+          f"all, per tick median {np.median(work):.0f}, p99 {np.percentile(work, 99):.0f}; "
+          f"Jacobian factorizations {sum(factorized):,} in all, per tick median "
+          f"{np.median(factorized):.0f}")
     for kind in ("snap", "touch", "release", "tip", "tangential", "reset"):
         m = np.array([kind in ks for ks in kinds])
         if m.any():

@@ -431,3 +431,29 @@ def test_a_tip_change_and_its_reverse_apart_on_the_path_are_not_a_slip(monkeypat
     assert snaps == []
     tracker._change(path, 0.1 + 1e-6 + 1e-10, ("tip", 0), [])     # at once: a slip
     assert snaps == [(0.1 + 1e-6 + 1e-10, _SLIPS)]
+
+
+def _pressed_on_a_ball():
+    shape = RodShape(taper=0.4, parabola=0.5)
+    ball = Sphere((0.55, 0.35, 0.1), 0.12, "ball")
+    q0 = (math.cos(0.3), math.sin(0.3), 0.0, 0.0)
+    tracker = RodTracker([ball], BasePose((0.0, -0.3, 0.0), q0), shape=shape)
+    for y in np.linspace(-0.3, 0.2, 51)[1:]:
+        tracker.step(BasePose((0.0, float(y), 0.0), q0))
+    assert [c.kind for c in tracker.state.contacts] == ["side"]
+    return tracker.solver, tracker._modes, tracker._vec, tracker._pose
+
+
+@pytest.mark.parametrize("offset,factorizations", [(3e-6, 1), (1e-3, 2)])
+def test_newton_closes_with_chord_steps_on_its_fresh_jacobian_once_within_1e_4(
+        offset, factorizations):
+    # a Newton step shorter than 1e-4 is followed by chord steps on its own Jacobian, not by
+    # another factorization; from farther off Newton needs one step more first
+    solver, modes, vec, pose = _pressed_on_a_ball()
+    direction = np.random.default_rng(3).uniform(-1.0, 1.0, vec.size)
+    guess = vec + offset * direction / np.max(np.abs(direction))
+    before = solver.factorizations
+    solved = solver.solve(modes, pose, guess)
+    assert solver.factorizations - before == factorizations
+    assert np.max(np.abs(solved.vec - vec)) < 1e-12
+    assert np.max(np.abs(solver.residual(modes, solved.vec, pose, jacobian=False)[0])) < 1e-13

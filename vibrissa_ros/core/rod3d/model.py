@@ -536,6 +536,13 @@ class RodSolver:
     ParameterError
         When ``n`` is below 8.
 
+    Attributes
+    ----------
+    evaluations : int
+        Residual evaluations so far (with or without the Jacobian).
+    factorizations : int
+        LU factorizations of the Jacobian so far (the costliest part of a step).
+
     """
 
     def __init__(self, shape: RodShape, obstacles: Sequence[Any] = (),
@@ -558,6 +565,7 @@ class RodSolver:
         self._nu1 = 1.0 + shape.poisson
         self._sp = None if shape.taper == 1.0 else 1.0 / (1.0 - shape.taper)
         self.evaluations = 0
+        self.factorizations = 0
         self._free_tip_cache = None
         self._nodes_cache = None
         self._chord_rate = 1.0
@@ -959,7 +967,10 @@ class RodSolver:
                         break
                     if last < math.inf:
                         self._chord_rate = rate
-                    if last < math.inf and rate > 0.5:
+                    if last < math.inf and (rate > 0.5
+                                            or size * rate ** 3 / (1.0 - rate) > _CHORD_TOL):
+                        # contracting too slowly (more than two further iterations): a Newton
+                        # step and chord steps on its fresh Jacobian cost less
                         break
                     last = size
                 last = math.inf
@@ -969,21 +980,23 @@ class RodSolver:
                 # at a converged chord solution this evaluation gives the Jacobian and the
                 # sensitivities there; its Newton step is one more (tiny) correction
                 res, J, sens = self.residual(modes, vec, pose, pose_sensitivity=True)
+                self.factorizations += 1
                 lu = _lu_factor(J, finite=J is self._finite_jacobian)
                 step = _lu_solve(lu, res)
                 size = self._take(step, max_step)
                 vec = vec - step
                 self._check_breaks(modes, vec)
-                if trusted and it == 0 and _TRUSTED_STEP < size <= _TRUSTED_CHORD:
-                    # a good guess, not quite good enough: chord steps on this fresh Jacobian
-                    # contract by ~size each (no second Jacobian)
-                    done, vec = self._polish(modes, vec, pose, lu, max_step)
-                    if done:
-                        return Solved(vec, lu, sens)
-                if (size <= _TOL or (converged and size <= _CHORD_TOL) or _settled(size, last)
-                        or (trusted and it == 0 and size <= _TRUSTED_STEP)):
+                settled = (size <= _TOL or (converged and size <= _CHORD_TOL)
+                           or _settled(size, last)
+                           or (trusted and it == 0 and size <= _TRUSTED_STEP))
+                if not settled and size <= _TRUSTED_CHORD and not size > 0.1 * last:
+                    # close enough: chord steps on this fresh Jacobian contract by ~size each,
+                    # a residual each instead of another Jacobian and factorization
+                    settled, vec = self._polish(modes, vec, pose, lu, max_step)
+                if settled:
                     if exact_jacobian:
                         _, J, sens = self.residual(modes, vec, pose, pose_sensitivity=True)
+                        self.factorizations += 1
                         lu = _lu_factor(J, finite=J is self._finite_jacobian)
                     return Solved(vec, lu, sens)
                 newton += 1
@@ -1008,15 +1021,25 @@ class RodSolver:
         )
 
     def _polish(self, modes, vec, pose, lu, max_step):
-        """Return (converged, vec) after at most two chord steps with a fresh factorization."""
-        for _ in range(2):
+        """
+        Return (converged, vec) after at most three chord steps with a fresh factorization.
+
+        Each step must be at most a tenth of the one before (the Jacobian, within 1e-4 of the
+        solution, makes them contract by ~1e-4 or better); the first at most 1e-10 ends them
+        (the error is then ~1e-14). Otherwise Newton goes on from the last iterate.
+        """
+        last = math.inf
+        for _ in range(3):
             res, _, _ = self.residual(modes, vec, pose, jacobian=False)
             step = _lu_solve(lu, res)
             size = self._take(step, max_step)
+            if size > 0.1 * last:
+                return False, vec
             vec = vec - step
             self._check_breaks(modes, vec)
             if size <= _CHORD_TOL * 1e-2:
                 return True, vec
+            last = size
         return False, vec
 
     @staticmethod
