@@ -531,17 +531,17 @@ class RodSolver:
     n : int, optional
         Chebyshev points per segment; default :func:`points_for` the shape.
 
-    Raises
-    ------
-    ParameterError
-        When ``n`` is below 8.
-
     Attributes
     ----------
     evaluations : int
         Residual evaluations so far (with or without the Jacobian).
     factorizations : int
         LU factorizations of the Jacobian so far (the costliest part of a step).
+
+    Raises
+    ------
+    ParameterError
+        When ``n`` is below 8.
 
     """
 
