@@ -14,8 +14,9 @@ Printed: the events by kind, the failed whisker steps (``ArrayStep.errors``) by 
 reason (the message with its numbers blanked), the first tick of each, the resets (a whisker
 re-placed where it is clear after a failure) and the time taken. It is how the rules of
 doc/mechanics/rod3d.md, "Snaps", were found: the ``pegs`` scene has no failed step and no reset
-at 7 Hz (4,000 ticks) and 9.5 Hz (6,000); the ``wall`` scene shows the second contact on the
-same obstacle that is not modelled ("What is not modelled (yet)").
+at 7 Hz (4,000 ticks) and 9.5 Hz (6,000); the ``wall`` scene found the touch behind a pressed
+tip (same page, "Snaps") and shows the line contact that point contacts do not model ("What
+is not modelled (yet)").
 
 Run: OPENBLAS_NUM_THREADS=1 python bench/soak_array.py [--scene pegs|wall] [--ticks 4000]
      [--frequency HZ]

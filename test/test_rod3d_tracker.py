@@ -457,3 +457,75 @@ def test_newton_closes_with_chord_steps_on_its_fresh_jacobian_once_within_1e_4(
     assert solver.factorizations - before == factorizations
     assert np.max(np.abs(solved.vec - vec)) < 1e-12
     assert np.max(np.abs(solver.residual(modes, solved.vec, pose, jacobian=False)[0])) < 1e-13
+
+
+def _curled_at_a_wall():
+    # a whisker curved towards +y, its tip 0.02 L below a wall it is pushed against
+    shape = RodShape(taper=0.2, parabola=0.8)
+    tip = shape.free_centerline(np.array([1.0]))[0]
+    wall = Plane((0.0, tip[1] + 0.02, 0.0), (0.0, -1.0, 0.0), "wall")
+    return RodTracker([wall], BasePose((0.0, 0.0, 0.0)), shape=shape, recover=False), wall
+
+
+def _push(tracker, wall, ys):
+    events = []
+    for y in ys:
+        result = tracker.step(BasePose((0.0, float(y), 0.0)))
+        events += [(e.kind, e.s, e.reason) for e in result.events]
+        for c in result.state.contacts:
+            assert c.f >= -1e-12
+        assert np.min(wall.signed_distance(result.state.centerline(401))) > -1e-9
+    return events
+
+
+def test_a_whisker_curved_into_a_wall_lays_its_side_on_it_behind_its_pressed_tip():
+    # the tip touches first; before it turns tangent the whisker touches the wall a second
+    # time 0.006 L behind it (a regular touch, at zero force); pulled back, that contact is
+    # released where it was made
+    tracker, wall = _curled_at_a_wall()
+    ys = np.linspace(0.0, 0.3, 301)[1:]
+    events = _push(tracker, wall, ys)
+    assert [(k, s == 1.0) for k, s, _ in events] == [("touch", True), ("touch", False)]
+    s_touch = events[1][1]
+    assert 0.99 < s_touch < 0.999
+    kinds = [(c.kind, c.name) for c in tracker.state.contacts]
+    assert kinds == [("side", "wall"), ("tip", "wall")]
+    back = _push(tracker, wall, ys[::-1][1:])
+    assert [k for k, _, _ in back] == ["release", "release"]
+    assert back[0][1] == pytest.approx(s_touch, abs=1e-6)
+
+
+def test_where_that_touch_is_missed_the_tip_turning_tangent_slips_and_lands_on_both(
+        monkeypatch):
+    # the fallback: a tip contact turning tangent where the unloaded whisker curves into the
+    # surface can go on neither at the tip nor along the side; the snap lands with a side
+    # contact behind the tip, on the branch the touch leads to
+    tracker, wall = _curled_at_a_wall()
+    ys = np.linspace(0.0, 0.3, 301)[1:]
+    _push(tracker, wall, ys)
+    expected = tracker.state
+    monkeypatch.setattr(RodTracker, "_gap_behind_tip",
+                        lambda self, *args: (math.inf, -1, 0.0))
+    tracker, wall = _curled_at_a_wall()
+    events = _push(tracker, wall, ys)
+    assert [k for k, _, _ in events] == ["touch", "snap"]
+    assert "turns tangent to wall" in events[1][2]
+    assert events[1][2].endswith("it lands with its side and its tip on wall")
+    state = tracker.state
+    assert [c.kind for c in state.contacts] == ["side", "tip"]
+    for a, b in zip(state.contacts, expected.contacts):
+        assert a.s == pytest.approx(b.s, abs=1e-9)
+        assert a.f == pytest.approx(b.f, abs=1e-9)
+
+
+def test_a_sag_between_two_contacts_on_one_obstacle_is_refused_with_the_state_kept():
+    # pressed on, the whisker between its side and tip contacts sags into the wall (it would
+    # lie on it along a segment): refused, not returned cutting the wall
+    tracker, wall = _curled_at_a_wall()
+    _push(tracker, wall, np.linspace(0.0, 0.3, 301)[1:])
+    kept = None
+    with pytest.raises(ModelAssumptionError, match="between its two contacts on one obstacle"):
+        for y in np.linspace(0.3, 0.5, 201)[1:]:
+            kept = tracker.state
+            tracker.step(BasePose((0.0, float(y), 0.0)))
+    assert tracker.state is kept

@@ -12,7 +12,8 @@ finding in t (Brent, to 1e-14) and the configuration changes:
 ===============  ====================================================================
 event            change of the configuration
 ===============  ====================================================================
-``touch``        a new contact with zero force (side, or tip when the tip touches first)
+``touch``        a new contact with zero force (side, or tip when the tip touches first;
+                 also a side contact behind a tip contact, on the same obstacle)
 ``release``      a contact's normal force returns to zero: the contact is dropped
 ``tip``          a side contact reaches the tip (s = 1): side -> tip
 ``tangential``   the tip's tangent reaches the surface's tangent plane: tip -> side
@@ -99,6 +100,11 @@ _SWINGS = ((2, 0.5 * math.pi), (2, -0.5 * math.pi), (3, 0.5 * math.pi), (3, -0.5
            (2, 0.25 * math.pi), (2, -0.25 * math.pi), (3, 0.25 * math.pi), (3, -0.25 * math.pi))
 _SLIPS = ("the contact reaches the tip and can go on neither along the side nor at the tip: it "
           "slips off the tip")
+_CURLS_PREFIX = "the tip contact turns tangent to "
+_CURLS = (_CURLS_PREFIX + "{name} where the unloaded whisker curves into it: neither the tip "
+          "contact nor a side contact goes on, it slips off the tip")
+#: where the segment between two contacts on one obstacle is checked (parts of it)
+_BETWEEN_SAMPLES = np.linspace(0.0, 1.0, 10)[1:-1]
 #: a pose stream is extrapolated when its poses' fourth difference is below this part of a step
 _STREAM_TOLERANCE = 0.01
 
@@ -715,7 +721,8 @@ class RodTracker:
 
     def _contact_gap(self, path, t, vec, exact=False):
         skip = {m.obstacle for m in self._modes}
-        if len(skip) == len(self.obstacles):
+        behind = self._modes[-1].kind == "tip" and self._alone_on_its_obstacle(-1)
+        if len(skip) == len(self.obstacles) and not behind:
             return (math.inf, -1, 0.0)
         pose = path.pose(t)
         sol = self.solver
@@ -724,7 +731,66 @@ class RodTracker:
         def point_at(s):
             return sol.centerline(self._modes, vec, pose, [s])[0]
 
-        return self._gap_of_points(pts, point_at, exact, skip)
+        best = self._gap_of_points(pts, point_at, exact, skip)
+        if behind:
+            same = self._gap_behind_tip(pose, vec, pts, point_at, exact)
+            if same[0] < best[0]:
+                best = same
+        return best
+
+    def _gap_behind_tip(self, pose, vec, pts, point_at, exact):
+        """
+        Return (value, obstacle, s): how near the whisker behind a tip contact is to its obstacle.
+
+        The distance d(s) to the tip contact's obstacle vanishes at the tip itself, so the
+        value is the least of d(s) / (1 - s) over the samples between the contact before (or
+        the base) and the tip (at the tip, its limit -d1 . n, the tangential event's value),
+        refined near the least sample (bounded Brent in s, to 1 - 1e-6). It is 0 where the
+        whisker touches the obstacle a second time behind the tip: a touch, born apart from the
+        tip (a whisker curved into the surface, its tip pressed on it, lays its side on it
+        before the tip contact turns tangent). A least value at the tip itself is no touch
+        (inf): that is the tangential event.
+        """
+        modes = self._modes
+        k = modes[-1].obstacle
+        ob = self.obstacles[k]
+        lo = self.solver.breaks_of(modes, vec)[-2] if len(modes) > 1 else 0.0
+        first = int(np.searchsorted(_SAMPLES, lo, side="right"))
+        if first >= _SAMPLES.size - 1:
+            return (math.inf, -1, 0.0)
+        d = ob.signed_distance(pts[first:-1])
+        g = d / (1.0 - _SAMPLES[first:-1])
+        j = int(np.argmin(g))
+        last = j == g.size - 1
+        least = (float(g[j]), float(_SAMPLES[first + j]))
+
+        def reduced(s):
+            return float(ob.signed_distance(point_at(s)[None, :])[0]) / (1.0 - s)
+
+        if not exact:
+            if least[0] > _NEAR:
+                return (least[0], k, least[1])
+            if last:
+                # the least sample next to the tip: where g still falls at two points in the
+                # last interval (towards its limit at the tip, -d1 . n), the least value is the
+                # tip's, the tangential event's, not a touch (one Brent search saved a sub-step
+                # for every shallow tip contact)
+                h = 1.0 - least[1]
+                mid, near = reduced(1.0 - 0.5 * h), reduced(1.0 - 0.25 * h)
+                if least[0] >= mid >= near > 0.0:
+                    return (math.inf, -1, 0.0)
+        a = float(_SAMPLES[max(first + j - 1, first)])
+        b = min(float(_SAMPLES[first + j + 1]), 1.0 - 1e-6)
+        res = minimize_scalar(reduced, bounds=(a, b), method="bounded",
+                              options={"xatol": 1e-12, "maxiter": 200})
+        value = min((float(res.fun), float(res.x)), least)
+        if value[1] >= 1.0 - 2e-6:
+            # the least value at the tip: no touch near it; the least sample apart from it
+            if g.size < 2:
+                return (math.inf, -1, 0.0)
+            i = int(np.argmin(g[:-1]))
+            return (float(g[i]), k, float(_SAMPLES[first + i]))
+        return (value[0], k, value[1])
 
     def _contact_advance(self, path: _Path, t: float, h: float, events) -> Tuple[float, float]:
         sol = self.solver
@@ -769,6 +835,7 @@ class RodTracker:
             raise ConvergenceError("the continuation step could not be shortened enough")
         self._check_features(self._modes, solved.vec, path.pose(t_new))
         self._check_tail(self._modes, solved.vec, path.pose(t_new))
+        self._check_between(self._modes, solved.vec, path.pose(t_new))
         values = self._event_values(path, t_new, solved.vec, solved.lu)
         gap = self._contact_gap(path, t_new, solved.vec)[0]
         crossed = [key for key, v in values.items() if v < 0.0]
@@ -984,6 +1051,15 @@ class RodTracker:
             # neither goes on. The equilibrium is lost there: a snap
             return self._snap(path, t, events, _SLIPS)
         pose = path.pose(t)
+        if (kind == "tangential" and self._alone_on_its_obstacle(c)
+                and self._tail_bend(c, pose) < 0.0):
+            # the side contact that would follow at s = 1 has its unloaded tail curving into
+            # the surface (its distance falls like d'' (s - 1)^2 / 2 < 0 as the contact moves
+            # in), and the tip contact's d1 . n turns positive: the equilibrium is lost, as for
+            # a slip off the tip (doc/mechanics/rod3d.md)
+            ob = self.obstacles[self._modes[c].obstacle]
+            return self._snap(path, t, events, _CURLS.format(
+                name=getattr(ob, "name", f"obstacle {self._modes[c].obstacle}")))
         modes = list(self._modes)
         breaks = list(sol.breaks_of(self._modes, self._vec))
         forces = list(sol.forces_of(self._modes, self._vec))
@@ -1013,6 +1089,25 @@ class RodTracker:
         events.append(RodEvent(kind, pose, obstacle, s_event, before, len(modes)))
         self._set_configuration(pose, tuple(modes), breaks, forces)
         return t
+
+    def _tail_bend(self, c, pose) -> float:
+        """
+        Return d''(s) at the tip of a tip contact turned tangent, for the unloaded tail beyond.
+
+        A side contact at s_c leaves an unloaded tail whose distance to the obstacle starts as
+        d''/2 (s - s_c)^2 with d'' = d1 . H d1 + kappa0 (n . d2) (the contact's tangent d1 and
+        the intrinsic curvature kappa0 along d2; the obstacle's normal n and distance Hessian
+        H): negative, the tail cuts the surface as soon as the contact moves in from the tip.
+        """
+        sol = self.solver
+        q = sol.quaternions(self._modes, self._vec, pose, [1.0])[0]
+        R = quat_matrix(q / np.linalg.norm(q))
+        tip = sol.centerline(self._modes, self._vec, pose, [1.0])[0]
+        near = self.obstacles[self._modes[c].obstacle].surface(tip)
+        H = np.asarray(near.hessian, dtype=float)
+        kappa0 = self.shape.free_frame(1.0)[3]
+        d1, d2 = R[:, 0], R[:, 1]
+        return float(d1 @ H @ d1 + kappa0 * (np.asarray(near.normal, dtype=float) @ d2))
 
     def _set_configuration(self, pose, modes, breaks, forces):
         if not modes:
@@ -1053,7 +1148,8 @@ class RodTracker:
         # not at a fold, where the branch of these contacts turns back (unstable) and ends, nor
         # where a contact slips off the tip (its own branches end there)
         null = _null_vector(self._solved.lu)
-        for amp in (() if reason in (_FOLDS, _SLIPS)
+        curls = reason.startswith(_CURLS_PREFIX)
+        for amp in (() if reason in (_FOLDS, _SLIPS) or curls
                     else (1e-3, -1e-3, 1e-2, -1e-2, 1e-1, -1e-1)):
             try:
                 solved = sol.solve(old_modes, pose_after, old_vec + amp * null, max_step=0.5)
@@ -1067,7 +1163,20 @@ class RodTracker:
                 events.append(RodEvent("snap", pose, None, None, before, before, reason))
                 self._accept(solved, pose_after)
                 return t_after
-        # 2. drop contacts: the last ones first, then all
+        # 2a. a tip contact turned tangent with its tail curving into the surface: the whisker
+        # lays its tail on it, a side contact behind the tip contact on the same obstacle
+        if curls:
+            found = self._lay_tail(pose_after, old_modes, old_vec, breaks, forces)
+            if found is not None:
+                modes, solved = found
+                name = self._name(modes[-1].obstacle)
+                events.append(RodEvent("snap", pose, None, None, before, len(modes),
+                                       f"{reason}; it lands with its side and its tip on {name}"))
+                self._modes = modes
+                self._accept(solved, pose_after)
+                self._sign = math.copysign(1.0, _det_measure(solved.lu))
+                return t_after
+        # 2b. drop contacts: the last ones first, then all
         k = len(old_modes)
         subsets = [tuple(i for i in range(k) if i != j) for j in reversed(range(k))] + [()]
         for keep in subsets:
@@ -1115,6 +1224,64 @@ class RodTracker:
             f"the whisker snaps at base {tuple(round(v, 6) for v in pose.position)} ({reason}) "
             "and no stable equilibrium was found to jump to"
         )
+
+    def _name(self, k: int) -> str:
+        return getattr(self.obstacles[k], "name", f"obstacle {k}")
+
+    def _lay_tail(self, pose, modes, vec, breaks, forces):
+        """
+        Return (modes, solved) with a side contact behind the last (tip) contact, or None.
+
+        The side contact goes on the tip contact's obstacle at 1 - eps, eps from 1e-3 to 0.3
+        (the first admissible solution: both forces >= 0, no obstacle cut, the segment between
+        the two contacts clear of their obstacle).
+        """
+        k = modes[-1].obstacle
+        new = tuple(modes[:-1]) + (RodContactMode("side", k), RodContactMode("tip", k))
+        lo = breaks[-2] if len(breaks) > 1 else 0.0
+        f = forces[-1]
+        for eps in (1e-3, 3e-3, 1e-2, 3e-2, 0.1, 0.3):
+            if 1.0 - eps <= lo:
+                break
+            try:
+                solved = self._rebuild(pose, new, list(breaks[:-1]) + [1.0 - eps, 1.0],
+                                       list(forces[:-1]) + [0.5 * f, 0.5 * f], modes, vec)
+            except ConvergenceError:
+                continue
+            s_side = self.solver.breaks_of(new, solved.vec)[-2]
+            if (lo < s_side < 1.0
+                    and min(self.solver.forces_of(new, solved.vec)) >= 0.0
+                    and self._tip_slope(new, solved.vec, pose) >= 0.0
+                    and self._contact_gap_at(pose, new, solved.vec) >= _CUT
+                    and self._between_depth(new, solved.vec, pose) >= _TAIL_CUT):
+                return new, solved
+        return None
+
+    def _alone_on_its_obstacle(self, c) -> bool:
+        k = self._modes[c].obstacle
+        return sum(m.obstacle == k for m in self._modes) == 1
+
+    def _tip_slope(self, modes, vec, pose) -> float:
+        """Return -d1 . n at the tip of a last tip contact (>= 0: not turned into the surface)."""
+        sol = self.solver
+        q = sol.quaternions(modes, vec, pose, [1.0])[0]
+        tip = sol.centerline(modes, vec, pose, [1.0])[0]
+        nrm = np.asarray(self.obstacles[modes[-1].obstacle].surface(tip).normal)
+        return -float(quat_matrix(q / np.linalg.norm(q))[:, 0] @ nrm)
+
+    def _between_depth(self, modes, vec, pose) -> float:
+        """Return the least distance of the segments between two contacts on one obstacle."""
+        breaks = self.solver.breaks_of(modes, vec)
+        depth = math.inf
+        for c in range(len(modes) - 1):
+            k = modes[c].obstacle
+            if modes[c + 1].obstacle != k:
+                continue
+            a, b = breaks[c], breaks[c + 1]
+            s = a + (b - a) * _BETWEEN_SAMPLES
+            pts = self.solver.centerline(modes, vec, pose, s)
+            depth = min(depth, float(np.min(self.obstacles[k].signed_distance(pts))))
+        return depth
 
     def _sides_crossed(self, pose, modes, vec, pose_new, modes_new, vec_new):
         """Return the names of the obstacles touched before and after whose normals turned over."""
@@ -1204,6 +1371,18 @@ class RodTracker:
                 f"unloaded tail beyond its contact at s = {end:.4g} would cut {name} "
                 f"({-depth:.3g} L deep): a second contact on the obstacle already touched is "
                 "not modelled by the 3D whisker"
+            )
+
+    def _check_between(self, modes, vec, pose):
+        """Refuse a segment between two contacts on one obstacle that cuts it (not modelled)."""
+        if len({m.obstacle for m in modes}) == len(modes):
+            return
+        depth = self._between_depth(modes, vec, pose)
+        if depth < _TAIL_CUT:
+            raise ModelAssumptionError(
+                f"at base {tuple(round(float(v), 6) for v in pose.position)} the whisker between "
+                f"its two contacts on one obstacle would cut it ({-depth:.3g} L deep): a third "
+                "contact there is not modelled by the 3D whisker"
             )
 
     def _check_touch_feature(self, k, point):
