@@ -490,9 +490,10 @@ class ArrayTracker:
                 continue
             solved[i] = True
             try:
-                if self._stale[i]:  # skipped at the previous tick: clear there, unloaded
-                    tracker.reset(self._pose(self._R, self._p, i),
-                                  reason="clearance test: the whisker is followed again")
+                if self._stale[i]:
+                    # skipped at the previous tick: unloaded there, and certified clear by the
+                    # clearance test, so placed without the tracker's own (exact) check
+                    tracker._place(self._pose(self._R, self._p, i))
                     self._stale[i] = False
                 result = tracker.step(self._pose(R, p, i))
             except VibrissaError as exc:
