@@ -18,6 +18,7 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState, PointCloud2
 from std_msgs.msg import String
+from std_srvs.srv import Trigger
 from visualization_msgs.msg import Marker, MarkerArray
 
 from vibrissa_ros.core.arrays import ArrayTracker
@@ -58,8 +59,16 @@ class ArrayProbe:
         n.create_subscription(DiagnosticArray, "/diagnostics", self._keep("diagnostics"), 50)
         self.whisk = n.create_publisher(JointState, f"{prefix}/whisk", KEEP_ALL)
         self.head = n.create_publisher(PoseStamped, f"{prefix}/head_pose", KEEP_ALL)
+        self.reset = n.create_client(Trigger, f"{prefix}/reset")
         self.executor = SingleThreadedExecutor(context=context)
         self.executor.add_node(n)
+
+    def call_reset(self, timeout=20.0):
+        """Call ``~/reset`` and return its response."""
+        assert self.reset.wait_for_service(timeout_sec=timeout), "no ~/reset service"
+        future = self.reset.call_async(Trigger.Request())
+        assert self.spin_until(future.done, timeout), "~/reset did not answer"
+        return future.result()
 
     def _keep(self, key):
         return lambda msg: self.got[key].append(msg)
@@ -148,6 +157,9 @@ def external(installed, ros_env, rcl_context, tmp_path_factory):
                 msg = _joints(["whisk"], [math.radians(theta)], t)
             probe.send(msg)
             inputs.append(msg)
+            if k == 45:  # every whisker re-placed before the next tick
+                reset = probe.call_reset()
+                reset_stamp = t + 1_000_000
             if k == 30:  # bad input in contact: each dropped, the state kept
                 before = len(probe.got["diagnostics"])
                 for key, wrong in (
@@ -167,7 +179,7 @@ def external(installed, ros_env, rcl_context, tmp_path_factory):
         probe.destroy()
         code = stop(proc)
     return dict(values=values, got=got, inputs=inputs, bad=bad, status=status, alive=alive,
-                code=code, log=log)
+                code=code, log=log, reset=reset, reset_stamp=reset_stamp)
 
 
 def _reference(values):
@@ -196,6 +208,8 @@ def test_every_whisker_is_published_and_equals_the_array_tracker(external):
     for i, cloud in enumerate(clouds):
         if i > 0 and cloud["y"][0] != clouds[i - 1]["y"][0]:
             head = BasePose((0.0, 0.0005, 0.0))
+        if header_ns(got["wrenches"][i]) == external["reset_stamp"]:
+            tracker.reset()
         step = tracker.step(head, np.array(cloud["theta"]))
         want = output_rows(step, cfg.scene)
         for name in WRENCH + ("s", "f", "cx", "cy", "cz", "x", "y", "z", "theta"):
@@ -233,6 +247,24 @@ def test_bad_input_is_dropped_reported_and_the_state_kept(external):
     assert any("dropped" in s.message for s in statuses if s.hardware_id == "/ext/array_node")
 
 
+def test_reset_re_places_every_whisker_before_the_next_tick(external):
+    reset = external["reset"]
+    assert reset.success and "re-placed unloaded" in reset.message
+    got = external["got"]
+    stamps = [header_ns(w) for w in got["wrenches"]]
+    j = stamps.index(external["reset_stamp"])
+    names = json.loads(got["whiskers"][-1].data)["names"]
+    # the events of that tick: a reset for every whisker re-placed; one pressed on the peg at the
+    # last tick cannot be (it keeps its state and reports it in its row's error column)
+    events = [json.loads(e.data) for e in got["events"]]
+    resets = [e["whisker"] for e in events if e["kind"] == "reset"]
+    assert len(set(resets)) >= 20
+    cloud, before = decode_cloud(got["wrenches"][j]), decode_cloud(got["wrenches"][j - 1])
+    pressed = {names[i] for i in np.flatnonzero(before["contacts"] > 0)}
+    assert set(names) - set(resets) <= pressed
+    assert all(cloud["error"][names.index(n)] for n in set(names) - set(resets))
+
+
 def test_obstacles_and_display_outputs(external):
     array = external["got"]["obstacles"][-1]
     peg = array.markers[1]
@@ -253,7 +285,7 @@ def test_the_external_run_is_reproduced_by_resim(external):
     assert sim.compared["wrenches.fx"] >= 30 * len(external["inputs"])
 
 
-def _listwise_resim(configs, messages):
+def _listwise_resim(configs, messages, resets=()):
     """Re-simulate an array log as resim did before streaming: all ticks kept, zipped at last."""
     from vibrissa_ros.logs.array_resim import COMPARED, _relative
     from vibrissa_ros.logs.tools import Resimulation
@@ -291,6 +323,8 @@ def _listwise_resim(configs, messages):
         except BadInput as exc:
             result.dropped[exc.reason] += 1
             continue
+        if any(before == len(result.states) for before, _ in resets):
+            pipeline.request_reset()
         step = pipeline.tick()
         stamp = header_ns(msg)
         result.states.append((stamp, step))
@@ -336,10 +370,10 @@ def _assert_same(streamed, listwise):
 
 def _recorded(external):
     from vibrissa_ros.logs.mcap_log import read_log
-    from vibrissa_ros.logs.tools import configurations
+    from vibrissa_ros.logs.tools import configurations, reset_requests
 
     _, _, metadata, messages = read_log(str(external["log"]))
-    return configurations(metadata), messages
+    return configurations(metadata), messages, reset_requests(metadata)
 
 
 def _is_wrenches(m):
@@ -380,9 +414,10 @@ def _lagging(messages, lag):
 
 
 def test_the_streaming_resim_equals_the_listwise_comparison(external):
-    configs, messages = _recorded(external)
-    listwise = _listwise_resim(configs, messages)
-    streamed = _streamed_resim(configs, messages)
+    configs, messages, resets = _recorded(external)
+    assert len(resets) == 1
+    listwise = _listwise_resim(configs, messages, resets)
+    streamed = _streamed_resim(configs, messages, resets=resets)
     _assert_same(streamed, listwise)
     assert not streamed.mismatches and streamed.worst() <= 1e-12
     # every input ticked but the five bad ones, the last one with its recorded output
@@ -397,15 +432,15 @@ def test_the_streaming_resim_equals_the_listwise_comparison(external):
 
 
 def test_wrenches_recorded_out_of_step_are_reported_as_before(external):
-    configs, messages = _recorded(external)
+    configs, messages, resets = _recorded(external)
     clouds = [i for i, m in enumerate(messages) if _is_wrenches(m)]
     stamps = [header_ns(decode(messages[i])) for i in clouds]
     k = len(clouds) // 2
 
     def check(changed, mismatches, **options):
-        streamed = _streamed_resim(configs, changed, **options)
+        streamed = _streamed_resim(configs, changed, resets=resets, **options)
         if not options:
-            _assert_same(streamed, _listwise_resim(configs, changed))
+            _assert_same(streamed, _listwise_resim(configs, changed, resets))
         assert streamed.mismatches == mismatches
         return streamed
 

@@ -12,7 +12,7 @@ components, the contact and the base frame of every whisker.
 from __future__ import annotations
 
 from collections import deque
-from typing import Dict, Iterable, List, Tuple
+from typing import Dict, Iterable, List, Sequence, Tuple
 
 import numpy as np
 
@@ -130,7 +130,7 @@ class _Pairing:
 
 
 def resimulate_array(configs: List[Tuple[int, Dict[str, object]]], messages: Iterable,
-                     result, window: int = WINDOW):
+                     result, window: int = WINDOW, resets: Sequence[Tuple[int, int]] = ()):
     """
     Re-run an array_node log's ticks and fill ``result`` (a :class:`~.tools.Resimulation`).
 
@@ -160,6 +160,9 @@ def resimulate_array(configs: List[Tuple[int, Dict[str, object]]], messages: Ite
         How many ticks, re-simulated or recorded, may wait with their rows for their
         counterpart (in a log of array_node an output follows its input at once). A tick
         further apart is a mismatch, not compared.
+    resets : sequence of (int, int), optional
+        The log's ``~/reset`` requests (:func:`~.tools.reset_requests`): (ticks recorded
+        before it, log time); each is applied before the tick of that number, as the node did.
 
     Returns
     -------
@@ -186,6 +189,7 @@ def resimulate_array(configs: List[Tuple[int, Dict[str, object]]], messages: Ite
         raise LogError(f"the recorded array configuration cannot be rebuilt: {exc}") from None
     prefix = f"{node}/"
     pairs = _Pairing(result, window)
+    pending = deque(sorted(resets))
     result.ticks = 0
     for m in messages:
         if not m.topic.startswith(prefix):
@@ -209,6 +213,9 @@ def resimulate_array(configs: List[Tuple[int, Dict[str, object]]], messages: Ite
         except BadInput as exc:
             result.dropped[exc.reason] += 1
             continue
+        while pending and pending[0][0] <= result.ticks:
+            pending.popleft()
+            pipeline.request_reset()
         step = pipeline.tick()
         result.ticks += 1
         pairs.add(0, header_ns(msg), output_rows(step, config.scene))

@@ -230,7 +230,8 @@ def resimulate(path: str) -> Resimulation:
     with LogReader(path) as log:
         configs = configurations(log.metadata)
         if is_array_log(configs[0][1]):  # array_node's: every whisker's row of every tick
-            return resimulate_array(configs, log.messages(), Resimulation())
+            return resimulate_array(configs, log.messages(), Resimulation(),
+                                    resets=reset_requests(log.metadata))
         channels, metadata, messages = log.channels, log.metadata, list(log.messages())
     node = configs[0][1].get("node", "/whisker_node")
     prefix = f"{node}/"

@@ -16,7 +16,7 @@ tick (``ARRAY_FIELDS``), shared by the node, ``vibrissa resim`` and the tests.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, Dict, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
@@ -459,6 +459,18 @@ class ArrayPipeline:
         self.head = config.head
         self.theta = np.full(len(config.array), config.whisk.retraction)
         self.tracker = ArrayTracker(config.array, config.scene, self.head, self.theta)
+        self._reset = False
+
+    def request_reset(self) -> None:
+        """
+        Re-place every whisker unloaded before the next tick (``~/reset``).
+
+        The next tick first re-places each whisker, unloaded and without its history, at its
+        pose of the last tick (:meth:`ArrayTracker.reset`), then steps the array: its answer
+        carries an event ``reset`` per whisker re-placed, and an error for each whisker that
+        would cut an obstacle unloaded there (a whisker pressed on one), which keeps its state.
+        """
+        self._reset = True
 
     def set_head(self, frame_id: str, position, quaternion) -> None:
         """Take a head pose (checked, :func:`head_pose`); raises BadInput, state kept."""
@@ -469,8 +481,14 @@ class ArrayPipeline:
         self.theta = self.joints.angles(names, positions, self.theta)
 
     def tick(self) -> ArrayStep:
-        """Step the array to the current head pose and protraction."""
-        return self.tracker.step(self.head, self.theta)
+        """Step the array to the current head pose and protraction (after a requested reset)."""
+        if not self._reset:
+            return self.tracker.step(self.head, self.theta)
+        self._reset = False
+        placed = self.tracker.reset()
+        step = self.tracker.step(self.head, self.theta)
+        return replace(step, events=placed.events + step.events,
+                       errors=placed.errors + step.errors)
 
 
 __all__ = ["ARRAY_DTYPE", "ARRAY_FIELDS", "ARRAY_PARAMETERS", "ArrayConfig", "ArrayPipeline",

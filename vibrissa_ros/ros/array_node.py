@@ -10,7 +10,9 @@ Out every tick: ``~/wrenches`` (sensor_msgs/PointCloud2, one point per whisker, 
 the built-in whisk, ``~/protraction`` (sensor_msgs/JointState, joint ``whisk``); latched
 ``~/whiskers`` (names and frames, JSON) and ``~/obstacles``; at ``display.rate``: ``~/shapes``
 (MarkerArray of LINE_STRIPs) and ``~/contacts`` (PointCloud2); at ``wrench.rate``:
-``~/<name>/wrench``; ``/diagnostics`` (a status per whisker and one for the node).
+``~/<name>/wrench``; ``/diagnostics`` (a status per whisker and one for the node). Service:
+``~/reset`` (std_srvs/Trigger: before the next tick every whisker is re-placed unloaded at its
+pose of the last tick; recorded, so that a re-simulation resets at the same tick).
 doc/guide/node.md, "array_node", has the tables. This module only wires: checks and the tick
 are :mod:`vibrissa_ros.node.array`'s, messages :mod:`.array_messages`', recording
 :mod:`.recorder`'s.
@@ -31,6 +33,7 @@ from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState, PointCloud2
 from std_msgs.msg import String
+from std_srvs.srv import Trigger
 from visualization_msgs.msg import MarkerArray
 
 from ..logs.mcap_log import LogError
@@ -128,6 +131,7 @@ class ArrayNode(Node):
         self._display_period = 1.0 / rate if rate > 0.0 else math.inf
         self._last_display = -math.inf
         self.create_timer(cfg.values["diagnostics.period"], self._publish_diagnostics)
+        self.create_service(Trigger, "~/reset", self._on_reset)
         self._start_recording(cfg.values["record.path"])
         self._publish_latched()
         self.get_logger().info(f"ready: {cfg.describe()}")
@@ -228,6 +232,22 @@ class ArrayNode(Node):
         self._send("protraction", msg)
         self._pipeline.set_joints(msg.name, msg.position)
         self._tick(stamp)
+
+    def _on_reset(self, request: Trigger.Request, response: Trigger.Response):
+        """``~/reset``: every whisker re-placed unloaded before the next tick."""
+        recorder = self._recorder
+        if recorder is not None and recorder.error is None:
+            # applied before the tick whose ~/wrenches is the next one recorded
+            self._log_ns = max(self.get_clock().now().nanoseconds, self._log_ns + 1)
+            recorder.reset(self._log_ns, pose_key="wrenches")
+        self._pipeline.request_reset()
+        response.success = True
+        response.message = (
+            "before the next tick every whisker is re-placed unloaded at its pose of the last "
+            "tick, forgetting its history (a whisker that would cut an obstacle there, one "
+            "pressed on it, keeps its state and reports an error)")
+        self.get_logger().info(f"~/reset: {response.message}")
+        return response
 
     # -- the tick ---------------------------------------------------------------------------------
     def _tick(self, stamp) -> None:
