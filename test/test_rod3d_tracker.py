@@ -529,3 +529,20 @@ def test_a_sag_between_two_contacts_on_one_obstacle_is_refused_with_the_state_ke
             kept = tracker.state
             tracker.step(BasePose((0.0, float(y), 0.0)))
     assert tracker.state is kept
+
+
+def test_a_whisker_cutting_an_obstacle_it_touches_away_from_its_contact_is_refused():
+    # the tip contact's equilibrium continued past the touch behind the tip: the whisker lies
+    # inside the wall there, a state the tracker refuses (it does not return it)
+    tracker, wall = _curled_at_a_wall()
+    _push(tracker, wall, np.linspace(0.0, 0.23, 231)[1:])
+    assert [c.kind for c in tracker.state.contacts] == ["tip"]
+    solver, modes = tracker.solver, tracker._modes
+    pose = BasePose((0.0, 0.25, 0.0))
+    vec = tracker._vec
+    for y in np.linspace(0.23, 0.25, 5)[1:]:
+        vec = solver.solve(modes, BasePose((0.0, float(y), 0.0)), vec).vec
+    assert np.min(wall.signed_distance(solver.centerline(modes, vec, pose, np.linspace(0, 1, 81)))
+                  ) < -1e-6
+    with pytest.raises(ModelAssumptionError, match="would cut wall away from its contact on it"):
+        tracker._check_between(modes, vec, pose)

@@ -835,13 +835,15 @@ class RodTracker:
             raise ConvergenceError("the continuation step could not be shortened enough")
         self._check_features(self._modes, solved.vec, path.pose(t_new))
         self._check_tail(self._modes, solved.vec, path.pose(t_new))
-        self._check_between(self._modes, solved.vec, path.pose(t_new))
         values = self._event_values(path, t_new, solved.vec, solved.lu)
         gap = self._contact_gap(path, t_new, solved.vec)[0]
         crossed = [key for key, v in values.items() if v < 0.0]
         if gap < _CUT:
             crossed.append(("touch", -1))
         if not crossed:
+            # (after the events: one crossed in the sub-step changes the contacts before its
+            # end, e.g. a tip contact turned into the surface becomes a side contact)
+            self._check_between(self._modes, solved.vec, path.pose(t_new))
             self._accept(solved, path.pose(t_new))
             return t_new, min(1.0, 2.0 * dt)
         if ("stable", -1) in crossed:
@@ -1253,7 +1255,7 @@ class RodTracker:
                     and min(self.solver.forces_of(new, solved.vec)) >= 0.0
                     and self._tip_slope(new, solved.vec, pose) >= 0.0
                     and self._contact_gap_at(pose, new, solved.vec) >= _CUT
-                    and self._between_depth(new, solved.vec, pose) >= _TAIL_CUT):
+                    and self._touched_depth(new, solved.vec, pose)[0] >= _TAIL_CUT):
                 return new, solved
         return None
 
@@ -1268,20 +1270,6 @@ class RodTracker:
         tip = sol.centerline(modes, vec, pose, [1.0])[0]
         nrm = np.asarray(self.obstacles[modes[-1].obstacle].surface(tip).normal)
         return -float(quat_matrix(q / np.linalg.norm(q))[:, 0] @ nrm)
-
-    def _between_depth(self, modes, vec, pose) -> float:
-        """Return the least distance of the segments between two contacts on one obstacle."""
-        breaks = self.solver.breaks_of(modes, vec)
-        depth = math.inf
-        for c in range(len(modes) - 1):
-            k = modes[c].obstacle
-            if modes[c + 1].obstacle != k:
-                continue
-            a, b = breaks[c], breaks[c + 1]
-            s = a + (b - a) * _BETWEEN_SAMPLES
-            pts = self.solver.centerline(modes, vec, pose, s)
-            depth = min(depth, float(np.min(self.obstacles[k].signed_distance(pts))))
-        return depth
 
     def _sides_crossed(self, pose, modes, vec, pose_new, modes_new, vec_new):
         """Return the names of the obstacles touched before and after whose normals turned over."""
@@ -1374,16 +1362,47 @@ class RodTracker:
             )
 
     def _check_between(self, modes, vec, pose):
-        """Refuse a segment between two contacts on one obstacle that cuts it (not modelled)."""
-        if len({m.obstacle for m in modes}) == len(modes):
+        """
+        Refuse a whisker that cuts an obstacle it touches, away from its contacts on it.
+
+        New touches are looked for on the other obstacles (and behind a tip contact); a further
+        contact on an obstacle already touched is not modelled, so the whisker is checked
+        against each obstacle it touches at the 81 samples, and between two contacts on one
+        obstacle at 8 points more: refused rather than returned cutting the obstacle.
+        """
+        depth, where, k_cut = self._touched_depth(modes, vec, pose)
+        if depth >= _TAIL_CUT:
             return
-        depth = self._between_depth(modes, vec, pose)
-        if depth < _TAIL_CUT:
-            raise ModelAssumptionError(
-                f"at base {tuple(round(float(v), 6) for v in pose.position)} the whisker between "
-                f"its two contacts on one obstacle would cut it ({-depth:.3g} L deep): a third "
-                "contact there is not modelled by the 3D whisker"
-            )
+        breaks = self.solver.breaks_of(modes, vec)
+        pairs = [(breaks[c], breaks[c + 1]) for c in range(len(modes) - 1)
+                 if modes[c].obstacle == modes[c + 1].obstacle == k_cut]
+        if any(a < where < b for a, b in pairs):
+            what = "between its two contacts on one obstacle would cut it"
+        else:
+            what = f"would cut {self._name(k_cut)} away from its contact on it"
+        raise ModelAssumptionError(
+            f"at base {tuple(round(float(v), 6) for v in pose.position)} the whisker {what} "
+            f"(at s = {where:.4g}, {-depth:.3g} L deep): a further contact on an obstacle already "
+            "touched is not modelled by the 3D whisker"
+        )
+
+    def _touched_depth(self, modes, vec, pose):
+        """Return (depth, s, obstacle): the least distance to an obstacle touched (sampled)."""
+        breaks = self.solver.breaks_of(modes, vec)
+        depth, where, k_cut = math.inf, 0.0, -1
+        checks = [(_SAMPLES, sorted({m.obstacle for m in modes}))]
+        for c in range(len(modes) - 1):
+            if modes[c + 1].obstacle == modes[c].obstacle:
+                a, b = breaks[c], breaks[c + 1]
+                checks.append((a + (b - a) * _BETWEEN_SAMPLES, [modes[c].obstacle]))
+        for samples, touched in checks:
+            pts = self.solver.centerline(modes, vec, pose, samples)
+            for k in touched:
+                d = self.obstacles[k].signed_distance(pts)
+                j = int(np.argmin(d))
+                if d[j] < depth:
+                    depth, where, k_cut = float(d[j]), float(samples[j]), k
+        return depth, where, k_cut
 
     def _check_touch_feature(self, k, point):
         """Refuse a touch on an edge, or within _EDGE_NEAR of one (where it is located)."""
