@@ -834,7 +834,6 @@ class RodTracker:
         else:
             raise ConvergenceError("the continuation step could not be shortened enough")
         self._check_features(self._modes, solved.vec, path.pose(t_new))
-        self._check_tail(self._modes, solved.vec, path.pose(t_new))
         values = self._event_values(path, t_new, solved.vec, solved.lu)
         gap = self._contact_gap(path, t_new, solved.vec)[0]
         crossed = [key for key, v in values.items() if v < 0.0]
@@ -843,6 +842,7 @@ class RodTracker:
         if not crossed:
             # (after the events: one crossed in the sub-step changes the contacts before its
             # end, e.g. a tip contact turned into the surface becomes a side contact)
+            self._check_tail(self._modes, solved.vec, path.pose(t_new))
             self._check_between(self._modes, solved.vec, path.pose(t_new))
             self._accept(solved, path.pose(t_new))
             return t_new, min(1.0, 2.0 * dt)
