@@ -546,3 +546,23 @@ def test_a_whisker_cutting_an_obstacle_it_touches_away_from_its_contact_is_refus
                   ) < -1e-6
     with pytest.raises(ModelAssumptionError, match="would cut wall away from its contact on it"):
         tracker._check_between(modes, vec, pose)
+
+
+@pytest.mark.parametrize("radius,kinds", [(4.0, ["touch", "touch"]), (10.0, ["touch", "touch"]),
+                                          (2.0, ["touch", "tangential"])])
+def test_on_a_ball_the_touch_behind_the_tip_depends_on_its_curvature(radius, kinds):
+    # the whisker's curvature at its tip (~0.36 / L) against the ball's (1 / radius): a flatter
+    # ball is touched a second time behind the pressed tip, a rounder one lets the tip contact
+    # turn tangent and slide on as a side contact
+    shape = RodShape(taper=0.2, parabola=0.8)
+    tip = shape.free_centerline(np.array([1.0]))[0]
+    ball = Sphere((tip[0], tip[1] + 0.02 + radius, 0.0), radius, "ball")
+    tracker = RodTracker([ball], BasePose((0.0, 0.0, 0.0)), shape=shape, recover=False)
+    events = _push(tracker, ball, np.linspace(0.0, 0.3, 301)[1:])
+    assert [k for k, _, _ in events] == kinds
+    assert events[0][1] == 1.0
+    if kinds[1] == "touch":
+        assert 0.99 < events[1][1] < 1.0
+        assert [c.kind for c in tracker.state.contacts] == ["side", "tip"]
+    else:
+        assert [c.kind for c in tracker.state.contacts] == ["side"]
