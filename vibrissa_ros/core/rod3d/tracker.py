@@ -103,8 +103,6 @@ _SLIPS = ("the contact reaches the tip and can go on neither along the side nor 
 _CURLS_PREFIX = "the tip contact turns tangent to "
 _CURLS = (_CURLS_PREFIX + "{name} where the unloaded whisker curves into it: neither the tip "
           "contact nor a side contact goes on, it slips off the tip")
-#: where the segment between two contacts on one obstacle is checked (parts of it)
-_BETWEEN_SAMPLES = np.linspace(0.0, 1.0, 10)[1:-1]
 #: a pose stream is extrapolated when its poses' fourth difference is below this part of a step
 _STREAM_TOLERANCE = 0.01
 
@@ -1366,9 +1364,10 @@ class RodTracker:
         Refuse a whisker that cuts an obstacle it touches, away from its contacts on it.
 
         New touches are looked for on the other obstacles (and behind a tip contact); a further
-        contact on an obstacle already touched is not modelled, so the whisker is checked
-        against each obstacle it touches at the 81 samples, and between two contacts on one
-        obstacle at 8 points more: refused rather than returned cutting the obstacle.
+        contact on an obstacle already touched is not modelled, so the loaded part of the
+        whisker is checked against each obstacle it touches at its collocation nodes (n per
+        segment, so densely between two close contacts): refused rather than returned cutting
+        the obstacle.
         """
         depth, where, k_cut = self._touched_depth(modes, vec, pose)
         if depth >= _TAIL_CUT:
@@ -1387,22 +1386,24 @@ class RodTracker:
         )
 
     def _touched_depth(self, modes, vec, pose):
-        """Return (depth, s, obstacle): the least distance to an obstacle touched (sampled)."""
-        breaks = self.solver.breaks_of(modes, vec)
-        depth, where, k_cut = math.inf, 0.0, -1
-        checks = [(_SAMPLES, sorted({m.obstacle for m in modes}))]
-        for c in range(len(modes) - 1):
-            if modes[c + 1].obstacle == modes[c].obstacle:
-                a, b = breaks[c], breaks[c + 1]
-                checks.append((a + (b - a) * _BETWEEN_SAMPLES, [modes[c].obstacle]))
-        for samples, touched in checks:
-            pts = self.solver.centerline(modes, vec, pose, samples)
-            for k in touched:
-                d = self.obstacles[k].signed_distance(pts)
-                j = int(np.argmin(d))
-                if d[j] < depth:
-                    depth, where, k_cut = float(d[j]), float(samples[j]), k
-        return depth, where, k_cut
+        """
+        Return (depth, s, obstacle): the least distance to an obstacle touched, at the nodes.
+
+        The nodes are the collocation points of the loaded part (n per segment, a segment
+        between each two contacts: their positions are kept from the solve, so this costs one
+        distance evaluation per obstacle touched); beyond the last contact the tail's own
+        check samples it.
+        """
+        _, _, r_nodes, _ = self.solver._nodes(modes, vec, pose)
+        depth, j_cut, k_cut = math.inf, -1, -1
+        for k in sorted({m.obstacle for m in modes}):
+            d = self.obstacles[k].signed_distance(r_nodes)
+            j = int(np.argmin(d))
+            if d[j] < depth:
+                depth, j_cut, k_cut = float(d[j]), j, k
+        if depth >= _TAIL_CUT:
+            return depth, 0.0, k_cut
+        return depth, float(self.solver.layout(modes, vec).s[j_cut]), k_cut
 
     def _check_touch_feature(self, k, point):
         """Refuse a touch on an edge, or within _EDGE_NEAR of one (where it is located)."""
