@@ -214,3 +214,25 @@ def test_the_published_cantilever_table_in_either_plane_of_a_rolled_whisker(load
     assert tip @ across == pytest.approx(w, abs=5e-6)
     assert 1.0 - tip @ axis == pytest.approx(u, abs=5e-6)
     assert abs(tip @ np.cross(axis, across)) < 1e-13
+
+
+def test_newton_takes_an_ill_conditioned_solution_whose_residual_holds_to_rounding():
+    # a side contact born 1e-4 L behind a pressed tip (the rat's pad against a wall): the steps
+    # of Newton level off at their rounding noise (~1e-10) while the residual is ~1e-15; the
+    # stall rule failed the step, it now takes the solution
+    import json
+    import os
+
+    from vibrissa_ros.core.rod3d import Scene3D
+
+    path = os.path.join(os.path.dirname(__file__), "data", "rod3d_ill_conditioned_touch.json")
+    case = json.load(open(path))
+    solver = RodSolver(RodShape(**case["shape"]),
+                       Scene3D.from_dict(case["scene"]).obstacles, n=case["n"])
+    modes = tuple(RodContactMode(kind, k) for kind, k in case["modes"])
+    pose = BasePose(tuple(case["pose"][0]), tuple(case["pose"][1]))
+    guess = np.array(case["guess"])
+    solved = solver.solve(modes, pose, guess)
+    assert np.max(np.abs(solver.residual(modes, solved.vec, pose, jacobian=False)[0])) < 1e-13
+    assert np.max(np.abs(solved.vec - guess)) < 1e-6
+    assert solver.breaks_of(modes, solved.vec)[0] > 1.0 - 1e-3

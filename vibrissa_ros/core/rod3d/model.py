@@ -67,6 +67,9 @@ _CHORD_ITERATIONS = 8
 _TOL = 1e-13
 #: Newton steps this small that no longer shrink are rounding noise
 _NOISE = 1e-12
+#: a residual this small (max norm) holds to rounding: where the steps level off above _NOISE
+#: there, they are the rounding noise of an ill-conditioned system, and the solution is taken
+_ROUNDING = 1e-13
 #: Newton gives up after this many iterations without a markedly shorter step
 _STALL = 5
 #: chord iterations stop here; the closing Newton step squares the error
@@ -984,6 +987,7 @@ class RodSolver:
                 lu = _lu_factor(J, finite=J is self._finite_jacobian)
                 step = _lu_solve(lu, res)
                 size = self._take(step, max_step)
+                at = vec
                 vec = vec - step
                 self._check_breaks(modes, vec)
                 settled = (size <= _TOL or (converged and size <= _CHORD_TOL)
@@ -1011,6 +1015,11 @@ class RodSolver:
                 else:
                     since += 1
                     if since >= _STALL and newton >= 2 * _STALL and size > _NOISE:
+                        if float(np.max(np.abs(res))) <= _ROUNDING:
+                            # the equations hold to rounding where the steps level off: an
+                            # ill-conditioned solution (a contact 1e-4 from another), whose
+                            # steps are its rounding noise
+                            return Solved(at, lu, sens)
                         raise ConvergenceError("3D whisker: Newton has stalled")
                 converged = False
                 last = size
