@@ -162,9 +162,12 @@ class ArrayNode(Node):
     def _record(self, key: str, msg) -> None:
         recorder = self._recorder
         if recorder is not None and recorder.error is None:
-            # strictly increasing log times: a re-simulation reads the inputs in this order
-            self._log_ns = max(self.get_clock().now().nanoseconds, self._log_ns + 1)
-            recorder.write(key, msg, self._log_ns)
+            recorder.write(key, msg, self._next_log_ns())
+
+    def _next_log_ns(self) -> int:
+        """Return the next log time: the clock's, strictly increasing (resim reads in order)."""
+        self._log_ns = max(self.get_clock().now().nanoseconds, self._log_ns + 1)
+        return self._log_ns
 
     def _send(self, key: str, msg) -> None:
         """Record, then publish: all the node published is in its log, even after a signal."""
@@ -238,8 +241,7 @@ class ArrayNode(Node):
         recorder = self._recorder
         if recorder is not None and recorder.error is None:
             # applied before the tick whose ~/wrenches is the next one recorded
-            self._log_ns = max(self.get_clock().now().nanoseconds, self._log_ns + 1)
-            recorder.reset(self._log_ns, pose_key="wrenches")
+            recorder.reset(self._next_log_ns(), pose_key="wrenches")
         self._pipeline.request_reset()
         response.success = True
         response.message = (

@@ -709,11 +709,7 @@ class RodTracker:
             if m.kind == "side" and c == len(modes) - 1:
                 out[("tip", c)] = 1.0 - br[c]
             if m.kind == "tip":
-                q = sol.quaternions(modes, vec, pose, [1.0])[0]
-                d1 = quat_matrix(q)[:, 0]
-                tip = sol.centerline(modes, vec, pose, [1.0])[0]
-                nrm = np.asarray(self.obstacles[m.obstacle].surface(tip).normal)
-                out[("tangential", c)] = -float(d1 @ nrm)
+                out[("tangential", c)] = self._tangential(modes, vec, pose)
         out[("stable", -1)] = self._sign * _det_measure(lu)
         return out
 
@@ -1052,14 +1048,13 @@ class RodTracker:
             return self._snap(path, t, events, _SLIPS)
         pose = path.pose(t)
         if (kind == "tangential" and self._alone_on_its_obstacle(c)
-                and self._tail_bend(c, pose) < 0.0):
+                and self._tail_bend(pose) < 0.0):
             # the side contact that would follow at s = 1 has its unloaded tail curving into
             # the surface (its distance falls like d'' (s - 1)^2 / 2 < 0 as the contact moves
             # in), and the tip contact's d1 . n turns positive: the equilibrium is lost, as for
             # a slip off the tip (doc/mechanics/rod3d.md)
-            ob = self.obstacles[self._modes[c].obstacle]
-            return self._snap(path, t, events, _CURLS.format(
-                name=getattr(ob, "name", f"obstacle {self._modes[c].obstacle}")))
+            return self._snap(path, t, events,
+                              _CURLS.format(name=self._name(self._modes[c].obstacle)))
         modes = list(self._modes)
         breaks = list(sol.breaks_of(self._modes, self._vec))
         forces = list(sol.forces_of(self._modes, self._vec))
@@ -1090,7 +1085,19 @@ class RodTracker:
         self._set_configuration(pose, tuple(modes), breaks, forces)
         return t
 
-    def _tail_bend(self, c, pose) -> float:
+    def _at_tip(self, modes, vec, pose):
+        """Return q(1) (as solved) and the last contact's obstacle's surface data at the tip."""
+        sol = self.solver
+        q = sol.quaternions(modes, vec, pose, [1.0])[0]
+        tip = sol.centerline(modes, vec, pose, [1.0])[0]
+        return q, self.obstacles[modes[-1].obstacle].surface(tip)
+
+    def _tangential(self, modes, vec, pose) -> float:
+        """Return -d1 . n at the tip of a last tip contact (>= 0: not turned into the surface)."""
+        q, near = self._at_tip(modes, vec, pose)
+        return -float(quat_matrix(q)[:, 0] @ np.asarray(near.normal))
+
+    def _tail_bend(self, pose) -> float:
         """
         Return d''(s) at the tip of a tip contact turned tangent, for the unloaded tail beyond.
 
@@ -1099,11 +1106,8 @@ class RodTracker:
         the intrinsic curvature kappa0 along d2; the obstacle's normal n and distance Hessian
         H): negative, the tail cuts the surface as soon as the contact moves in from the tip.
         """
-        sol = self.solver
-        q = sol.quaternions(self._modes, self._vec, pose, [1.0])[0]
+        q, near = self._at_tip(self._modes, self._vec, pose)
         R = quat_matrix(q / np.linalg.norm(q))
-        tip = sol.centerline(self._modes, self._vec, pose, [1.0])[0]
-        near = self.obstacles[self._modes[c].obstacle].surface(tip)
         H = np.asarray(near.hessian, dtype=float)
         kappa0 = self.shape.free_frame(1.0)[3]
         d1, d2 = R[:, 0], R[:, 1]
@@ -1251,7 +1255,7 @@ class RodTracker:
             s_side = self.solver.breaks_of(new, solved.vec)[-2]
             if (lo < s_side < 1.0
                     and min(self.solver.forces_of(new, solved.vec)) >= 0.0
-                    and self._tip_slope(new, solved.vec, pose) >= 0.0
+                    and self._tangential(new, solved.vec, pose) >= 0.0
                     and self._contact_gap_at(pose, new, solved.vec) >= _CUT
                     and self._touched_depth(new, solved.vec, pose)[0] >= _TAIL_CUT):
                 return new, solved
@@ -1260,14 +1264,6 @@ class RodTracker:
     def _alone_on_its_obstacle(self, c) -> bool:
         k = self._modes[c].obstacle
         return sum(m.obstacle == k for m in self._modes) == 1
-
-    def _tip_slope(self, modes, vec, pose) -> float:
-        """Return -d1 . n at the tip of a last tip contact (>= 0: not turned into the surface)."""
-        sol = self.solver
-        q = sol.quaternions(modes, vec, pose, [1.0])[0]
-        tip = sol.centerline(modes, vec, pose, [1.0])[0]
-        nrm = np.asarray(self.obstacles[modes[-1].obstacle].surface(tip).normal)
-        return -float(quat_matrix(q / np.linalg.norm(q))[:, 0] @ nrm)
 
     def _sides_crossed(self, pose, modes, vec, pose_new, modes_new, vec_new):
         """Return the names of the obstacles touched before and after whose normals turned over."""
@@ -1285,7 +1281,7 @@ class RodTracker:
         names = []
         for k in sorted(set(before) & set(after)):
             if all(float(a @ b) < 0.0 for a in before[k] for b in after[k]):
-                names.append(getattr(self.obstacles[k], "name", f"obstacle {k}"))
+                names.append(self._name(k))
         return names
 
     def _swing_in(self, pose: BasePose):
@@ -1418,7 +1414,7 @@ class RodTracker:
                 self._refuse_edge(k, point)
 
     def _refuse_edge(self, k, x):
-        name = getattr(self.obstacles[k], "name", f"obstacle {k}")
+        name = self._name(k)
         raise ModelAssumptionError(
             f"the whisker would touch an edge of {name} (a polygon's corner or a point "
             f"peg, at {tuple(round(float(v), 6) for v in x)}): contacts with edges are "
