@@ -65,6 +65,7 @@ def warm_up() -> None:
             solver._nodes(modes, vec, pose)
             solver._centerline_compiled(modes, vec, pose, np.array([0.25, 1.0]))
             parabola_tail(0.5, np.array([1.0]), 1.0, *RodShape(parabola=1.0)._u_table())
+            parabola_tip(0.5, 1.0, *RodShape(parabola=1.0)._u_table())
             det_measure(*_lu_factor(J))
         except BaseException:
             WARM = False
@@ -706,6 +707,23 @@ def parabola_tail(end, s, A, grid, table):
         out[i, 0] = c * dx + sn * dy
         out[i, 1] = -sn * dx + c * dy
     return out
+
+
+@_kernel
+def parabola_tip(end, A, grid, table):
+    """
+    Return (dx, dy, phi): the tip's offset from ``end`` and the turn of the unloaded parabola.
+
+    RodShape.tail of a parabolic whisker: the offset in the (d1, d2) components of the frame at
+    ``end`` (as :func:`parabola_tail` at s = 1) and the slope it turns through to the tip.
+    """
+    ua = _parabola_u(np.array([end]), A, grid, table)[0]
+    ub = _parabola_u(np.array([1.0]), A, grid, table)[0]
+    root = math.sqrt(1.0 + ua * ua)
+    c, sn = 1.0 / root, ua / root
+    dx = (ub - ua) / (2.0 * A)
+    dy = (ub * ub - ua * ua) / (4.0 * A)
+    return c * dx + sn * dy, -sn * dx + c * dy, math.atan(ub) - math.atan(ua)
 
 
 @_kernel

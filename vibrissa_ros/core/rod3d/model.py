@@ -1445,10 +1445,15 @@ class RodSolver:
             forces = np.array([f * np.asarray(self.obstacles[m.obstacle].surface(x).normal)
                                for m, f, x in zip(modes, fs, pts)])
             end = breaks[-1]
-            frame = R[-1] / np.linalg.norm(Q_last) ** 2
+            frame = R[-1] / float(Q_last @ Q_last)
             tip = r_ends[-1]
             if end < 1.0:
-                off, phi = self.shape.tail(end)
+                if _jit.ENABLED and self.shape.parabola is not None:
+                    # (the kernel of the centerline's tail: the same tip as centerline(1))
+                    *off, phi = _jit.parabola_tip(end, self.shape.parabola, self._jit_grid,
+                                                  self._jit_table)
+                else:
+                    off, phi = self.shape.tail(end)
                 tip = tip + off[0] * frame[:, 0] + off[1] * frame[:, 1]
                 c, sn = math.cos(phi), math.sin(phi)
                 turned = np.empty((3, 3))

@@ -53,7 +53,7 @@ from ..errors import (
 )
 from . import _jit
 from .model import RodContactMode, RodSolver, _lu_solve
-from .pose import BasePose, quat_conjugate, quat_matrix, quat_multiply
+from .pose import BasePose, quat_matrix, quat_multiply
 from .shape import RodShape
 
 #: largest change of the unknowns in one sub-step
@@ -298,15 +298,23 @@ class _Path:
     def __init__(self, a: BasePose, b: BasePose):
         self.a, self.b = a, b
         self.dp = b.p - a.p
-        rel = quat_multiply(quat_conjugate(a.q), b.q)
-        if rel[0] < 0.0:
-            rel = -rel
-        v = rel[1:]
-        sin_half = float(np.linalg.norm(v))
-        self.angle = 2.0 * math.atan2(sin_half, float(rel[0]))
-        self.axis = v / sin_half if sin_half > 0.0 else np.zeros(3)
+        # the relative rotation conj(q_a) * q_b, on the shorter arc (in floats: a path is made
+        # per step and per event, and numpy's calls cost more than the arithmetic here)
+        aw, ax, ay, az = a.quaternion
+        bw, bx, by, bz = b.quaternion
+        rw = aw * bw + ax * bx + ay * by + az * bz
+        rx = aw * bx - ax * bw - ay * bz + az * by
+        ry = aw * by + ax * bz - ay * bw - az * bx
+        rz = aw * bz - ax * by + ay * bx - az * bw
+        if rw < 0.0:
+            rw, rx, ry, rz = -rw, -rx, -ry, -rz
+        sin_half = math.sqrt(rx * rx + ry * ry + rz * rz)
+        self.angle = 2.0 * math.atan2(sin_half, rw)
+        self._turn = ((0.5 * self.angle / sin_half) * rx, (0.5 * self.angle / sin_half) * ry,
+                      (0.5 * self.angle / sin_half) * rz) if sin_half > 0.0 else (0.0, 0.0, 0.0)
+        dx, dy, dz = (u - v for u, v in zip(b.position, a.position))
         #: bound on the speed of any point of the whisker per unit t
-        self.speed = float(np.linalg.norm(self.dp)) + self.angle
+        self.speed = math.sqrt(dx * dx + dy * dy + dz * dz) + self.angle
         self._cache = {}
 
     def pose(self, t: float) -> BasePose:
@@ -322,11 +330,15 @@ class _Path:
         return cached
 
     def rate(self, pose: BasePose) -> np.ndarray:
-        """(dp/dt, dq/dt) (7,) at ``pose`` on the path."""
+        """(dp/dt, dq/dt) (7,) at ``pose`` on the path: dq/dt = q * (0, angle axis / 2)."""
+        qw, qx, qy, qz = pose.quaternion
+        wx, wy, wz = self._turn
         out = np.empty(7)
         out[:3] = self.dp
-        w = np.concatenate(([0.0], 0.5 * self.angle * self.axis))
-        out[3:] = quat_multiply(pose.q, w)
+        out[3:] = (-qx * wx - qy * wy - qz * wz,
+                   qw * wx + qy * wz - qz * wy,
+                   qw * wy - qx * wz + qz * wx,
+                   qw * wz + qx * wy - qy * wx)
         return out
 
 
