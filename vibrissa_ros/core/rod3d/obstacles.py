@@ -318,9 +318,10 @@ class Sphere(Obstacle3D):
         what = _name(self.name, "sphere")
         object.__setattr__(self, "center", _vector(what, "center", self.center))
         object.__setattr__(self, "r", _radius(what, self.r))
+        object.__setattr__(self, "_center_array", np.array(self.center))
 
     def signed_distance(self, points) -> np.ndarray:
-        p = _points(points) - np.asarray(self.center)
+        p = _points(points) - self._center_array
         return np.sqrt(np.einsum("mk,mk->m", p, p)) - self.r
 
     def _distance_one(self, x, y, z):
@@ -389,11 +390,14 @@ class Cylinder(Obstacle3D):
         object.__setattr__(self, "point", _vector(what, "point", self.point))
         object.__setattr__(self, "axis", _direction(what, "axis", self.axis))
         object.__setattr__(self, "r", _radius(what, self.r))
+        # the vectors as arrays once: the trackers ask for distances of a few points at a time
+        object.__setattr__(self, "_point_array", np.array(self.point))
+        object.__setattr__(self, "_axis_array", np.array(self.axis))
 
     def signed_distance(self, points) -> np.ndarray:
-        w = _points(points) - np.asarray(self.point)
-        a = np.asarray(self.axis)
-        radial = w - np.outer(w @ a, a)
+        w = _points(points) - self._point_array
+        a = self._axis_array
+        radial = w - (w @ a)[:, None] * a
         return np.sqrt(np.einsum("mk,mk->m", radial, radial)) - self.r
 
     def _radial(self, x, y, z):
@@ -481,9 +485,11 @@ class Plane(Obstacle3D):
         what = _name(self.name, "plane")
         object.__setattr__(self, "point", _vector(what, "point", self.point))
         object.__setattr__(self, "normal", _direction(what, "normal", self.normal))
+        object.__setattr__(self, "_point_array", np.array(self.point))
+        object.__setattr__(self, "_normal_array", np.array(self.normal))
 
     def signed_distance(self, points) -> np.ndarray:
-        return (_points(points) - np.asarray(self.point)) @ np.asarray(self.normal)
+        return (_points(points) - self._point_array) @ self._normal_array
 
     def _distance_one(self, x, y, z):
         px, py, pz = self.point

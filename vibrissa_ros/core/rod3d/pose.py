@@ -105,23 +105,23 @@ def quat_from_matrix(R) -> np.ndarray:
         q (4,), scalar first.
 
     """
-    R = np.asarray(R, dtype=float)
-    t = np.trace(R)
-    cands = np.array([1.0 + t, 1.0 + 2 * R[0, 0] - t, 1.0 + 2 * R[1, 1] - t,
-                      1.0 + 2 * R[2, 2] - t])
-    k = int(np.argmax(cands))
+    # in floats (the arrays' tracker converts a frame per whisker and tick): the same operations,
+    # in the same order, as on the array
+    (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = np.asarray(R, dtype=float).tolist()
+    t = r00 + r11 + r22
+    cands = (1.0 + t, 1.0 + 2 * r00 - t, 1.0 + 2 * r11 - t, 1.0 + 2 * r22 - t)
+    k = cands.index(max(cands))
     r = 0.5 * math.sqrt(max(cands[k], 0.0))
     f = 0.25 / r
     if k == 0:
-        q = [r, (R[2, 1] - R[1, 2]) * f, (R[0, 2] - R[2, 0]) * f, (R[1, 0] - R[0, 1]) * f]
+        q = (r, (r21 - r12) * f, (r02 - r20) * f, (r10 - r01) * f)
     elif k == 1:
-        q = [(R[2, 1] - R[1, 2]) * f, r, (R[0, 1] + R[1, 0]) * f, (R[0, 2] + R[2, 0]) * f]
+        q = ((r21 - r12) * f, r, (r01 + r10) * f, (r02 + r20) * f)
     elif k == 2:
-        q = [(R[0, 2] - R[2, 0]) * f, (R[0, 1] + R[1, 0]) * f, r, (R[1, 2] + R[2, 1]) * f]
+        q = ((r02 - r20) * f, (r01 + r10) * f, r, (r12 + r21) * f)
     else:
-        q = [(R[1, 0] - R[0, 1]) * f, (R[0, 2] + R[2, 0]) * f, (R[1, 2] + R[2, 1]) * f, r]
-    q = np.array(q)
-    return q if q[0] >= 0.0 else -q
+        q = ((r10 - r01) * f, (r02 + r20) * f, (r12 + r21) * f, r)
+    return np.array(q) if q[0] >= 0.0 else -np.array(q)
 
 
 def quat_about(axis, angle: float) -> np.ndarray:
