@@ -68,6 +68,49 @@ def test_the_residual_jacobian_and_sensitivities_equal_the_numpy_reference(shape
     assert J is None and sens is None and np.array_equal(res, got[0])
 
 
+def test_the_kernels_surface_data_equal_the_obstacles_own():
+    # spheres, cylinders and planes: the kernels compute the surface data at the contacts
+    # themselves, with the obstacles' formulas in the same order: equal to the last bit,
+    # including the degenerate points (a sphere's centre, a cylinder's axis)
+    from vibrissa_ros.core.rod3d.model import _kernel_geometry
+    obstacles = OBSTACLES + (Sphere((-0.2, 0.3, 0.4), 0.5), Cylinder((0, 0, 0), (1, 2, 3), 0.2),
+                             Cylinder((0, 0, 0), (0.1, 0.0, 1.0), 0.2),
+                             Plane((0.1, 0.2, 0.3), (-1.0, 2.0, 0.5)))
+    rng = np.random.default_rng(3)
+    points = np.concatenate((rng.normal(scale=0.7, size=(200, 3)),
+                             [(0.55, 0.2, 0.05), (0.3, 0.1, 0.7), (0.0, 0.0, 0.0)]))
+    normal, hess = np.empty((1, 3)), np.empty((1, 3, 3))
+    for ob in obstacles:
+        code, prm = _kernel_geometry(ob)
+        for x in points:
+            want = ob.surface(x)
+            got = _jit.surface(code, np.array(prm), x[0], x[1], x[2], normal, hess, 0)
+            assert got == want.distance
+            assert np.array_equal(normal[0], want.normal)
+            assert np.array_equal(hess[0], want.hessian)
+
+
+def test_the_one_call_evaluation_equals_prepare_and_equations():
+    # the analytic obstacles' path (one kernel call) and the Python objects' (their surface
+    # data from Python, as for an obstacle the kernels do not know): bitwise equal
+    solver = RodSolver(SHAPES["cone, parabola"], OBSTACLES, n=12)
+    pose = _pose(0.01, -0.02, 0.03, 0.2, 0.3, 0.1)
+    for modes, breaks, forces in CONFIGURATIONS.values():
+        vec = _vector(solver, modes, breaks, forces, pose)
+        assert solver._geometry_of(modes) is not None
+        fused = solver._residual_compiled(modes, vec, pose, True, True)
+        solver._geometries[modes] = None
+        apart = solver._residual_compiled(modes, vec, pose, True, True)
+        for a, b in zip(fused, apart):
+            assert np.array_equal(a, b)
+
+    class Peg(Cylinder):  # a subclass may answer otherwise: its own surface() is asked
+        pass
+
+    solver = RodSolver(RodShape(), (Peg((0.3, 0.1, 0.0), (0, 0, 1), 0.04, "peg"),), n=12)
+    assert solver._geometry_of((RodContactMode("side", 0),)) is None
+
+
 @pytest.mark.parametrize("shape", sorted(SHAPES))
 def test_the_sampled_solution_equals_the_numpy_reference(shape, monkeypatch):
     solver = RodSolver(SHAPES[shape], OBSTACLES, n=12)

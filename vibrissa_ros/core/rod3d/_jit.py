@@ -5,8 +5,10 @@ The same equations as :meth:`.model.RodSolver.residual_reference` (the numpy ref
 tests compare these kernels with), written as loops over the nodes: one kernel places the nodes
 and evaluates the shape there (:func:`prepare`), one evaluates the residual, its Jacobian and its
 pose sensitivities (:func:`equations`) from those and the obstacles' surface data at the
-contacts (the obstacles stay Python objects). ``VIBRISSA_NO_JIT=1`` in the environment, or numba
-missing, selects the numpy reference everywhere (``ENABLED`` is then False).
+contacts. Spheres, cylinders and planes have their surface data computed here too
+(:func:`surface`; :func:`evaluate` does all three in one call); other obstacles give theirs from
+Python. ``VIBRISSA_NO_JIT=1`` in the environment, or numba missing, selects the numpy reference
+everywhere (``ENABLED`` is then False).
 
 Shapes: n points per segment, k segments (contacts), N = n k nodes; contact kinds as integers
 (1 side, 0 tip).
@@ -61,6 +63,10 @@ def warm_up() -> None:
         WARM = True  # the calls below would otherwise come back here
         try:
             _, J, _ = solver._residual_compiled(modes, vec, pose, True, True)
+            solver._residual_compiled(modes, vec, pose, False, False)
+            # and as for an obstacle the kernels do not know (its surface data from Python)
+            solver._geometries[modes] = None
+            solver._residual_compiled(modes, vec, pose, True, True)
             solver._residual_compiled(modes, vec, pose, False, False)
             solver._nodes(modes, vec, pose)
             solver._centerline_compiled(modes, vec, pose, np.array([0.25, 1.0]))
@@ -665,6 +671,100 @@ def equations(vec, qb, n, kinds, T, w, ds, dw, kinv, kap0, slope, dkinv, r, nu1,
                 if not math.isfinite(J[i, j]):
                     finite = False
     return res, J, sens, finite
+
+
+#: the obstacles whose surface data the kernels compute themselves (obstacles.py's formulas, in
+#: the same order), and their parameters (7 floats): a sphere (center, r), a cylinder (point,
+#: unit axis, r), a plane (point, unit normal)
+SPHERE, CYLINDER, PLANE = 0, 1, 2
+
+
+@_kernel
+def _unit_normal_to(ax, ay, az):
+    """obstacles._unit_normal_to: a unit vector normal to the unit (ax, ay, az)."""
+    if abs(az) < 0.9:
+        nx, ny, nz = ay, -ax, 0.0
+    else:
+        nx, ny, nz = 0.0, az, -ay
+    norm = math.sqrt(nx * nx + ny * ny + nz * nz)
+    return nx / norm, ny / norm, nz / norm
+
+
+@_kernel
+def surface(code, prm, x, y, z, normal, hess, c):
+    """
+    Return the signed distance at (x, y, z); write the outward normal and d's Hessian to row c.
+
+    Sphere.surface, Cylinder.surface and Plane.surface of obstacles.py, operation for operation.
+    """
+    for a in range(3):
+        for b in range(3):
+            hess[c, a, b] = 0.0
+    if code == PLANE:
+        px, py, pz, nx, ny, nz = prm[0], prm[1], prm[2], prm[3], prm[4], prm[5]
+        normal[c, 0], normal[c, 1], normal[c, 2] = nx, ny, nz
+        return (x - px) * nx + (y - py) * ny + (z - pz) * nz
+    if code == SPHERE:
+        cx, cy, cz, r = prm[0], prm[1], prm[2], prm[3]
+        dx, dy, dz = x - cx, y - cy, z - cz
+        rho = math.sqrt(dx * dx + dy * dy + dz * dz)
+        if rho > 0.0:
+            nx, ny, nz = dx / rho, dy / rho, dz / rho
+            f = 1.0 / rho
+            hess[c, 0, 0], hess[c, 0, 1], hess[c, 0, 2] = (f * (1.0 - nx * nx), -f * nx * ny,
+                                                           -f * nx * nz)
+            hess[c, 1, 0], hess[c, 1, 1], hess[c, 1, 2] = (-f * nx * ny, f * (1.0 - ny * ny),
+                                                           -f * ny * nz)
+            hess[c, 2, 0], hess[c, 2, 1], hess[c, 2, 2] = (-f * nx * nz, -f * ny * nz,
+                                                           f * (1.0 - nz * nz))
+        else:
+            nx, ny, nz = 0.0, 0.0, 1.0
+        normal[c, 0], normal[c, 1], normal[c, 2] = nx, ny, nz
+        return rho - r
+    # CYLINDER
+    px, py, pz, ax, ay, az, r = prm[0], prm[1], prm[2], prm[3], prm[4], prm[5], prm[6]
+    wx, wy, wz = x - px, y - py, z - pz
+    t = wx * ax + wy * ay + wz * az
+    rx, ry, rz = wx - t * ax, wy - t * ay, wz - t * az
+    rho = math.sqrt(rx * rx + ry * ry + rz * rz)
+    if rho > 0.0:
+        nx, ny, nz = rx / rho, ry / rho, rz / rho
+        f = 1.0 / rho
+        xy, xz, yz = ax * ay + nx * ny, ax * az + nx * nz, ay * az + ny * nz
+        # (P - n n^T) / rho, P = I - a a^T
+        hess[c, 0, 0] = f * (1.0 - ax * ax - nx * nx)
+        hess[c, 1, 1] = f * (1.0 - ay * ay - ny * ny)
+        hess[c, 2, 2] = f * (1.0 - az * az - nz * nz)
+        hess[c, 0, 1] = hess[c, 1, 0] = -f * xy
+        hess[c, 0, 2] = hess[c, 2, 0] = -f * xz
+        hess[c, 1, 2] = hess[c, 2, 1] = -f * yz
+    else:
+        nx, ny, nz = _unit_normal_to(ax, ay, az)
+    normal[c, 0], normal[c, 1], normal[c, 2] = nx, ny, nz
+    return rho - r
+
+
+@_kernel
+def evaluate(vec, qb, n, kinds, tau, sp, T, p, shape, grid, table, nu1, codes, prm, jacobian,
+             sensitivity):
+    """
+    Return :func:`equations` at ``vec``, with the nodes placed and the surface data computed here.
+
+    :func:`prepare`, the obstacles' :func:`surface` at the contact points (obstacle ``codes``
+    (k,) and parameters ``prm`` (k, 7) of the contacts, analytic obstacles only), then
+    :func:`equations`: one call per evaluation.
+    """
+    s, w, ds, dw, kinv, kap0, slope, dkinv, r = prepare(vec, n, kinds, tau, sp, T, p, shape,
+                                                        grid, table)
+    k = kinds.size
+    dist = np.empty(k)
+    normal = np.empty((k, 3))
+    hess = np.empty((k, 3, 3))
+    for c in range(k):
+        e = (c + 1) * n - 1
+        dist[c] = surface(codes[c], prm[c], r[e, 0], r[e, 1], r[e, 2], normal, hess, c)
+    return equations(vec, qb, n, kinds, T, w, ds, dw, kinv, kap0, slope, dkinv, r, nu1, dist,
+                     normal, hess, jacobian, sensitivity)
 
 
 @_kernel

@@ -50,6 +50,7 @@ from scipy.linalg.lapack import dgetrf as _getrf, dgetrs as _getrs
 from ..errors import ConvergenceError, ParameterError
 from ..general.model import chebyshev_operators
 from . import _jit
+from .obstacles import Cylinder, Plane, Sphere
 from .pose import BasePose, quat_matrix, quat_multiply
 from .shape import RodShape
 
@@ -236,6 +237,18 @@ class RodContactMode:
     def size(self) -> int:
         """Return the number of unknowns of the contact (side: s, f; tip: f)."""
         return 2 if self.kind == "side" else 1
+
+
+def _kernel_geometry(ob) -> Optional[Tuple[int, Tuple[float, ...]]]:
+    """Return (code, 7 parameters) of an obstacle the kernels know (:func:`._jit.surface`)."""
+    kind = type(ob)
+    if kind is Sphere:
+        return _jit.SPHERE, tuple(ob.center) + (ob.r, 0.0, 0.0, 0.0)
+    if kind is Cylinder:
+        return _jit.CYLINDER, tuple(ob.point) + tuple(ob.axis) + (ob.r,)
+    if kind is Plane:
+        return _jit.PLANE, tuple(ob.point) + tuple(ob.normal) + (0.0,)
+    return None
 
 
 def _skew(v: np.ndarray) -> np.ndarray:
@@ -575,6 +588,7 @@ class RodSolver:
         self._identity_columns = {}
         # the compiled kernels' view of the shape (vibrissa_ros.core.rod3d._jit)
         self._kinds = {}
+        self._geometries = {}
         self._finite_jacobian = None
         self._jit_sp = -1.0 if self._sp is None else float(self._sp)
         if shape.parabola is not None:
@@ -682,6 +696,25 @@ class RodSolver:
             self._kinds[modes] = kinds
         return kinds
 
+    def _geometry_of(self, modes):
+        """
+        Return the kernels' view (codes (k,), parameters (k, 7)) of the contacts' obstacles.
+
+        None unless every one is a Sphere, Cylinder or Plane (exactly: a subclass may answer
+        otherwise); cached per configuration.
+        """
+        if not isinstance(modes, tuple):
+            modes = tuple(modes)
+        out = self._geometries.get(modes, False)
+        if out is False:
+            rows = [_kernel_geometry(self.obstacles[m.obstacle]) for m in modes]
+            out = None
+            if all(row is not None for row in rows):
+                out = (np.array([row[0] for row in rows], dtype=np.int64),
+                       np.array([row[1] for row in rows], dtype=float).reshape(len(rows), 7))
+            self._geometries[modes] = out
+        return out
+
     def _residual_compiled(self, modes, vec, pose, jacobian, pose_sensitivity):
         """:meth:`residual` by the compiled kernels (:mod:`._jit`)."""
         if not _jit.WARM:
@@ -692,20 +725,28 @@ class RodSolver:
         kinds = self._kinds_of(modes)
         vec = np.ascontiguousarray(vec, dtype=float)
         T = self._template(k)
-        s, w, ds, dw, kinv, kap0, slope, dkinv, r = _jit.prepare(
-            vec, n, kinds, self._tau, self._jit_sp, T, pose.p, self._jit_shape, self._jit_grid,
-            self._jit_table)
-        dist = np.empty(k)
-        normal = np.empty((k, 3))
-        hess = np.empty((k, 3, 3))
-        for c, m in enumerate(modes):
-            sp = self.obstacles[m.obstacle].surface(r[(c + 1) * n - 1])
-            dist[c] = sp.distance
-            normal[c] = sp.normal
-            hess[c] = sp.hessian
-        res, J, sens, finite = _jit.equations(vec, pose.q, n, kinds, T, w, ds, dw, kinv, kap0,
-                                              slope, dkinv, r, self._nu1, dist, normal, hess,
-                                              jacobian, pose_sensitivity)
+        geometry = self._geometry_of(modes)
+        if geometry is not None:
+            # analytic obstacles: their surface data computed in the same kernel call
+            res, J, sens, finite = _jit.evaluate(
+                vec, pose.q, n, kinds, self._tau, self._jit_sp, T, pose.p, self._jit_shape,
+                self._jit_grid, self._jit_table, self._nu1, geometry[0], geometry[1], jacobian,
+                pose_sensitivity)
+        else:
+            s, w, ds, dw, kinv, kap0, slope, dkinv, r = _jit.prepare(
+                vec, n, kinds, self._tau, self._jit_sp, T, pose.p, self._jit_shape,
+                self._jit_grid, self._jit_table)
+            dist = np.empty(k)
+            normal = np.empty((k, 3))
+            hess = np.empty((k, 3, 3))
+            for c, m in enumerate(modes):
+                sp = self.obstacles[m.obstacle].surface(r[(c + 1) * n - 1])
+                dist[c] = sp.distance
+                normal[c] = sp.normal
+                hess[c] = sp.hessian
+            res, J, sens, finite = _jit.equations(vec, pose.q, n, kinds, T, w, ds, dw, kinv,
+                                                  kap0, slope, dkinv, r, self._nu1, dist, normal,
+                                                  hess, jacobian, pose_sensitivity)
         if finite:
             # checked by the kernel: _lu_factor need not look again
             self._finite_jacobian = J
