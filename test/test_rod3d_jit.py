@@ -111,6 +111,50 @@ def test_the_one_call_evaluation_equals_prepare_and_equations():
     assert solver._geometry_of((RodContactMode("side", 0),)) is None
 
 
+@pytest.mark.parametrize("shape", ["uniform", "cone, parabola"])
+@pytest.mark.parametrize("config", sorted(CONFIGURATIONS))
+def test_the_one_call_checks_and_state_equal_the_python_ones(shape, config, monkeypatch):
+    # RodSolver._accepted (one kernel call: the contact points and normals, the tip and its
+    # frame, the tail's and the nodes' least distances) against the same taken apart in Python
+    solver = RodSolver(SHAPES[shape], OBSTACLES, n=12)
+    modes, breaks, forces = CONFIGURATIONS[config]
+    pose = _pose(0.01, -0.02, 0.03, 0.2, 0.3, 0.1)
+    vec = _vector(solver, modes, breaks, forces, pose)
+    tracker = RodTracker(OBSTACLES, BasePose((-5.0, 0.0, 0.0)), shape=SHAPES[shape], n=12)
+    tracker.solver = solver
+    post = solver._accepted(modes, vec, pose)
+    assert post is not None
+    fast = (solver.equilibrium(modes, vec, pose), tracker._touched_depth(modes, vec, pose))
+    monkeypatch.setattr(solver, "_accepted", lambda *args: None)
+    slow = (solver.equilibrium(modes, vec, pose), tracker._touched_depth(modes, vec, pose))
+    for name in ("points", "forces", "force", "moment", "tip", "tip_frame"):
+        a, b = getattr(fast[0], name), getattr(slow[0], name)
+        assert np.max(np.abs(np.asarray(a) - np.asarray(b)), initial=0.0) <= 1e-15, name
+    assert fast[1][1:] == slow[1][1:] and abs(fast[1][0] - slow[1][0]) <= 1e-15
+    end = solver.breaks_of(modes, vec)[-1]
+    if modes[-1].kind == "side" and end < 1.0:
+        s = end + (1.0 - end) * np.linspace(0.125, 1.0, 8)
+        want = np.min(OBSTACLES[modes[-1].obstacle].signed_distance(
+            solver.centerline(modes, vec, pose, s)))
+        assert abs(post.tail_depth - want) <= 1e-15
+    else:
+        assert post.tail_depth == math.inf
+
+
+def test_the_one_call_checks_are_for_straight_and_parabolic_whiskers_on_analytic_obstacles():
+    modes = (RodContactMode("side", 0),)
+    vec = np.zeros(4 * 12 + 2)
+    pose = BasePose((0.0, 0.0, 0.0))
+    assert RodSolver(SHAPES["cone, linear curvature"], OBSTACLES, n=12)._accepted(
+        modes, vec, pose) is None
+
+    class Peg(Cylinder):
+        pass
+
+    solver = RodSolver(RodShape(), (Peg((0.3, 0.1, 0.0), (0, 0, 1), 0.04, "peg"),), n=12)
+    assert solver._accepted(modes, vec, pose) is None
+
+
 @pytest.mark.parametrize("shape", sorted(SHAPES))
 def test_the_sampled_solution_equals_the_numpy_reference(shape, monkeypatch):
     solver = RodSolver(SHAPES[shape], OBSTACLES, n=12)

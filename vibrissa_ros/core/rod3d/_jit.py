@@ -69,6 +69,7 @@ def warm_up() -> None:
             solver._residual_compiled(modes, vec, pose, True, True)
             solver._residual_compiled(modes, vec, pose, False, False)
             solver._nodes(modes, vec, pose)
+            solver._accepted(modes, vec, pose)
             solver._centerline_compiled(modes, vec, pose, np.array([0.25, 1.0]))
             parabola_tail(0.5, np.array([1.0]), 1.0, *RodShape(parabola=1.0)._u_table())
             parabola_tip(0.5, 1.0, *RodShape(parabola=1.0)._u_table())
@@ -742,6 +743,100 @@ def surface(code, prm, x, y, z, normal, hess, c):
         nx, ny, nz = _unit_normal_to(ax, ay, az)
     normal[c, 0], normal[c, 1], normal[c, 2] = nx, ny, nz
     return rho - r
+
+
+@_kernel
+def distance(code, prm, x, y, z):
+    """Return the signed distance of the obstacle ``code`` at (x, y, z) (:func:`surface`'s)."""
+    if code == PLANE:
+        return (x - prm[0]) * prm[3] + (y - prm[1]) * prm[4] + (z - prm[2]) * prm[5]
+    if code == SPHERE:
+        dx, dy, dz = x - prm[0], y - prm[1], z - prm[2]
+        return math.sqrt(dx * dx + dy * dy + dz * dz) - prm[3]
+    ax, ay, az = prm[3], prm[4], prm[5]
+    wx, wy, wz = x - prm[0], y - prm[1], z - prm[2]
+    t = wx * ax + wy * ay + wz * az
+    rx, ry, rz = wx - t * ax, wy - t * ay, wz - t * az
+    return math.sqrt(rx * rx + ry * ry + rz * rz) - prm[6]
+
+
+@_kernel
+def accepted(vec, n, kinds, tau, sp, T, p, codes, prm, touched, samples, A, grid, table):
+    """
+    Return what the tracker checks and reports of a solution, from one placement of its nodes.
+
+    For analytic obstacles (``codes``, ``prm`` of the contacts, as :func:`evaluate`) and a
+    straight (A = 0) or parabolic unloaded whisker. ``touched`` (m,): for each obstacle touched,
+    in the order the tracker checks them, the index of a contact on it; ``samples``: the tail
+    check's fractions of the unloaded part. Returns (r at the contacts (k, 3), the obstacles'
+    outward normals there (k, 3), the tip (3,), the body frame at the tip (3, 3), the least
+    distance of the tail samples to the last contact's obstacle (inf without a side contact
+    short of the tip), the least distance of the nodes to each obstacle touched (m,) and the
+    node where (m,)): RodSolver.equilibrium's points, normals, tip and frame,
+    RodTracker._check_tail's and _touched_depth's distances.
+    """
+    b, w, r, frames = nodes(vec, n, kinds, tau, sp, T, p)
+    k = kinds.size
+    N = n * k
+    points = np.empty((k, 3))
+    normals = np.empty((k, 3))
+    hess = np.empty((k, 3, 3))
+    for c in range(k):
+        e = (c + 1) * n - 1
+        points[c, 0], points[c, 1], points[c, 2] = r[e, 0], r[e, 1], r[e, 2]
+        surface(codes[c], prm[c], r[e, 0], r[e, 1], r[e, 2], normals, hess, c)
+    e = N - 1
+    last = frames[k - 1]
+    q2 = 0.0
+    for i in range(4):
+        q2 += vec[4 * e + i] * vec[4 * e + i]
+    frame = last / q2
+    end = b[k - 1]
+    tip = np.empty(3)
+    tip[:] = r[e]
+    tail_depth = math.inf
+    if end < 1.0:
+        if A != 0.0:
+            dx, dy, phi = parabola_tip(end, A, grid, table)
+        else:
+            dx, dy, phi = 1.0 - end, 0.0, 0.0
+        for i in range(3):
+            tip[i] = tip[i] + dx * frame[i, 0] + dy * frame[i, 1]
+        c_, s_ = math.cos(phi), math.sin(phi)
+        turned = np.empty((3, 3))
+        for i in range(3):
+            turned[i, 0] = c_ * frame[i, 0] + s_ * frame[i, 1]
+            turned[i, 1] = -s_ * frame[i, 0] + c_ * frame[i, 1]
+            turned[i, 2] = frame[i, 2]
+        frame = turned
+        if kinds[k - 1] == 1:
+            s = end + (1.0 - end) * samples
+            if A != 0.0:
+                off = parabola_tail(end, s, A, grid, table)
+            else:
+                off = np.zeros((s.size, 2))
+                for j in range(s.size):
+                    off[j, 0] = s[j] - end
+            for j in range(s.size):
+                x = r[e, 0] + off[j, 0] * last[0, 0] + off[j, 1] * last[0, 1]
+                y = r[e, 1] + off[j, 0] * last[1, 0] + off[j, 1] * last[1, 1]
+                z = r[e, 2] + off[j, 0] * last[2, 0] + off[j, 1] * last[2, 1]
+                d = distance(codes[k - 1], prm[k - 1], x, y, z)
+                if d < tail_depth:
+                    tail_depth = d
+    m = touched.size
+    depth = np.empty(m)
+    where = np.empty(m, dtype=np.int64)
+    for j in range(m):
+        c = touched[j]
+        depth[j] = math.inf
+        where[j] = 0
+        for i in range(N):
+            d = distance(codes[c], prm[c], r[i, 0], r[i, 1], r[i, 2])
+            if d < depth[j]:
+                depth[j] = d
+                where[j] = i
+    return points, normals, tip, frame, tail_depth, depth, where
 
 
 @_kernel

@@ -79,6 +79,9 @@ _CHORD_TOL = 1e-8
 _TRUSTED_STEP = 1e-7
 #: up to here a first step from a trusted guess is followed by chord steps on its Jacobian
 _TRUSTED_CHORD = 1e-4
+#: the fractions of the unloaded part beyond the last side contact at which the tracker checks
+#: that it does not cut that contact's obstacle
+TAIL_SAMPLES = np.linspace(0.125, 1.0, 8)
 #: how far past the tip the last contact's branch is continued (to locate side -> tip)
 _S_EXTEND = 1.25
 
@@ -212,6 +215,19 @@ class Solved(NamedTuple):
     vec: np.ndarray
     lu: Tuple[np.ndarray, np.ndarray]
     sens: np.ndarray
+
+
+class _Accepted(NamedTuple):
+    """A solution's data for the tracker's checks and state, from one kernel call (internal)."""
+
+    points: np.ndarray      # r at the contacts (k, 3)
+    normals: np.ndarray     # the obstacles' outward normals there (k, 3)
+    tip: np.ndarray         # (3,)
+    frame: np.ndarray       # the body frame at the tip (3, 3)
+    tail_depth: float       # least distance of the tail samples to the last contact's obstacle
+    touched: Tuple[int, ...]  # the obstacles touched, sorted
+    depth: np.ndarray       # least distance of the nodes to each (m,)
+    where: np.ndarray       # at which node (m,)
 
 
 @dataclass(frozen=True)
@@ -584,6 +600,8 @@ class RodSolver:
         self.factorizations = 0
         self._free_tip_cache = None
         self._nodes_cache = None
+        self._accepted_cache = None
+        self._touched = {}
         self._chord_rate = 1.0
         self._identity_columns = {}
         # the compiled kernels' view of the shape (vibrissa_ros.core.rod3d._jit)
@@ -1447,6 +1465,46 @@ class RodSolver:
         self._nodes_cache = (vec.copy(), pose, modes, out)
         return out
 
+    def _accepted(self, modes, vec, pose) -> Optional["_Accepted"]:
+        """
+        Return the checks' and the state's data of a solution from one kernel call, or None.
+
+        For contacts on spheres, cylinders and planes only, and a straight or parabolic
+        unloaded whisker (:func:`._jit.accepted`); None otherwise, and the callers sample and
+        measure in Python. The tail is sampled at :data:`TAIL_SAMPLES`. The last answer is kept,
+        as :meth:`_nodes`'s: the tracker's checks and its state ask for the same solution.
+        """
+        if not _jit.ENABLED or not modes:
+            return None
+        shape = self.shape
+        if shape.parabola is None and not shape.is_straight:
+            return None
+        modes = tuple(modes)
+        geometry = self._geometry_of(modes)
+        if geometry is None:
+            return None
+        if not _jit.WARM:
+            _jit.warm_up()
+        vec = np.ascontiguousarray(vec, dtype=float)
+        last = self._accepted_cache
+        if (last is not None and last[1] == pose and last[2] == modes
+                and np.array_equal(last[0], vec)):
+            return last[3]
+        touched = self._touched.get(modes)
+        if touched is None:
+            first = {}
+            for c, m in enumerate(modes):
+                first.setdefault(m.obstacle, c)
+            touched = self._touched[modes] = (tuple(sorted(first)), np.array(
+                [first[k] for k in sorted(first)], dtype=np.int64))
+        points, normals, tip, frame, tail_depth, depth, where = _jit.accepted(
+            vec, self.n, self._kinds_of(modes), self._tau, self._jit_sp,
+            self._template(len(modes)), pose.p, geometry[0], geometry[1], touched[1], TAIL_SAMPLES,
+            shape.parabola or 0.0, self._jit_grid, self._jit_table)
+        out = _Accepted(points, normals, tip, frame, float(tail_depth), touched[0], depth, where)
+        self._accepted_cache = (vec.copy(), pose, modes, out)
+        return out
+
     def equilibrium(self, modes: Sequence[RodContactMode], vec: np.ndarray, pose: BasePose
                     ) -> RodEquilibrium:
         """
@@ -1472,36 +1530,42 @@ class RodSolver:
         if modes:
             breaks = self.breaks_of(modes, vec)
             fs = self.forces_of(modes, vec)
-            if _jit.ENABLED:
-                _, _, r_nodes, R = self._nodes(modes, vec, pose)
-                r_ends = r_nodes[self.n - 1::self.n]
-                Q_last = vec[4 * self.n * len(modes) - 4:4 * self.n * len(modes)]
+            post = self._accepted(modes, vec, pose)
+            if post is not None:
+                # (the kernel's: the same operations as below)
+                pts, tip, frame = post.points, post.tip, post.frame
+                forces = np.array([f * n for f, n in zip(fs, post.normals)])
             else:
-                lay = _Layout(self, breaks)
-                Q = vec[:4 * lay.N].reshape(lay.N, 4)
-                R = _rotations(Q[lay.ends])
-                r_ends = p + lay.G[lay.ends] @ _tangents(Q)
-                Q_last = Q[-1]
-            pts = r_ends
-            forces = np.array([f * np.asarray(self.obstacles[m.obstacle].surface(x).normal)
-                               for m, f, x in zip(modes, fs, pts)])
-            end = breaks[-1]
-            frame = R[-1] / float(Q_last @ Q_last)
-            tip = r_ends[-1]
-            if end < 1.0:
-                if _jit.ENABLED and self.shape.parabola is not None:
-                    # (the kernel of the centerline's tail: the same tip as centerline(1))
-                    *off, phi = _jit.parabola_tip(end, self.shape.parabola, self._jit_grid,
-                                                  self._jit_table)
+                if _jit.ENABLED:
+                    _, _, r_nodes, R = self._nodes(modes, vec, pose)
+                    r_ends = r_nodes[self.n - 1::self.n]
+                    Q_last = vec[4 * self.n * len(modes) - 4:4 * self.n * len(modes)]
                 else:
-                    off, phi = self.shape.tail(end)
-                tip = tip + off[0] * frame[:, 0] + off[1] * frame[:, 1]
-                c, sn = math.cos(phi), math.sin(phi)
-                turned = np.empty((3, 3))
-                turned[:, 0] = c * frame[:, 0] + sn * frame[:, 1]
-                turned[:, 1] = -sn * frame[:, 0] + c * frame[:, 1]
-                turned[:, 2] = frame[:, 2]
-                frame = turned
+                    lay = _Layout(self, breaks)
+                    Q = vec[:4 * lay.N].reshape(lay.N, 4)
+                    R = _rotations(Q[lay.ends])
+                    r_ends = p + lay.G[lay.ends] @ _tangents(Q)
+                    Q_last = Q[-1]
+                pts = r_ends
+                forces = np.array([f * np.asarray(self.obstacles[m.obstacle].surface(x).normal)
+                                   for m, f, x in zip(modes, fs, pts)])
+                end = breaks[-1]
+                frame = R[-1] / float(Q_last @ Q_last)
+                tip = r_ends[-1]
+                if end < 1.0:
+                    if _jit.ENABLED and self.shape.parabola is not None:
+                        # (the kernel of the centerline's tail: the same tip as centerline(1))
+                        *off, phi = _jit.parabola_tip(end, self.shape.parabola, self._jit_grid,
+                                                      self._jit_table)
+                    else:
+                        off, phi = self.shape.tail(end)
+                    tip = tip + off[0] * frame[:, 0] + off[1] * frame[:, 1]
+                    c, sn = math.cos(phi), math.sin(phi)
+                    turned = np.empty((3, 3))
+                    turned[:, 0] = c * frame[:, 0] + sn * frame[:, 1]
+                    turned[:, 1] = -sn * frame[:, 0] + c * frame[:, 1]
+                    turned[:, 2] = frame[:, 2]
+                    frame = turned
             force = forces.sum(axis=0)
             # sum_c (x_c - p) x F_c, in floats (as _cross(pts - p, forces).sum(axis=0))
             px, py, pz = pose.position

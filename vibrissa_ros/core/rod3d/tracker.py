@@ -52,7 +52,7 @@ from ..errors import (
     VibrissaError,
 )
 from . import _jit
-from .model import RodContactMode, RodSolver, _lu_solve
+from .model import TAIL_SAMPLES, RodContactMode, RodSolver, _lu_solve
 from .pose import BasePose, quat_matrix, quat_multiply
 from .shape import RodShape
 
@@ -79,7 +79,7 @@ _FREE_HALF_SPACING = 0.5 / 320.0
 _NEAR = 0.05
 _NUMERICAL_ERRORS = (ArithmeticError, ValueError, np.linalg.LinAlgError)
 #: where the unloaded tail beyond a side contact is checked (fractions of its length)
-_TAIL_SAMPLES = np.linspace(0.125, 1.0, 8)
+_TAIL_SAMPLES = TAIL_SAMPLES
 #: a tail this far inside the obstacle it slides on is refused [L]
 _TAIL_CUT = -1e-9
 #: the last step continues this one when their pose increments' angle has this cosine or more
@@ -1369,10 +1369,13 @@ class RodTracker:
         end = self.solver.breaks_of(modes, vec)[-1]
         if last.kind != "side" or end >= 1.0:
             return
-        s = end + (1.0 - end) * _TAIL_SAMPLES
-        pts = self.solver.centerline(modes, vec, pose, s)
         ob = self.obstacles[last.obstacle]
-        depth = float(np.min(ob.signed_distance(pts)))
+        post = self.solver._accepted(modes, vec, pose)
+        if post is not None:
+            depth = post.tail_depth
+        else:
+            s = end + (1.0 - end) * _TAIL_SAMPLES
+            depth = float(np.min(ob.signed_distance(self.solver.centerline(modes, vec, pose, s))))
         if depth < _TAIL_CUT:
             name = getattr(ob, "name", f"obstacle {last.obstacle}")
             raise ModelAssumptionError(
@@ -1417,13 +1420,19 @@ class RodTracker:
         distance evaluation per obstacle touched); beyond the last contact the tail's own
         check samples it.
         """
-        _, _, r_nodes, _ = self.solver._nodes(modes, vec, pose)
         depth, j_cut, k_cut = math.inf, -1, -1
-        for k in sorted({m.obstacle for m in modes}):
-            d = self.obstacles[k].signed_distance(r_nodes)
-            j = int(np.argmin(d))
-            if d[j] < depth:
-                depth, j_cut, k_cut = float(d[j]), j, k
+        post = self.solver._accepted(modes, vec, pose)
+        if post is not None:
+            for k, d, j in zip(post.touched, post.depth.tolist(), post.where.tolist()):
+                if d < depth:
+                    depth, j_cut, k_cut = d, j, k
+        else:
+            _, _, r_nodes, _ = self.solver._nodes(modes, vec, pose)
+            for k in sorted({m.obstacle for m in modes}):
+                d = self.obstacles[k].signed_distance(r_nodes)
+                j = int(np.argmin(d))
+                if d[j] < depth:
+                    depth, j_cut, k_cut = float(d[j]), j, k
         if depth >= _TAIL_CUT:
             return depth, 0.0, k_cut
         return depth, float(self.solver.layout(modes, vec).s[j_cut]), k_cut
