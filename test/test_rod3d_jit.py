@@ -72,7 +72,7 @@ def test_the_kernels_surface_data_equal_the_obstacles_own():
     # spheres, cylinders and planes: the kernels compute the surface data at the contacts
     # themselves, with the obstacles' formulas in the same order: equal to the last bit,
     # including the degenerate points (a sphere's centre, a cylinder's axis)
-    from vibrissa_ros.core.rod3d.model import _kernel_geometry
+    from vibrissa_ros.core.rod3d.model import kernel_geometry
     obstacles = OBSTACLES + (Sphere((-0.2, 0.3, 0.4), 0.5), Cylinder((0, 0, 0), (1, 2, 3), 0.2),
                              Cylinder((0, 0, 0), (0.1, 0.0, 1.0), 0.2),
                              Plane((0.1, 0.2, 0.3), (-1.0, 2.0, 0.5)))
@@ -81,13 +81,29 @@ def test_the_kernels_surface_data_equal_the_obstacles_own():
                              [(0.55, 0.2, 0.05), (0.3, 0.1, 0.7), (0.0, 0.0, 0.0)]))
     normal, hess = np.empty((1, 3)), np.empty((1, 3, 3))
     for ob in obstacles:
-        code, prm = _kernel_geometry(ob)
+        code, prm = kernel_geometry(ob)
         for x in points:
             want = ob.surface(x)
             got = _jit.surface(code, np.array(prm), x[0], x[1], x[2], normal, hess, 0)
             assert got == want.distance
             assert np.array_equal(normal[0], want.normal)
             assert np.array_equal(hess[0], want.hessian)
+
+
+def test_the_kernels_least_distance_equals_the_scenes():
+    # the array's clearance test: the least distance of many points to a scene's obstacles
+    from vibrissa_ros.core.rod3d import Scene3D
+    from vibrissa_ros.core.rod3d.model import kernel_geometry
+    scene = Scene3D((Sphere((0.55, 0.2, 0.05), 0.12, "ball"),
+                     Cylinder((0.3, -0.3, 0.0), (0, 0, 1), 0.04, "peg"),
+                     Plane((0.0, 0.0, -0.5), (0.0, 0.0, 1.0), "floor"),
+                     Cylinder((-0.5, 0, 0), (1, 2, 3), 0.2, "slant")))
+    rows = [kernel_geometry(ob) for ob in scene.obstacles]
+    codes = np.array([row[0] for row in rows])
+    prm = np.array([row[1] for row in rows])
+    points = np.random.default_rng(5).normal(scale=0.7, size=(500, 3))
+    want = scene.signed_distances(points).min(axis=0)
+    assert np.max(np.abs(_jit.least_distance(codes, prm, points) - want)) <= 1e-15
 
 
 def test_the_one_call_evaluation_equals_prepare_and_equations():

@@ -36,6 +36,8 @@ from typing import List, Optional, Tuple
 import numpy as np
 
 from ..errors import InvalidPoseError, ParameterError, VibrissaError
+from ..rod3d import _jit
+from ..rod3d.model import kernel_geometry
 from ..rod3d.pose import BasePose, quat_from_matrix
 from ..rod3d.scene import Scene3D
 from ..rod3d.tracker import RodStepResult, RodTracker
@@ -326,6 +328,13 @@ class ArrayTracker:
         self._free = np.array([r.shape.free_centerline(s) * r.length for r in rods])
         self._free_tip = self._free[:, -1, :].copy()
         self._reach = 0.5 * self._length / (samples - 1)
+        # the scene's obstacles as the kernels take them, where they know every one of them
+        self._geometry = None
+        if self.scene is not None and _jit.ENABLED:
+            rows = [kernel_geometry(ob) for ob in self.scene.obstacles]
+            if rows and all(row is not None for row in rows):
+                self._geometry = (np.array([row[0] for row in rows], dtype=np.int64),
+                                  np.array([row[1] for row in rows], dtype=float))
         if self.scene is None:  # whisking in the air
             self._scenes = [()] * len(rods)
         else:
@@ -435,7 +444,10 @@ class ArrayTracker:
         if self.scene is None:
             return np.full(len(R), np.inf)
         pts = p[:, None, :] + free @ R.transpose(0, 2, 1)
-        d = self.scene.signed_distances(pts.reshape(-1, 3)).min(axis=0)
+        if self._geometry is not None:
+            d = _jit.least_distance(self._geometry[0], self._geometry[1], pts.reshape(-1, 3))
+        else:
+            d = self.scene.signed_distances(pts.reshape(-1, 3)).min(axis=0)
         return d.reshape(len(R), -1).min(axis=1)
 
     def _clear(self, R, p, motion) -> np.ndarray:

@@ -70,6 +70,7 @@ def warm_up() -> None:
             solver._residual_compiled(modes, vec, pose, False, False)
             solver._nodes(modes, vec, pose)
             solver._accepted(modes, vec, pose)
+            least_distance(np.array([SPHERE]), np.zeros((1, 7)), np.zeros((2, 3)))
             solver._centerline_compiled(modes, vec, pose, np.array([0.25, 1.0]))
             parabola_tail(0.5, np.array([1.0]), 1.0, *RodShape(parabola=1.0)._u_table())
             parabola_tip(0.5, 1.0, *RodShape(parabola=1.0)._u_table())
@@ -758,6 +759,21 @@ def distance(code, prm, x, y, z):
     t = wx * ax + wy * ay + wz * az
     rx, ry, rz = wx - t * ax, wy - t * ay, wz - t * az
     return math.sqrt(rx * rx + ry * ry + rz * rz) - prm[6]
+
+
+@_kernel
+def least_distance(codes, prm, points):
+    """Return the least signed distance of each point (m, 3) to the obstacles (by distance)."""
+    m = points.shape[0]
+    out = np.empty(m)
+    for i in range(m):
+        d = math.inf
+        for c in range(codes.size):
+            dc = distance(codes[c], prm[c], points[i, 0], points[i, 1], points[i, 2])
+            if dc < d:
+                d = dc
+        out[i] = d
+    return out
 
 
 @_kernel

@@ -255,8 +255,22 @@ class RodContactMode:
         return 2 if self.kind == "side" else 1
 
 
-def _kernel_geometry(ob) -> Optional[Tuple[int, Tuple[float, ...]]]:
-    """Return (code, 7 parameters) of an obstacle the kernels know (:func:`._jit.surface`)."""
+def kernel_geometry(ob) -> Optional[Tuple[int, Tuple[float, ...]]]:
+    """
+    Return an obstacle as the compiled kernels take it, or None for one they do not know.
+
+    Parameters
+    ----------
+    ob : object
+        An obstacle of the scene.
+
+    Returns
+    -------
+    tuple or None
+        (code, 7 parameters) (:func:`._jit.surface`) of a Sphere, Cylinder or Plane, of exactly
+        those types (a subclass may answer otherwise); None for any other obstacle.
+
+    """
     kind = type(ob)
     if kind is Sphere:
         return _jit.SPHERE, tuple(ob.center) + (ob.r, 0.0, 0.0, 0.0)
@@ -725,7 +739,7 @@ class RodSolver:
             modes = tuple(modes)
         out = self._geometries.get(modes, False)
         if out is False:
-            rows = [_kernel_geometry(self.obstacles[m.obstacle]) for m in modes]
+            rows = [kernel_geometry(self.obstacles[m.obstacle]) for m in modes]
             out = None
             if all(row is not None for row in rows):
                 out = (np.array([row[0] for row in rows], dtype=np.int64),
