@@ -242,3 +242,34 @@ def test_vibrissa_no_jit_selects_the_numpy_reference():
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
                          check=True)
     assert out.stdout.strip() == "False"
+
+
+_NOTHING_COMPILED_LATER = """
+import math
+from pathlib import Path
+from vibrissa_ros.core.arrays import ArrayTracker, CosineWhisk
+from vibrissa_ros.core.rod3d import BasePose, Cylinder, Scene3D, _jit
+from vibrissa_ros.scan.array_file import load_array
+_jit.warm_up()
+kernels = {name: getattr(_jit, name) for name in dir(_jit)
+           if hasattr(getattr(_jit, name), "signatures")}
+before = {name: len(k.signatures) for name, k in kernels.items()}
+array = load_array(Path(%r) / "config" / "rat_array.yaml").side("right")
+scene = Scene3D((Cylinder((0.03, -0.016, 0.0), (0, 0, 1), 0.0015, "peg"),))
+whisk = CosineWhisk(8.0, -math.radians(20.0), math.radians(20.0))
+head = BasePose((0.0, 0.0, 0.0))
+tracker = ArrayTracker(array, scene, head, whisk.angle(0.0))
+for k in range(1, 61):
+    step = tracker.step(head, whisk.angle(k * 1e-3))
+assert step.in_contact > 0
+print(sorted(name for name, k in kernels.items() if len(k.signatures) != before[name]))
+"""
+
+
+def test_warm_up_compiles_every_kernel_an_array_of_whiskers_calls():
+    # a kernel first called with argument types warm_up did not use is compiled (or loaded
+    # from the cache: ~0.3 s) in the middle of a tick: the array's first contacts must not
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    out = subprocess.run([sys.executable, "-c", _NOTHING_COMPILED_LATER % root],
+                         capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"

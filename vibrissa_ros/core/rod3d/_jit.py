@@ -64,12 +64,12 @@ def warm_up() -> None:
         try:
             _, J, _ = solver._residual_compiled(modes, vec, pose, True, True)
             solver._residual_compiled(modes, vec, pose, False, False)
+            solver._accepted(modes, vec, pose)
             # and as for an obstacle the kernels do not know (its surface data from Python)
             solver._geometries[modes] = None
             solver._residual_compiled(modes, vec, pose, True, True)
             solver._residual_compiled(modes, vec, pose, False, False)
             solver._nodes(modes, vec, pose)
-            solver._accepted(modes, vec, pose)
             least_distance(np.array([SPHERE]), np.zeros((1, 7)), np.zeros((2, 3)))
             solver._centerline_compiled(modes, vec, pose, np.array([0.25, 1.0]))
             parabola_tail(0.5, np.array([1.0]), 1.0, *RodShape(parabola=1.0)._u_table())
