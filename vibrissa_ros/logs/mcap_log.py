@@ -7,6 +7,10 @@ MCAP logs in the rosbag2 layout: what ``ros2 bag``, Foxglove and rosbags open.
   packages, share/<pkg>/msg);
 * channels with message encoding ``cdr`` and metadata ``offered_qos_profiles`` (rosbag2's YAML) and
   ``topic_type_hash`` (the type's RIHS01 hash from share/<pkg>/msg/<Type>.json);
+* a type whose interface package has no wheel here but which the logs need,
+  ``tf2_msgs/msg/TFMessage`` (the transforms by which Foxglove places frames), is composed from
+  installed types: its .msg text as tf2_msgs defines it, and its RIHS01 hash computed as REP 2011
+  and rosidl compute it, from the installed types' type descriptions;
 * zstd-compressed chunks, closed at least every ``flush_period`` seconds so that a killed writer
   loses at most that much; log and publish times in integer nanoseconds.
 
@@ -15,6 +19,7 @@ No rclpy here: messages arrive serialized (CDR bytes).
 
 from __future__ import annotations
 
+import hashlib
 import json
 import re
 import struct
@@ -57,6 +62,13 @@ _PRIMITIVES = {
     "wstring",
 }
 _DELIMITER = "=" * 80 + "\n"
+#: types composed of installed ones where their own package is not installed: {pkg/Type: (the
+#: .msg text, ((field, rosidl type id, nested type), ...))}; type id 145 = an unbounded sequence
+#: of a nested type (rosidl's FIELD_TYPE_NESTED_TYPE_UNBOUNDED_SEQUENCE)
+_COMPOSED = {
+    "tf2_msgs/TFMessage": ("geometry_msgs/TransformStamped[] transforms\n",
+                           (("transforms", 145, "geometry_msgs/msg/TransformStamped"),)),
+}
 # the infinite duration of rmw (RMW_DURATION_INFINITE), as rosbag2 writes it
 _INFINITE = "\n    sec: 9223372036\n    nsec: 854775807"
 
@@ -122,13 +134,24 @@ def _dependencies(text: str, package: str) -> List[str]:
     return sorted(deps)
 
 
+def _msg_text(package: str, name: str) -> str:
+    """Return the .msg text of package/name: installed, or composed (:data:`_COMPOSED`)."""
+    try:
+        return _msg_file(package, name).read_text()
+    except LogError:
+        composed = _COMPOSED.get(f"{package}/{name}")
+        if composed is None:
+            raise
+        return composed[0]
+
+
 def message_definition(type_name: str) -> str:
     """Return the ros2msg schema of ``type_name`` ('pkg/msg/Type'): its .msg and dependencies."""
     seen = set()
 
     def text_of(pkg_type: str) -> str:
         package, name = _split_type(pkg_type)
-        text = _msg_file(package, name).read_text()
+        text = _msg_text(package, name)
         out = text
         for dep in _dependencies(text, package):
             if dep in seen:
@@ -140,10 +163,58 @@ def message_definition(type_name: str) -> str:
     return text_of(type_name)
 
 
+def rihs01(description: dict) -> str:
+    """
+    Return the RIHS01 hash of a type description (REP 2011; rosidl's calculate_type_hash).
+
+    ``description``: ``{"type_description": {...}, "referenced_type_descriptions": [...]}`` as
+    the interface packages' .json files hold it (``type_description_msg``); the fields' default
+    values are left out of the hash.
+    """
+    hashable = {
+        "type_description": _without_defaults(description["type_description"]),
+        "referenced_type_descriptions": [_without_defaults(d) for d in
+                                         description["referenced_type_descriptions"]],
+    }
+    text = json.dumps(hashable, ensure_ascii=True, allow_nan=False, indent=None,
+                      separators=(", ", ": "), sort_keys=False)
+    return "RIHS01_" + hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
+def _without_defaults(description: dict) -> dict:
+    return {"type_name": description["type_name"],
+            "fields": [{k: v for k, v in field.items() if k != "default_value"}
+                       for field in description["fields"]]}
+
+
+def _composed_hash(package: str, name: str) -> str:
+    """Return the RIHS01 hash of a composed type from its fields' installed descriptions."""
+    _, fields = _COMPOSED[f"{package}/{name}"]
+    referenced = {}
+    for _, _, nested in fields:
+        nested_package, nested_name = _split_type(nested)
+        data = json.loads(_msg_file(nested_package, nested_name, ".json").read_text())
+        desc = data["type_description_msg"]
+        for d in [desc["type_description"]] + desc["referenced_type_descriptions"]:
+            referenced[d["type_name"]] = d
+    own = {"type_name": f"{package}/msg/{name}",
+           "fields": [{"name": field, "type": {"type_id": type_id, "capacity": 0,
+                                               "string_capacity": 0,
+                                               "nested_type_name": nested},
+                       "default_value": ""} for field, type_id, nested in fields]}
+    return rihs01({"type_description": own, "referenced_type_descriptions":
+                   [referenced[k] for k in sorted(referenced)]})
+
+
 def type_hash(type_name: str) -> str:
     """Return the type's RIHS01 hash as the installed interface package states it."""
     package, name = _split_type(type_name)
-    data = json.loads(_msg_file(package, name, ".json").read_text())
+    try:
+        data = json.loads(_msg_file(package, name, ".json").read_text())
+    except LogError:
+        if f"{package}/{name}" not in _COMPOSED:
+            raise
+        return _composed_hash(package, name)
     full = f"{package}/msg/{name}"
     for entry in data.get("type_hashes", []):
         if entry.get("type_name") == full:

@@ -3,7 +3,8 @@ Records a node's endpoints into an MCAP log (rosbag2 layout), failures handled h
 
 The recorder is given ``{key: endpoint}`` (publishers and subscriptions, or anything with their
 ``topic_name``, ``msg_type`` and ``qos_profile``) and takes each channel's topic, type and offered
-QoS from the endpoint itself. It takes messages serialized (:meth:`Recorder.write_serialized`:
+QoS from the endpoint itself; a :class:`~vibrissa_ros.logs.mcap_log.TopicSpec` instead is a
+channel only recorded. It takes messages serialized (:meth:`Recorder.write_serialized`:
 CDR bytes, e.g. those a node publishes with ``publisher.publish(data)``) or as objects
 (:meth:`Recorder.write` serializes them in the caller's thread: they may be reused right after).
 Writing, chunking and compressing happen in a writer process of its own
@@ -76,7 +77,9 @@ class Recorder:
         The log file, created or overwritten.
     endpoints : mapping
         ``{key: endpoint}``: a channel per endpoint (its topic, type and offered QoS); ``key``
-        names it in :meth:`write` and :meth:`write_serialized`.
+        names it in :meth:`write` and :meth:`write_serialized`. An endpoint may also be a
+        :class:`~vibrissa_ros.logs.mcap_log.TopicSpec`: a channel only recorded (e.g. ``/tf``,
+        whose type no wheel here provides, written serialized).
     values : mapping
         The node's parameter values: the first configuration record, holding from the start.
     node_name : str
@@ -108,8 +111,9 @@ class Recorder:
         else:
             self._sink = LogProcess(path, self._fail)
         try:
-            self._channels = {key: self._sink.channel(topic_spec(endpoint))
-                              for key, endpoint in endpoints.items()}
+            self._channels = {key: self._sink.channel(
+                endpoint if isinstance(endpoint, TopicSpec) else topic_spec(endpoint))
+                for key, endpoint in endpoints.items()}
         except LogError:
             self._sink.close()
             raise

@@ -36,6 +36,15 @@ def _qos(offered: str, depth: int) -> QoSProfile:
     )
 
 
+def _installed(type_name: str) -> bool:
+    """Tell whether a message type's Python class can be imported here."""
+    try:
+        message_class(type_name)
+    except (ImportError, AttributeError, ValueError):
+        return False
+    return True
+
+
 def replay(path: str, rate: float = 1.0, topics: Optional[Sequence[str]] = None,
            wait_subscribers: float = 5.0, progress=None) -> int:
     """
@@ -43,7 +52,9 @@ def replay(path: str, rate: float = 1.0, topics: Optional[Sequence[str]] = None,
 
     ``rate`` 0 publishes as fast as DDS takes them, nothing lost (see the module). ``progress``:
     an object with ``update(n)`` (a tqdm bar), or None. Returns the number of messages published;
-    raises :class:`LogError` if a subscriber did not acknowledge everything in time.
+    raises :class:`LogError` if a subscriber did not acknowledge everything in time. Channels
+    whose type is not installed here (an array log's ``/tf``) are left out, or refused when
+    named in ``topics``.
     """
     _, channels, _, messages = read_log(path)
     wanted = set(topics) if topics else None
@@ -52,6 +63,14 @@ def replay(path: str, rate: float = 1.0, topics: Optional[Sequence[str]] = None,
         missing = wanted - {m.topic for m in messages}
         if missing:
             raise LogError(f"topics not in the log: {', '.join(sorted(missing))}")
+    # a channel whose type has no Python package here cannot be published (an array log's /tf:
+    # tf2_msgs has no wheel): left out, unless asked for by name
+    types = {m.topic: m.type_name for m in chosen}
+    absent = {topic for topic, name in types.items() if not _installed(name)}
+    if absent and wanted:
+        raise LogError(f"cannot publish {', '.join(sorted(absent))}: type "
+                       f"{', '.join(sorted({types[t] for t in absent}))} is not installed")
+    chosen = [m for m in chosen if m.topic not in absent]
     counts = Counter(m.topic for m in chosen)
     offered = {c.topic: c.metadata.get("offered_qos_profiles", "") for c in channels.values()}
     context = rclpy.Context()
