@@ -133,7 +133,7 @@ def external(installed, ros_env, rcl_context, tmp_path_factory):
     tmp = tmp_path_factory.mktemp("array_ext")
     log = tmp / "external.mcap"
     values = dict(_shipped(), **{"whisk.source": "external", "record.path": str(log),
-                                 "diagnostics.period": 0.3})
+                                 "diagnostics.period": 0.3, "wrench.rate": 500.0})
     proc = start_installed_node(installed, write_params(tmp / "p.yaml", values), ros_env,
                                 namespace="/ext", executable="array_node")
     probe = ArrayProbe(rcl_context, "/ext/array_node")
@@ -283,6 +283,60 @@ def test_the_external_run_is_reproduced_by_resim(external):
     assert sim.dropped == {"joint_names": 1, "joint_lengths": 1, "not_finite": 1,
                            "quaternion_not_unit": 1, "wrong_frame_id": 1}
     assert sim.compared["wrenches.fx"] >= 30 * len(external["inputs"])
+
+
+#: tf2_msgs/msg/TFMessage's RIHS01 hash as ROS 2 Jazzy publishes it (ros2 topic info -v /tf)
+TF_HASH = "RIHS01_e369d0f05a23ae52508854b66f6aa0437f3449d652e8cbf22d5abe85d020f087"
+
+
+def test_the_recording_places_the_frames_and_keeps_every_whiskers_wrench(external):
+    # /tf (recorded only: no tf2_msgs wheel) carries the head's and each whisker's base frame
+    # at the display rate, decoded from the log's own schema by two independent readers; each
+    # ~/<name>/wrench published is recorded too, in its base frame
+    from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
+    from rosbags.rosbag2 import Reader as RosbagsReader
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+    from vibrissa_ros.logs.mcap_log import read_log
+
+    whiskers = json.loads(external["got"]["whiskers"][-1].data)
+    _, channels, _, messages = read_log(str(external["log"]))
+    tf = [c for c in channels.values() if c.topic == "/tf"]
+    assert len(tf) == 1 and tf[0].metadata["topic_type_hash"] == TF_HASH
+    clouds = {header_ns(msg): decode_cloud(msg) for msg in
+              (decode(m) for m in messages if m.topic == "/ext/array_node/wrenches")}
+    with open(external["log"], "rb") as stream:
+        frames = [m for _, c, _, m in make_reader(stream, decoder_factories=[DecoderFactory()])
+                  .iter_decoded_messages(topics=["/tf"], log_time_order=True)]
+    store = get_typestore(Stores.EMPTY)
+    with RosbagsReader(Path(external["log"])) as reader:
+        conn = [c for c in reader.connections if c.topic == "/tf"]
+        store.register(get_types_from_msg(conn[0].msgdef.data, conn[0].msgtype))
+        again = [store.deserialize_cdr(raw, c.msgtype) for c, _, raw in reader.messages(conn)]
+    assert len(frames) == len(again) >= 5
+    for msg, other in zip(frames, again):
+        stamps = {t.header.stamp.sec * 10**9 + t.header.stamp.nanosec for t in msg.transforms}
+        assert len(stamps) == 1
+        rows = clouds[stamps.pop()]
+        assert [t.child_frame_id for t in msg.transforms] == ["head"] + whiskers["frames"]
+        assert {t.header.frame_id for t in msg.transforms} == {"world"}
+        for t, row in zip(msg.transforms[1:], rows):
+            p, q = t.transform.translation, t.transform.rotation
+            assert (p.x, p.y, p.z) == (row["x"], row["y"], row["z"])
+            assert (abs(q.x - row["qx"]), abs(q.y - row["qy"]), abs(q.z - row["qz"]),
+                    abs(q.w - row["qw"])) <= (1e-15,) * 4
+        for t, u in zip(msg.transforms, other.transforms):
+            assert (t.child_frame_id, t.transform.translation.x, t.transform.rotation.w) == (
+                u.child_frame_id, u.transform.translation.x, u.transform.rotation.w)
+    for i, name in enumerate(whiskers["names"]):
+        recorded = [decode(m) for m in messages if m.topic == f"/ext/array_node/{name}/wrench"]
+        assert len(recorded) >= 10
+        for w in recorded:
+            row = clouds[header_ns(w)][i]
+            assert w.header.frame_id == whiskers["frames"][i]
+            assert (w.wrench.force.x, w.wrench.force.y, w.wrench.torque.z) == (
+                row["fx"], row["fy"], row["mz"])
 
 
 def _listwise_resim(configs, messages, resets=()):

@@ -10,7 +10,9 @@ Out every tick: ``~/wrenches`` (sensor_msgs/PointCloud2, one point per whisker, 
 the built-in whisk, ``~/protraction`` (sensor_msgs/JointState, joint ``whisk``); latched
 ``~/whiskers`` (names and frames, JSON) and ``~/obstacles``; at ``display.rate``: ``~/shapes``
 (MarkerArray of LINE_STRIPs) and ``~/contacts`` (PointCloud2); at ``wrench.rate``:
-``~/<name>/wrench``; ``/diagnostics`` (a status per whisker and one for the node). Service:
+``~/<name>/wrench``; ``/diagnostics`` (a status per whisker and one for the node). Recorded
+besides, in the log only: ``/tf`` at ``display.rate`` (the head's and every whisker's base frame
+in the world; no tf2_msgs wheel here to publish it, :mod:`.transforms`). Service:
 ``~/reset`` (std_srvs/Trigger: before the next tick every whisker is re-placed unloaded at its
 pose of the last tick; recorded, so that a re-simulation resets at the same tick).
 doc/guide/node.md, "array_node", has the tables. This module only wires: checks and the tick
@@ -52,6 +54,7 @@ from . import messages as m
 from .params import NodeParameters
 from .recorder import Recorder
 from .run import RCLError, run_node
+from .transforms import TF_SPEC, tf_message_cdr
 from .topics import LATCHED
 
 LOG_THROTTLE_S = 1.0  # seconds between two log lines of the same drop reason
@@ -76,7 +79,8 @@ class ArrayNode(Node):
         self._pipeline = ArrayPipeline(cfg)
         self._scene = cfg.scene
         self._names = cfg.array.names
-        self._frames = [f"{cfg.values['head_frame']}/{n}" for n in self._names]
+        self._head_frame = cfg.values["head_frame"]
+        self._frames = [f"{self._head_frame}/{n}" for n in self._names]
         self._world = cfg.values["world_frame"]
         self._recorder: Optional[Recorder] = None
         self._record_error = ""
@@ -144,7 +148,10 @@ class ArrayNode(Node):
     def _start_recording(self, path: str) -> None:
         if not path:
             return
-        endpoints = {**self._pub, **self._sub}
+        # and, recorded only: the frames (tf2_msgs has no wheel here, so no /tf is published)
+        # and every whisker's WrenchStamped, where they are published
+        endpoints = {**self._pub, **self._sub, "tf": TF_SPEC,
+                     **{f"wrench/{n}": pub for n, pub in zip(self._names, self._wrench_pubs)}}
         try:
             self._recorder = Recorder(path, endpoints, self.config.record_values,
                                       self.get_fully_qualified_name(), self._recording_failed)
@@ -292,10 +299,21 @@ class ArrayNode(Node):
         if self._wrench_pubs and now - self._last_wrench >= self._wrench_period:
             self._last_wrench = now
             for i, pub in enumerate(self._wrench_pubs):
-                pub.publish(am.fill_wrench(self._wrench_msg, stamp, self._frames[i], rows[i]))
+                msg = am.fill_wrench(self._wrench_msg, stamp, self._frames[i], rows[i])
+                self._record(f"wrench/{self._names[i]}", msg)
+                pub.publish(msg)
 
     def _display(self, stamp, step, rows) -> None:
         recording = self._recorder is not None
+        if recording and self._recorder.error is None:
+            # the head's and every whisker's base frame in the world, for the log's readers
+            # (Foxglove's 3D panel places ~/<name>/wrench and the frames by them)
+            head = step.head
+            self._recorder.write_serialized("tf", tf_message_cdr(
+                stamp.sec, stamp.nanosec, self._world,
+                [self._head_frame] + self._frames,
+                np.vstack(([head.position], step.base_position)),
+                np.vstack(([head.quaternion], step.base_quaternion))), self._next_log_ns())
         if recording or self._pub["shapes"].get_subscription_count():
             lines = self._pipeline.tracker.centerlines(int(self.config.values["display.points"]))
             self._send("shapes", am.shapes_markers(stamp, self._world, self._names, lines,
