@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import json
 import math
+import threading
 import time
 from collections import Counter
 from typing import Dict, Optional
@@ -38,6 +39,7 @@ from std_msgs.msg import String
 from std_srvs.srv import Trigger
 from visualization_msgs.msg import MarkerArray
 
+from ..core.rod3d.model import warm_up
 from ..logs.mcap_log import LogError
 from ..node.array import (
     ARRAY_PARAMETERS,
@@ -138,6 +140,9 @@ class ArrayNode(Node):
         self.create_service(Trigger, "~/reset", self._on_reset)
         self._start_recording(cfg.values["record.path"])
         self._publish_latched()
+        # the compiled kernels: loaded from numba's cache (~0.3 s) or, the first time on a
+        # machine, compiled (~20 s), before the first contact needs them (a tick waits for it)
+        threading.Thread(target=warm_up, name="rod3d_warm_up", daemon=True).start()
         self.get_logger().info(f"ready: {cfg.describe()}")
 
     @property

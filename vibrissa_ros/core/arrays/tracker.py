@@ -445,6 +445,8 @@ class ArrayTracker:
             return np.full(len(R), np.inf)
         pts = p[:, None, :] + free @ R.transpose(0, 2, 1)
         if self._geometry is not None:
+            if not _jit.WARM:  # (waits for a warm-up under way in another thread)
+                _jit.warm_up()
             d = _jit.least_distance(self._geometry[0], self._geometry[1], pts.reshape(-1, 3))
         else:
             d = self.scene.signed_distances(pts.reshape(-1, 3)).min(axis=0)
