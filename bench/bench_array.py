@@ -17,8 +17,12 @@ stepper is there to avoid. For the reference simulator, WHISKiT Physics needs ab
 per whisker per 1-ms sample on this kind of machine (the figure of the reference sheet on the rat
 array; one side: about 0.45 s per tick).
 
+With ``--plain [WHISKER ...]`` it prints instead what a plain step of one whisker in contact
+costs (its own tracker fed its poses alone, the steps in contact without events: what a median
+tick is made of), and its evaluations and factorizations per step.
+
 Run: OPENBLAS_NUM_THREADS=1 python bench/bench_array.py [--cycles 2] [--side right|both]
-     [--baseline-ticks 250]
+     [--baseline-ticks 250] [--plain [RB1 RC1 RD0] [--repeats 5]]
 """
 
 from __future__ import annotations
@@ -36,7 +40,7 @@ import numpy as np  # noqa: E402
 
 from vibrissa_ros.core.arrays import ArrayTracker, CosineWhisk  # noqa: E402
 from vibrissa_ros.core.errors import VibrissaError  # noqa: E402
-from vibrissa_ros.core.rod3d import BasePose, Cylinder, RodTracker, Scene3D  # noqa: E402
+from vibrissa_ros.core.rod3d import BasePose, Cylinder, RodTracker, Scene3D, _jit  # noqa: E402
 from vibrissa_ros.scan.array_file import load_array  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -73,6 +77,7 @@ def _pct(values, q):
 
 
 def run(side: str, cycles: float, baseline_ticks: int, dt: float = 1e-3) -> None:
+    _jit.warm_up()  # as array_node does when it starts: no tick loads the compiled kernels
     array, scene, whisk = _setup(side)
     t0 = time.perf_counter()
     tracker = ArrayTracker(array, scene, HEAD, whisk.angle(0.0))
@@ -143,6 +148,45 @@ def run(side: str, cycles: float, baseline_ticks: int, dt: float = 1e-3) -> None
           f"{np.median(mine) / np.median(base):.3f}; failed whisker steps {failed}")
 
 
+def plain_steps(names, cycles: float, repeats: int, dt: float = 1e-3) -> None:
+    """
+    Print what a plain step of one whisker in contact costs, its tracker replayed alone.
+
+    The right pad's whiskers ``names``, each on its own RodTracker fed the poses the array
+    gives it, ``repeats`` times: the median and the least of the medians of the steps that
+    start and end in contact with no event (the steps a median tick is made of), and their
+    solver evaluations and factorizations (counts, exact between runs).
+    """
+    _jit.warm_up()
+    array, scene, whisk = _setup("right")
+    tracker = ArrayTracker(array, scene, HEAD, whisk.angle(0.0))
+    ticks = int(round(cycles / whisk.frequency / dt))
+    poses = [tracker.whisker_poses(HEAD, whisk.angle(k * dt)) for k in range(ticks + 1)]
+    print(f"\n== plain steps of single whiskers in contact ({ticks} poses each, "
+          f"{repeats} runs)")
+    for name in names:
+        i = list(tracker.names).index(name)
+        medians = []
+        for _ in range(repeats):
+            single = RodTracker(tracker._scenes[i], poses[0][i], shape=array.rod(i).shape)
+            times, work, lus = [], 0, 0
+            for k in range(1, ticks + 1):
+                before = bool(single.state.contacts)
+                e0, f0 = single.solver.evaluations, single.solver.factorizations
+                t0 = time.perf_counter()
+                result = single.step(poses[k][i])
+                elapsed = time.perf_counter() - t0
+                if before and single.state.contacts and not result.events:
+                    times.append(elapsed)
+                    work += single.solver.evaluations - e0
+                    lus += single.solver.factorizations - f0
+            medians.append(float(np.median(times)))
+        print(f"   {name}: {len(times)} plain steps, median {np.median(medians) * 1e6:.0f} us "
+              f"(least of {repeats} runs' medians {min(medians) * 1e6:.0f} us); "
+              f"{work / len(times):.2f} evaluations and {lus / len(times):.2f} "
+              "factorizations per step")
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--cycles", type=float, default=2.0, help="whisk cycles (default 2)")
@@ -150,7 +194,14 @@ def main(argv=None) -> int:
                         help="one run (default: right, then both)")
     parser.add_argument("--baseline-ticks", type=int, default=250,
                         help="ticks of the plain-loop baseline (0: none)")
+    parser.add_argument("--plain", nargs="*", metavar="WHISKER", default=None,
+                        help="instead: the plain steps of these right-pad whiskers in contact, "
+                             "each replayed alone (default RB1 RC1 RD0)")
+    parser.add_argument("--repeats", type=int, default=5, help="runs of --plain (default 5)")
     args = parser.parse_args(argv)
+    if args.plain is not None:
+        plain_steps(args.plain or ["RB1", "RC1", "RD0"], args.cycles, args.repeats)
+        return 0
     for side in ((args.side,) if args.side else ("right", "both")):
         run(side, args.cycles, args.baseline_ticks)
     return 0
