@@ -324,8 +324,8 @@ def test_the_recording_places_the_frames_and_keeps_every_whiskers_wrench(externa
         for t, row in zip(msg.transforms[1:], rows):
             p, q = t.transform.translation, t.transform.rotation
             assert (p.x, p.y, p.z) == (row["x"], row["y"], row["z"])
-            assert (abs(q.x - row["qx"]), abs(q.y - row["qy"]), abs(q.z - row["qz"]),
-                    abs(q.w - row["qw"])) <= (1e-15,) * 4
+            assert max(abs(q.x - row["qx"]), abs(q.y - row["qy"]), abs(q.z - row["qz"]),
+                       abs(q.w - row["qw"])) <= 1e-15
         for t, u in zip(msg.transforms, other.transforms):
             assert (t.child_frame_id, t.transform.translation.x, t.transform.rotation.w) == (
                 u.child_frame_id, u.transform.translation.x, u.transform.rotation.w)
