@@ -113,3 +113,29 @@ def test_replay_leaves_out_a_type_that_is_not_installed(tmp_path):
     assert replay(str(path), rate=0.0, wait_subscribers=0.0) == 6  # the String messages only
     with pytest.raises(LogError, match="cannot publish /tf: type tf2_msgs/msg/TFMessage is not"):
         replay(str(path), rate=0.0, topics=["/tf"], wait_subscribers=0.0)
+
+
+def test_the_message_counts_come_from_the_summary_or_one_pass(tmp_path):
+    # replay streams a log: its per-topic counts (the QoS depth at rate 0) are the summary's
+    # statistics, or counted in one pass where a writer left them out
+    from mcap.writer import Writer
+
+    from vibrissa_ros.logs.mcap_log import LogReader
+
+    path = tmp_path / "tf.mcap"
+    _write_log(path, n=5)
+    with LogReader(str(path)) as log:
+        assert log.counts() == {"/tf": 5, "/x/events": 5}
+    bare = tmp_path / "bare.mcap"
+    with open(bare, "wb") as stream:
+        writer = Writer(stream, use_statistics=False)
+        writer.start(profile="ros2", library="test")
+        schema = writer.register_schema("std_msgs/msg/String", "ros2msg",
+                                        message_definition("std_msgs/msg/String").encode())
+        a = writer.register_channel("/a", "cdr", schema)
+        writer.register_channel("/b", "cdr", schema)
+        for i in range(3):
+            writer.add_message(a, i, serialize_message(String(data=str(i))), i)
+        writer.finish()
+    with LogReader(str(bare)) as log:
+        assert log.counts() == {"/a": 3, "/b": 0}

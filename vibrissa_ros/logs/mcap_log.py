@@ -500,6 +500,7 @@ class LogReader:
                 )
             self.schemas, self.channels = summary.schemas, summary.channels
             self.metadata = list(self._reader.iter_metadata())
+            self._statistics = summary.statistics
         except _READ_ERRORS as exc:
             self._stream.close()
             raise _damaged(path, exc) from None
@@ -541,6 +542,26 @@ class LogReader:
                 )
         except _READ_ERRORS as exc:
             raise _damaged(self.path, exc) from None
+
+    def counts(self) -> Dict[str, int]:
+        """
+        Return the number of messages of each topic, from the summary (or one pass over them).
+
+        Returns
+        -------
+        dict
+            ``{topic: messages}``, every channel's topic (0 for a channel without messages).
+
+        """
+        out = {c.topic: 0 for c in self.channels.values()}
+        stats = self._statistics
+        if stats is not None and stats.channel_message_counts:
+            for channel_id, n in stats.channel_message_counts.items():
+                out[self.channels[channel_id].topic] += n
+            return out
+        for m in self.messages():  # a log written without statistics: count them
+            out[m.topic] += 1
+        return out
 
     def close(self) -> None:
         """Close the file (a message iteration still running then stops with an error)."""

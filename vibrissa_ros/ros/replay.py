@@ -4,20 +4,21 @@
 At ``rate`` 0 the messages go out as fast as DDS takes them: every publisher keeps all of its
 topic's messages in its history (depth = their number), so none is overwritten before every
 subscriber has acknowledged it, and the replay waits for the acknowledgements once, at the end
-(waiting every few messages costs a DDS heartbeat period, ~3 s, each time).
+(waiting every few messages costs a DDS heartbeat period, ~3 s, each time). The log is streamed
+(:class:`~vibrissa_ros.logs.mcap_log.LogReader`: the counts from its summary, the messages one
+chunk at a time), so a long one need not fit in memory.
 """
 
 from __future__ import annotations
 
 import time
-from collections import Counter
 from typing import Optional, Sequence
 
 import rclpy
 from rclpy.duration import Duration
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-from ..logs.mcap_log import LogError, read_log
+from ..logs.mcap_log import LogError, LogReader
 from .serialization import message_class
 
 ACK_SECONDS_PER_MESSAGE = 0.005  # how long the final acknowledgement may take, per message
@@ -56,59 +57,71 @@ def replay(path: str, rate: float = 1.0, topics: Optional[Sequence[str]] = None,
     whose type is not installed here (an array log's ``/tf``) are left out, or refused when
     named in ``topics``.
     """
-    _, channels, _, messages = read_log(path)
-    wanted = set(topics) if topics else None
-    chosen = [m for m in messages if wanted is None or m.topic in wanted]
-    if wanted:
-        missing = wanted - {m.topic for m in messages}
-        if missing:
-            raise LogError(f"topics not in the log: {', '.join(sorted(missing))}")
-    # a channel whose type has no Python package here cannot be published (an array log's /tf:
-    # tf2_msgs has no wheel): left out, unless asked for by name
-    types = {m.topic: m.type_name for m in chosen}
-    absent = {topic for topic, name in types.items() if not _installed(name)}
-    if absent and wanted:
-        raise LogError(f"cannot publish {', '.join(sorted(absent))}: type "
-                       f"{', '.join(sorted({types[t] for t in absent}))} is not installed")
-    chosen = [m for m in chosen if m.topic not in absent]
-    counts = Counter(m.topic for m in chosen)
-    offered = {c.topic: c.metadata.get("offered_qos_profiles", "") for c in channels.values()}
+    with LogReader(path) as log:
+        in_log = log.counts()
+        types = {c.topic: log.schemas[c.schema_id].name if c.schema_id in log.schemas else ""
+                 for c in log.channels.values()}
+        offered = {c.topic: c.metadata.get("offered_qos_profiles", "")
+                   for c in log.channels.values()}
+        present = {topic for topic, n in in_log.items() if n}
+        wanted = set(topics) if topics else None
+        if wanted:
+            missing = wanted - present
+            if missing:
+                raise LogError(f"topics not in the log: {', '.join(sorted(missing))}")
+        chosen = wanted if wanted else present
+        # a channel whose type has no Python package here cannot be published (an array log's
+        # /tf: tf2_msgs has no wheel): left out, unless asked for by name
+        absent = {topic for topic in chosen if not _installed(types[topic])}
+        if absent and wanted:
+            raise LogError(f"cannot publish {', '.join(sorted(absent))}: type "
+                           f"{', '.join(sorted({types[t] for t in absent}))} is not installed")
+        chosen -= absent
+        return _publish(log, sorted(chosen), types, offered, in_log, rate, wait_subscribers,
+                        progress)
+
+
+def _publish(log: LogReader, chosen, types, offered, counts, rate, wait_subscribers,
+             progress) -> int:
+    """Publish the chosen topics' messages of an open log, streamed (see :func:`replay`)."""
+    total = sum(counts[t] for t in chosen)
     context = rclpy.Context()
     rclpy.init(context=context)
     node = rclpy.create_node("vibrissa_replay", context=context)
     try:
-        publishers = {}
-        for m in chosen:
-            if m.topic not in publishers:
-                publishers[m.topic] = node.create_publisher(
-                    message_class(m.type_name),
-                    m.topic,
-                    _qos(offered.get(m.topic, ""), counts[m.topic]),
-                )
+        publishers = {
+            topic: node.create_publisher(message_class(types[topic]), topic,
+                                         _qos(offered.get(topic, ""), counts[topic]))
+            for topic in chosen
+        }
         end = time.monotonic() + wait_subscribers
         while time.monotonic() < end and not all(p.get_subscription_count()
                                                  for p in publishers.values()):
             time.sleep(0.05)
         time.sleep(0.2)  # matched in the graph is not yet matched in DDS for every reader
-        if not chosen:
+        if not total:
             return 0
-        t0_log, t0 = chosen[0].log_time, time.monotonic()
-        for i, m in enumerate(chosen):
+        t0_log = t0 = None
+        sent = 0
+        for m in log.messages(topics=chosen):
+            if t0_log is None:
+                t0_log, t0 = m.log_time, time.monotonic()
             if rate > 0:
                 delay = t0 + (m.log_time - t0_log) / 1e9 / rate - time.monotonic()
                 if delay > 0:
                     time.sleep(delay)
             publishers[m.topic].publish(m.data)  # serialized CDR, published as is
-            if progress is not None and i % 1000 == 999:
+            sent += 1
+            if progress is not None and sent % 1000 == 0:
                 progress.update(1000)
         if progress is not None:
-            progress.update(len(chosen) % 1000)
-        timeout = Duration(seconds=max(ACK_MIN_SECONDS, ACK_SECONDS_PER_MESSAGE * len(chosen)))
+            progress.update(sent % 1000)
+        timeout = Duration(seconds=max(ACK_MIN_SECONDS, ACK_SECONDS_PER_MESSAGE * sent))
         for topic, pub in publishers.items():
             if pub.get_subscription_count() and not pub.wait_for_all_acked(timeout):
                 raise LogError(f"{topic}: the subscribers did not acknowledge every message "
                                f"within {timeout.nanoseconds / 1e9:.0f} s")
-        return len(chosen)
+        return sent
     finally:
         node.destroy_node()
         rclpy.try_shutdown(context=context)
