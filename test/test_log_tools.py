@@ -109,3 +109,147 @@ def test_repair_of_a_cut_copy_keeps_the_complete_chunks(tmp_path, capsys):
     code, _, err = _run(["repair", str(tmp_path / "whole.mcap"), "-o", str(tmp_path / "w.mcap")],
                         capsys)
     assert code == 0 and f"{len(read_log(str(LOG))[3])} messages kept" in err
+
+
+def _listwise(configs, messages, resets, has_contacts=True):
+    """resim of a whisker_node log as it was before streaming: every output kept, then zipped."""
+    import math
+    from collections import defaultdict
+
+    from vibrissa_ros.logs import tools as T
+    from vibrissa_ros.node.pipeline import PosePipeline, drop_reason
+    from vibrissa_ros.core.errors import VibrissaError
+    from vibrissa_ros.node.edge import contact_records, event_record
+
+    node = configs[0][1].get("node", "/whisker_node")
+    prefix = f"{node}/"
+    recorded, poses = defaultdict(list), []
+    for m in messages:
+        if not m.topic.startswith(prefix):
+            continue
+        key = m.topic[len(prefix):]
+        if key == "foot_pose":
+            poses.append(m)
+        elif key in T.COMPARED:
+            recorded[key].extend(T._recorded_values(key, m))
+    result = T.Resimulation()
+    pipeline = PosePipeline(build_config(configs[0][1]))
+    pending, resets = list(configs[1:]), list(resets)
+    expected = defaultdict(list)
+    for index, m in enumerate(poses):
+        due = []
+        while pending and pending[0][0] <= m.log_time:
+            due.append(pending.pop(0))
+        while resets and resets[0][0] <= index:
+            due.append((resets.pop(0)[1], None))
+        for _, values in sorted(due, key=lambda item: item[0]):
+            if values is None:
+                pipeline.request_reset()
+            else:
+                pipeline.reconfigure(build_config(values), bool(values.get("resets", True)))
+        msg = decode(m)
+        p, q = msg.pose.position, msg.pose.orientation
+        stamp = header_ns(msg)
+        try:
+            state, events = pipeline.handle(msg.header.frame_id, stamp, (p.x, p.y, p.z),
+                                            (q.x, q.y, q.z, q.w))
+        except VibrissaError as exc:
+            result.dropped[drop_reason(exc)] += 1
+            continue
+        result.states.append((stamp, state))
+        r, sensed = pipeline.reading(state)
+        units, roll = pipeline.config.units, pipeline.config.roll
+        expected["wrench"].append((stamp, T._wrench6(sensed)))
+        expected["phase"].append((None, (float(r.phase),)))
+        expected["contact_force"].append((stamp, T._xyz(r.force_world)))
+        expected["contact_force_magnitude"].append((None, (r.force_magnitude,)))
+        if r.contact_world is not None:
+            expected["contact_point"].append((stamp, T._xyz(r.contact_world)))
+            expected["arc_length"].append((None, (r.s1,)))
+        for c in contact_records(state, units):
+            expected["contacts"].append((stamp, T._contact_values(c)))
+        for e in events:
+            expected["events"].append((None, T._event_values(event_record(e, units, roll))))
+    for topic, fields in T.COMPARED.items():
+        if topic == "contacts" and not has_contacts:
+            continue
+        want, have = expected[topic], recorded[topic]
+        if len(want) != len(have):
+            result.mismatches.append(f"{topic}: {len(have)} recorded, {len(want)} re-simulated")
+        for (s_want, v_want), (s_have, v_have) in zip(want, have):
+            if s_want is not None and s_want != s_have:
+                result.mismatches.append(
+                    f"{topic}: stamp {s_have} recorded where {s_want} was expected")
+                break
+            for name, a, b in zip(fields, v_have, v_want):
+                key = f"{topic}.{name}"
+                dev = (T._relative(float(a), float(b))
+                       if isinstance(a, (int, float)) and isinstance(b, (int, float))
+                       else (0.0 if a == b else math.inf))
+                result.deviations[key] = max(result.deviations.get(key, 0.0), dev)
+                result.compared[key] += 1
+    return result
+
+
+def _altered(messages, topic, k, change):
+    """The messages with the k-th of ``topic`` changed by ``change(msg)`` (None: dropped)."""
+    from dataclasses import replace
+
+    from rclpy.serialization import serialize_message
+
+    out, seen = [], 0
+    for m in messages:
+        if m.topic == topic:
+            if seen == k:
+                msg = change(decode(m))
+                seen += 1
+                if msg is not None:
+                    out.append(replace(m, data=serialize_message(msg)))
+                continue
+            seen += 1
+        out.append(m)
+    return out
+
+
+def _shift_stamp(msg):
+    msg.header.stamp.nanosec += 1
+    return msg
+
+
+def _scale_wrench(msg):
+    msg.wrench.torque.z += 1e-3
+    return msg
+
+
+@pytest.mark.parametrize("topic, k, change", [
+    (None, 0, None),
+    ("/whisker_node/wrench", 40, _scale_wrench),
+    ("/whisker_node/wrench", 40, _shift_stamp),
+    ("/whisker_node/wrench", 40, lambda msg: None),
+    ("/whisker_node/events", 2, lambda msg: None),
+    ("/whisker_node/contact_point", 5, _shift_stamp),
+])
+def test_the_streamed_resim_equals_the_listwise_comparison(topic, k, change):
+    # the resim of a whisker_node log reads it once and compares each output as it arrives;
+    # the list-wise comparison it replaced (every output kept, then zipped) gives the same
+    # deviations, counts and mismatches, on the reference log and on altered copies of it
+    from vibrissa_ros.logs.tools import reset_requests, resimulate_poses
+
+    _, channels, metadata, messages = read_log(str(LOG))
+    if topic is not None:
+        messages = _altered(messages, topic, k, change)
+    configs, resets = configurations(metadata), reset_requests(metadata)
+    has_contacts = any(c.topic == "/whisker_node/contacts" for c in channels.values())
+    streamed = resimulate_poses(configs, iter(messages), resets, has_contacts)
+    listwise = _listwise(configs, messages, resets, has_contacts)
+    assert streamed.mismatches == listwise.mismatches
+    assert streamed.deviations == listwise.deviations
+    assert streamed.compared == listwise.compared
+    assert len(streamed.states) == len(listwise.states) == N_POSES
+    if topic is None:
+        assert not streamed.mismatches and streamed.worst() <= 1e-12
+    elif change is _scale_wrench:
+        assert not streamed.mismatches and streamed.worst() > 1e-6
+        assert streamed.deviations["wrench.torque.z"] == streamed.worst()
+    else:
+        assert streamed.mismatches

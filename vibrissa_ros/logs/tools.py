@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import json
 import math
-from collections import Counter, defaultdict
+from collections import Counter, deque
 from dataclasses import dataclass, field
 from typing import Dict, List, Optional, Tuple
 
@@ -205,10 +205,12 @@ def resimulate(path: str) -> Resimulation:
     """
     Re-run every recorded foot pose with the recorded configuration(s), compare each field.
 
-    A log of array_node is re-run tick by tick (:func:`.array_resim.resimulate_array`) as its
-    messages are read, each tick compared with its recorded output at once: the fields
-    compared are every whisker's ``wrenches.*``, ``ticks`` counts the ticks and ``states`` stays
-    empty, so that memory does not grow with the log.
+    The log is streamed: each re-simulated output is compared with its recorded one as soon as
+    both have been read (topic by topic, in order), so only the outputs of the few poses between
+    the two are held, whatever the log's length; ``states`` keeps every state computed. A log of
+    array_node is re-run tick by tick (:func:`.array_resim.resimulate_array`) in the same way:
+    the fields compared are every whisker's ``wrenches.*``, ``ticks`` counts the ticks and
+    ``states`` stays empty, so that memory does not grow with the log.
 
     Parameters
     ----------
@@ -232,36 +234,145 @@ def resimulate(path: str) -> Resimulation:
         if is_array_log(configs[0][1]):  # array_node's: every whisker's row of every tick
             return resimulate_array(configs, log.messages(), Resimulation(),
                                     resets=reset_requests(log.metadata))
-        channels, metadata, messages = log.channels, log.metadata, list(log.messages())
+        node = configs[0][1].get("node", "/whisker_node")
+        # logs made before the node had ~/contacts: nothing of it to compare
+        has_contacts = any(c.topic == f"{node}/contacts" for c in log.channels.values())
+        return resimulate_poses(configs, log.messages(), reset_requests(log.metadata),
+                                has_contacts)
+
+
+#: the outputs of whisker_node that resim compares, and their values' names
+COMPARED = {
+    "wrench": WRENCH_VALUES,
+    "phase": ("data",),
+    "contact_force": ("x", "y", "z"),
+    "contact_force_magnitude": ("data",),
+    "contact_point": ("x", "y", "z"),
+    "arc_length": ("data",),
+    "contacts": CONTACT_VALUES,
+    "events": EVENT_VALUES,
+}
+
+
+def _recorded_values(key: str, m: LogMessage):
+    """Return the (stamp or None, values) entries of one recorded output message."""
+    msg = decode(m)
+    if key == "wrench":
+        w = msg.wrench
+        return [(header_ns(msg), (w.force.x, w.force.y, w.force.z,
+                                  w.torque.x, w.torque.y, w.torque.z))]
+    if key in ("phase",):
+        return [(None, (float(msg.data),))]
+    if key in ("contact_force_magnitude", "arc_length"):
+        return [(None, (msg.data,))]
+    if key == "contact_force":
+        return [(header_ns(msg), (msg.vector.x, msg.vector.y, msg.vector.z))]
+    if key == "contact_point":
+        return [(header_ns(msg), (msg.point.x, msg.point.y, msg.point.z))]
+    if key == "contacts":
+        return [(header_ns(msg), _contact_values(c)) for c in decode_contacts(msg)]
+    return [(None, _event_values(decode_event(msg.data)))]  # events
+
+
+class _Pairs:
+    """
+    Each compared topic's re-simulated and recorded values, paired in order as both arrive.
+
+    A pair's stamps must agree (where the value has one): the first that does not is reported
+    and ends that topic's comparison; the counts are compared at the end (:meth:`finish`), and
+    the mismatches listed topic by topic.
+    """
+
+    def __init__(self, result: Resimulation, topics):
+        self.result = result
+        self.topics = dict(topics)
+        self.want = {t: deque() for t in self.topics}
+        self.have = {t: deque() for t in self.topics}
+        self.count_want: Counter = Counter()
+        self.count_have: Counter = Counter()
+        self.stamp_error: Dict[str, str] = {}
+
+    def expected(self, topic: str, stamp, values) -> None:
+        if topic in self.topics:
+            self.want[topic].append((stamp, values))
+            self.count_want[topic] += 1
+            self._drain(topic)
+
+    def recorded(self, topic: str, entries) -> None:
+        self.have[topic].extend(entries)
+        self.count_have[topic] += len(entries)
+        self._drain(topic)
+
+    def _drain(self, topic: str) -> None:
+        want, have = self.want[topic], self.have[topic]
+        result = self.result
+        while want and have:
+            (s_want, v_want), (s_have, v_have) = want.popleft(), have.popleft()
+            if topic in self.stamp_error:
+                continue
+            if s_want is not None and s_want != s_have:
+                self.stamp_error[topic] = (f"{topic}: stamp {s_have} recorded where {s_want} "
+                                           "was expected")
+                continue
+            for name, a, b in zip(self.topics[topic], v_have, v_want):
+                key = f"{topic}.{name}"
+                dev = (
+                    _relative(float(a), float(b))
+                    if isinstance(a, (int, float)) and isinstance(b, (int, float))
+                    else (0.0 if a == b else math.inf)
+                )
+                result.deviations[key] = max(result.deviations.get(key, 0.0), dev)
+                result.compared[key] += 1
+
+    def finish(self) -> None:
+        for topic in self.topics:
+            if self.count_want[topic] != self.count_have[topic]:
+                self.result.mismatches.append(f"{topic}: {self.count_have[topic]} recorded, "
+                                              f"{self.count_want[topic]} re-simulated")
+            if topic in self.stamp_error:
+                self.result.mismatches.append(self.stamp_error[topic])
+
+
+def resimulate_poses(configs, messages, resets, has_contacts: bool = True) -> Resimulation:
+    """
+    Re-run a whisker_node log's poses as its messages arrive, comparing every output at once.
+
+    Parameters
+    ----------
+    configs : list
+        The recorded configurations, (log time, values) (:func:`configurations`).
+    messages : iterable of LogMessage
+        The log's messages in log-time order (:meth:`.mcap_log.LogReader.messages`).
+    resets : list
+        The ``~/reset`` requests, (poses before, log time) (:func:`reset_requests`).
+    has_contacts : bool, optional
+        The log has ``~/contacts`` (logs made before the node had it do not).
+
+    Returns
+    -------
+    Resimulation
+        As :func:`resimulate`.
+
+    """
     node = configs[0][1].get("node", "/whisker_node")
     prefix = f"{node}/"
-    # logs made before the node had ~/contacts: nothing of it to compare
-    has_contacts = any(c.topic == f"{prefix}contacts" for c in channels.values())
-    recorded: Dict[str, list] = defaultdict(list)
-    poses = []
+    result = Resimulation()
+    pairs = _Pairs(result, {k: v for k, v in COMPARED.items()
+                            if has_contacts or k != "contacts"})
+    pipeline = PosePipeline(build_config(configs[0][1]))
+    pending = list(configs[1:])
+    resets = list(resets)
+    index = -1
     for m in messages:
         if not m.topic.startswith(prefix):
             continue
         key = m.topic[len(prefix):]
-        if key == "foot_pose":
-            poses.append(m)
-        elif key in (
-            "wrench",
-            "phase",
-            "contact_force",
-            "contact_force_magnitude",
-            "contact_point",
-            "arc_length",
-            "contacts",
-            "events",
-        ):
-            recorded[key].append(decode(m))
-    result = Resimulation()
-    pipeline = PosePipeline(build_config(configs[0][1]))
-    pending = list(configs[1:])
-    resets = reset_requests(metadata)
-    expected: Dict[str, list] = defaultdict(list)
-    for index, m in enumerate(poses):
+        if key in pairs.topics:
+            pairs.recorded(key, _recorded_values(key, m))
+            continue
+        if key != "foot_pose":
+            continue
+        index += 1
         # what happened before this pose: configurations (by log time) and ~/reset requests (by
         # the poses recorded before them), applied in their log-time order
         due = []
@@ -288,69 +399,18 @@ def resimulate(path: str) -> Resimulation:
         result.event_steps.extend([len(result.states) - 1] * len(events))
         r, sensed = pipeline.reading(state)
         units, roll = pipeline.config.units, pipeline.config.roll
-        expected["wrench"].append((stamp, _wrench6(sensed)))
-        expected["phase"].append((None, (float(r.phase),)))
-        expected["contact_force"].append((stamp, _xyz(r.force_world)))
-        expected["contact_force_magnitude"].append((None, (r.force_magnitude,)))
+        pairs.expected("wrench", stamp, _wrench6(sensed))
+        pairs.expected("phase", None, (float(r.phase),))
+        pairs.expected("contact_force", stamp, _xyz(r.force_world))
+        pairs.expected("contact_force_magnitude", None, (r.force_magnitude,))
         if r.contact_world is not None:
-            expected["contact_point"].append((stamp, _xyz(r.contact_world)))
-            expected["arc_length"].append((None, (r.s1,)))
+            pairs.expected("contact_point", stamp, _xyz(r.contact_world))
+            pairs.expected("arc_length", None, (r.s1,))
         for c in contact_records(state, units):
-            expected["contacts"].append((stamp, _contact_values(c)))
+            pairs.expected("contacts", stamp, _contact_values(c))
         for e in events:
-            expected["events"].append((None, _event_values(event_record(e, units, roll))))
-    got = {
-        "wrench": [
-            (header_ns(w), (w.wrench.force.x, w.wrench.force.y, w.wrench.force.z,
-                            w.wrench.torque.x, w.wrench.torque.y, w.wrench.torque.z))
-            for w in recorded["wrench"]
-        ],
-        "phase": [(None, (float(x.data),)) for x in recorded["phase"]],
-        "contact_force": [
-            (header_ns(v), (v.vector.x, v.vector.y, v.vector.z)) for v in recorded["contact_force"]
-        ],
-        "contact_force_magnitude": [
-            (None, (x.data,)) for x in recorded["contact_force_magnitude"]
-        ],
-        "contact_point": [
-            (header_ns(v), (v.point.x, v.point.y, v.point.z)) for v in recorded["contact_point"]
-        ],
-        "arc_length": [(None, (x.data,)) for x in recorded["arc_length"]],
-        "contacts": [(header_ns(cloud), _contact_values(c)) for cloud in recorded["contacts"]
-                     for c in decode_contacts(cloud)],
-        "events": [(None, _event_values(decode_event(e.data))) for e in recorded["events"]],
-    }
-    names = {
-        "wrench": WRENCH_VALUES,
-        "phase": ("data",),
-        "contact_force": ("x", "y", "z"),
-        "contact_force_magnitude": ("data",),
-        "contact_point": ("x", "y", "z"),
-        "arc_length": ("data",),
-        "contacts": CONTACT_VALUES,
-        "events": EVENT_VALUES,
-    }
-    if not has_contacts:
-        del names["contacts"]
-    for topic, fields in names.items():
-        want, have = expected[topic], got[topic]
-        if len(want) != len(have):
-            result.mismatches.append(f"{topic}: {len(have)} recorded, {len(want)} re-simulated")
-        for (s_want, v_want), (s_have, v_have) in zip(want, have):
-            if s_want is not None and s_want != s_have:
-                result.mismatches.append(
-                    f"{topic}: stamp {s_have} recorded where {s_want} was expected"
-                )
-                break
-            for name, a, b in zip(fields, v_have, v_want):
-                key = f"{topic}.{name}"
-                dev = (
-                    _relative(float(a), float(b))
-                    if isinstance(a, (int, float)) and isinstance(b, (int, float))
-                    else (0.0 if a == b else math.inf)
-                )
-                result.deviations[key] = max(result.deviations.get(key, 0.0), dev)
-                result.compared[key] += 1
+            pairs.expected("events", None, _event_values(event_record(e, units, roll)))
+    pairs.finish()
     return result
 
 
