@@ -112,7 +112,7 @@ def test_repair_of_a_cut_copy_keeps_the_complete_chunks(tmp_path, capsys):
 
 
 def _listwise(configs, messages, resets, has_contacts=True):
-    """resim of a whisker_node log as it was before streaming: every output kept, then zipped."""
+    """Re-simulate a whisker_node log as resim did before streaming: all outputs kept, zipped."""
     import math
     from collections import defaultdict
 
@@ -192,7 +192,7 @@ def _listwise(configs, messages, resets, has_contacts=True):
 
 
 def _altered(messages, topic, k, change):
-    """The messages with the k-th of ``topic`` changed by ``change(msg)`` (None: dropped)."""
+    """Return the messages with the k-th of ``topic`` changed by ``change(msg)`` (None: drop)."""
     from dataclasses import replace
 
     from rclpy.serialization import serialize_message
