@@ -112,14 +112,15 @@ def test_repair_of_a_cut_copy_keeps_the_complete_chunks(tmp_path, capsys):
 
 
 def _listwise(configs, messages, resets, has_contacts=True):
-    """Re-simulate a whisker_node log as resim did before streaming: all outputs kept, zipped."""
+    """
+    Re-simulate a whisker_node log as resim did before streaming: all outputs kept, zipped.
+
+    The poses are re-run as resim does (tools._Rerun); only the pairing and comparison differ.
+    """
     import math
     from collections import defaultdict
 
     from vibrissa_ros.logs import tools as T
-    from vibrissa_ros.node.pipeline import PosePipeline, drop_reason
-    from vibrissa_ros.core.errors import VibrissaError
-    from vibrissa_ros.node.edge import contact_records, event_record
 
     node = configs[0][1].get("node", "/whisker_node")
     prefix = f"{node}/"
@@ -133,43 +134,11 @@ def _listwise(configs, messages, resets, has_contacts=True):
         elif key in T.COMPARED:
             recorded[key].extend(T._recorded_values(key, m))
     result = T.Resimulation()
-    pipeline = PosePipeline(build_config(configs[0][1]))
-    pending, resets = list(configs[1:]), list(resets)
+    rerun = T._Rerun(configs, resets, result)
     expected = defaultdict(list)
-    for index, m in enumerate(poses):
-        due = []
-        while pending and pending[0][0] <= m.log_time:
-            due.append(pending.pop(0))
-        while resets and resets[0][0] <= index:
-            due.append((resets.pop(0)[1], None))
-        for _, values in sorted(due, key=lambda item: item[0]):
-            if values is None:
-                pipeline.request_reset()
-            else:
-                pipeline.reconfigure(build_config(values), bool(values.get("resets", True)))
-        msg = decode(m)
-        p, q = msg.pose.position, msg.pose.orientation
-        stamp = header_ns(msg)
-        try:
-            state, events = pipeline.handle(msg.header.frame_id, stamp, (p.x, p.y, p.z),
-                                            (q.x, q.y, q.z, q.w))
-        except VibrissaError as exc:
-            result.dropped[drop_reason(exc)] += 1
-            continue
-        result.states.append((stamp, state))
-        r, sensed = pipeline.reading(state)
-        units, roll = pipeline.config.units, pipeline.config.roll
-        expected["wrench"].append((stamp, T._wrench6(sensed)))
-        expected["phase"].append((None, (float(r.phase),)))
-        expected["contact_force"].append((stamp, T._xyz(r.force_world)))
-        expected["contact_force_magnitude"].append((None, (r.force_magnitude,)))
-        if r.contact_world is not None:
-            expected["contact_point"].append((stamp, T._xyz(r.contact_world)))
-            expected["arc_length"].append((None, (r.s1,)))
-        for c in contact_records(state, units):
-            expected["contacts"].append((stamp, T._contact_values(c)))
-        for e in events:
-            expected["events"].append((None, T._event_values(event_record(e, units, roll))))
+    for m in poses:
+        for topic, stamp, values in rerun.pose(m):
+            expected[topic].append((stamp, values))
     for topic, fields in T.COMPARED.items():
         if topic == "contacts" and not has_contacts:
             continue

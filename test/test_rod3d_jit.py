@@ -93,14 +93,12 @@ def test_the_kernels_surface_data_equal_the_obstacles_own():
 def test_the_kernels_least_distance_equals_the_scenes():
     # the array's clearance test: the least distance of many points to a scene's obstacles
     from vibrissa_ros.core.rod3d import Scene3D
-    from vibrissa_ros.core.rod3d.model import kernel_geometry
+    from vibrissa_ros.core.rod3d.model import kernel_obstacles
     scene = Scene3D((Sphere((0.55, 0.2, 0.05), 0.12, "ball"),
                      Cylinder((0.3, -0.3, 0.0), (0, 0, 1), 0.04, "peg"),
                      Plane((0.0, 0.0, -0.5), (0.0, 0.0, 1.0), "floor"),
                      Cylinder((-0.5, 0, 0), (1, 2, 3), 0.2, "slant")))
-    rows = [kernel_geometry(ob) for ob in scene.obstacles]
-    codes = np.array([row[0] for row in rows])
-    prm = np.array([row[1] for row in rows])
+    codes, prm = kernel_obstacles(scene.obstacles)
     points = np.random.default_rng(5).normal(scale=0.7, size=(500, 3))
     want = scene.signed_distances(points).min(axis=0)
     assert np.max(np.abs(_jit.least_distance(codes, prm, points) - want)) <= 1e-15

@@ -333,6 +333,63 @@ class _Pairs:
                 self.result.mismatches.append(self.stamp_error[topic])
 
 
+class _Rerun:
+    """
+    A whisker_node log's poses run again in order, under the configurations and resets recorded.
+
+    :meth:`pose` takes each recorded ``~/foot_pose`` in turn, adds its state and events to the
+    result (or counts it dropped) and returns the outputs the node published for it, as the
+    compared (topic, stamp or None, values).
+    """
+
+    def __init__(self, configs, resets, result: Resimulation):
+        self.pipeline = PosePipeline(build_config(configs[0][1]))
+        self.pending = list(configs[1:])
+        self.resets = list(resets)
+        self.result = result
+        self.index = -1
+
+    def pose(self, m: LogMessage) -> list:
+        self.index += 1
+        pipeline, result = self.pipeline, self.result
+        # what happened before this pose: configurations (by log time) and ~/reset requests (by
+        # the poses recorded before them), applied in their log-time order
+        due = []
+        while self.pending and self.pending[0][0] <= m.log_time:
+            due.append(self.pending.pop(0))
+        while self.resets and self.resets[0][0] <= self.index:
+            due.append((self.resets.pop(0)[1], None))
+        for _, values in sorted(due, key=lambda item: item[0]):
+            if values is None:
+                pipeline.request_reset()
+            else:
+                pipeline.reconfigure(build_config(values), bool(values.get("resets", True)))
+        msg = decode(m)
+        p, q = msg.pose.position, msg.pose.orientation
+        stamp = header_ns(msg)
+        try:
+            state, events = pipeline.handle(msg.header.frame_id, stamp, (p.x, p.y, p.z),
+                                            (q.x, q.y, q.z, q.w))
+        except VibrissaError as exc:
+            result.dropped[drop_reason(exc)] += 1
+            return []
+        result.states.append((stamp, state))
+        result.events.extend(events)
+        result.event_steps.extend([len(result.states) - 1] * len(events))
+        r, sensed = pipeline.reading(state)
+        units, roll = pipeline.config.units, pipeline.config.roll
+        out = [("wrench", stamp, _wrench6(sensed)),
+               ("phase", None, (float(r.phase),)),
+               ("contact_force", stamp, _xyz(r.force_world)),
+               ("contact_force_magnitude", None, (r.force_magnitude,))]
+        if r.contact_world is not None:
+            out += [("contact_point", stamp, _xyz(r.contact_world)),
+                    ("arc_length", None, (r.s1,))]
+        out += [("contacts", stamp, _contact_values(c)) for c in contact_records(state, units)]
+        out += [("events", None, _event_values(event_record(e, units, roll))) for e in events]
+        return out
+
+
 def resimulate_poses(configs, messages, resets, has_contacts: bool = True) -> Resimulation:
     """
     Re-run a whisker_node log's poses as its messages arrive, comparing every output at once.
@@ -359,57 +416,16 @@ def resimulate_poses(configs, messages, resets, has_contacts: bool = True) -> Re
     result = Resimulation()
     pairs = _Pairs(result, {k: v for k, v in COMPARED.items()
                             if has_contacts or k != "contacts"})
-    pipeline = PosePipeline(build_config(configs[0][1]))
-    pending = list(configs[1:])
-    resets = list(resets)
-    index = -1
+    rerun = _Rerun(configs, resets, result)
     for m in messages:
         if not m.topic.startswith(prefix):
             continue
         key = m.topic[len(prefix):]
         if key in pairs.topics:
             pairs.recorded(key, _recorded_values(key, m))
-            continue
-        if key != "foot_pose":
-            continue
-        index += 1
-        # what happened before this pose: configurations (by log time) and ~/reset requests (by
-        # the poses recorded before them), applied in their log-time order
-        due = []
-        while pending and pending[0][0] <= m.log_time:
-            due.append(pending.pop(0))
-        while resets and resets[0][0] <= index:
-            due.append((resets.pop(0)[1], None))
-        for _, values in sorted(due, key=lambda item: item[0]):
-            if values is None:
-                pipeline.request_reset()
-            else:
-                pipeline.reconfigure(build_config(values), bool(values.get("resets", True)))
-        msg = decode(m)
-        p, q = msg.pose.position, msg.pose.orientation
-        stamp = header_ns(msg)
-        try:
-            state, events = pipeline.handle(msg.header.frame_id, stamp, (p.x, p.y, p.z),
-                                            (q.x, q.y, q.z, q.w))
-        except VibrissaError as exc:
-            result.dropped[drop_reason(exc)] += 1
-            continue
-        result.states.append((stamp, state))
-        result.events.extend(events)
-        result.event_steps.extend([len(result.states) - 1] * len(events))
-        r, sensed = pipeline.reading(state)
-        units, roll = pipeline.config.units, pipeline.config.roll
-        pairs.expected("wrench", stamp, _wrench6(sensed))
-        pairs.expected("phase", None, (float(r.phase),))
-        pairs.expected("contact_force", stamp, _xyz(r.force_world))
-        pairs.expected("contact_force_magnitude", None, (r.force_magnitude,))
-        if r.contact_world is not None:
-            pairs.expected("contact_point", stamp, _xyz(r.contact_world))
-            pairs.expected("arc_length", None, (r.s1,))
-        for c in contact_records(state, units):
-            pairs.expected("contacts", stamp, _contact_values(c))
-        for e in events:
-            pairs.expected("events", None, _event_values(event_record(e, units, roll)))
+        elif key == "foot_pose":
+            for topic, stamp, values in rerun.pose(m):
+                pairs.expected(topic, stamp, values)
     pairs.finish()
     return result
 

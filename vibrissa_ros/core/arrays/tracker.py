@@ -37,7 +37,7 @@ import numpy as np
 
 from ..errors import InvalidPoseError, ParameterError, VibrissaError
 from ..rod3d import _jit
-from ..rod3d.model import kernel_geometry
+from ..rod3d.model import kernel_obstacles
 from ..rod3d.pose import BasePose, quat_from_matrix
 from ..rod3d.scene import Scene3D
 from ..rod3d.tracker import RodStepResult, RodTracker
@@ -330,11 +330,8 @@ class ArrayTracker:
         self._reach = 0.5 * self._length / (samples - 1)
         # the scene's obstacles as the kernels take them, where they know every one of them
         self._geometry = None
-        if self.scene is not None and _jit.ENABLED:
-            rows = [kernel_geometry(ob) for ob in self.scene.obstacles]
-            if rows and all(row is not None for row in rows):
-                self._geometry = (np.array([row[0] for row in rows], dtype=np.int64),
-                                  np.array([row[1] for row in rows], dtype=float))
+        if self.scene is not None and self.scene.obstacles and _jit.ENABLED:
+            self._geometry = kernel_obstacles(self.scene.obstacles)
         if self.scene is None:  # whisking in the air
             self._scenes = [()] * len(rods)
         else:

@@ -281,6 +281,29 @@ def kernel_geometry(ob) -> Optional[Tuple[int, Tuple[float, ...]]]:
     return None
 
 
+def kernel_obstacles(obstacles) -> Optional[Tuple[np.ndarray, np.ndarray]]:
+    """
+    Return obstacles as the compiled kernels take them, or None if they do not know one of them.
+
+    Parameters
+    ----------
+    obstacles : sequence
+        Obstacles of a scene.
+
+    Returns
+    -------
+    tuple or None
+        (codes (k,), parameters (k, 7)) by :func:`kernel_geometry`; None when it gives None for
+        any of them.
+
+    """
+    rows = [kernel_geometry(ob) for ob in obstacles]
+    if any(row is None for row in rows):
+        return None
+    return (np.array([row[0] for row in rows], dtype=np.int64),
+            np.array([row[1] for row in rows], dtype=float).reshape(len(rows), 7))
+
+
 def _skew(v: np.ndarray) -> np.ndarray:
     """[v]_x (..., 3, 3) with [v]_x w = v x w."""
     v = np.asarray(v, dtype=float)
@@ -739,12 +762,8 @@ class RodSolver:
             modes = tuple(modes)
         out = self._geometries.get(modes, False)
         if out is False:
-            rows = [kernel_geometry(self.obstacles[m.obstacle]) for m in modes]
-            out = None
-            if all(row is not None for row in rows):
-                out = (np.array([row[0] for row in rows], dtype=np.int64),
-                       np.array([row[1] for row in rows], dtype=float).reshape(len(rows), 7))
-            self._geometries[modes] = out
+            out = self._geometries[modes] = kernel_obstacles(
+                [self.obstacles[m.obstacle] for m in modes])
         return out
 
     def _residual_compiled(self, modes, vec, pose, jacobian, pose_sensitivity):
