@@ -9,6 +9,7 @@ import pytest
 from vibrissa_ros.core.arrays import WhiskerArray
 from vibrissa_ros.core.arrays.rat import emergence_rotation, mirror_rotation, rat_array
 from vibrissa_ros.core.arrays.tracker import ArrayTracker, describe, quats_from_matrices
+from vibrissa_ros.core.arrays import whisking as whisking_module
 from vibrissa_ros.core.arrays.whisking import (
     ROW_SLOPES, CosineWhisk, Whisking, emergence_angles,
 )
@@ -149,6 +150,39 @@ def test_every_whisker_equals_the_single_whisker_solver():
         array_kinds = [e.kind for s in steps for e in s.events if e.whisker == spec.name]
         assert array_kinds == kinds, spec.name
     assert "whiskers in contact" in describe(steps[-1])
+
+
+@pytest.mark.skipif(not whisking_module._jit.ENABLED,
+                    reason="the compiled kernels are off (VIBRISSA_NO_JIT=1 or no numba)")
+def test_the_compiled_frames_and_clearance_equal_the_numpy_code(monkeypatch):
+    both = rat_array("both")
+    pegs = Scene3D((PEG, Cylinder((-0.03, -0.016, 0.0), (0, 0, 1), 0.0015, "peg_left"),
+                    Sphere((0.0, 0.0, 0.05), 0.01, "ball")))
+    tracker = ArrayTracker(both, pegs, HEAD, -0.35)
+    assert tracker._geometry is not None  # the compiled path
+    rng = np.random.default_rng(7)
+    outcomes = set()
+    for _ in range(200):
+        axis = rng.normal(size=3)
+        head = BasePose(tuple(rng.normal(0.0, 0.004, 3)),
+                        tuple(quat_about(axis / np.linalg.norm(axis), rng.normal(0.0, 0.2))))
+        theta = rng.uniform(-0.6, 0.6, len(both))
+        R, p = tracker._frames(head, theta)
+        with monkeypatch.context() as m:
+            m.setattr(whisking_module._jit, "ENABLED", False)
+            R_ref = tracker.whisking.rotations(theta, head=head.rotation)
+        assert np.abs(R - R_ref).max() <= 1e-15
+        # the tick from the last frames to these: compiled, then numpy (no kernel geometry)
+        step = rng.uniform(0.0, 0.02)
+        tracker._R, tracker._p = R, p
+        R2, p2 = tracker._frames(head, theta + step)
+        got = tracker._clear(R2, p2)
+        geometry, tracker._geometry = tracker._geometry, None
+        want = tracker._clear(R2, p2)
+        tracker._geometry = geometry
+        assert np.array_equal(got, want)
+        outcomes.update(got.tolist())
+    assert outcomes == {True, False}
 
 
 def test_free_whiskers_are_skipped_and_unloaded():

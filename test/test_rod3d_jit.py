@@ -246,11 +246,13 @@ _NOTHING_COMPILED_LATER = """
 import math
 from pathlib import Path
 from vibrissa_ros.core.arrays import ArrayTracker, CosineWhisk
+from vibrissa_ros.core.arrays import _jit as arrays_jit
 from vibrissa_ros.core.rod3d import BasePose, Cylinder, Scene3D, _jit
 from vibrissa_ros.scan.array_file import load_array
 _jit.warm_up()
-kernels = {name: getattr(_jit, name) for name in dir(_jit)
-           if hasattr(getattr(_jit, name), "signatures")}
+kernels = {module.__name__ + "." + name: getattr(module, name) for module in (_jit, arrays_jit)
+           for name in dir(module) if hasattr(getattr(module, name), "signatures")}
+assert any(name.startswith(arrays_jit.__name__) for name in kernels)
 before = {name: len(k.signatures) for name, k in kernels.items()}
 array = load_array(Path(%r) / "config" / "rat_array.yaml").side("right")
 scene = Scene3D((Cylinder((0.03, -0.016, 0.0), (0, 0, 1), 0.0015, "peg"),))

@@ -42,6 +42,7 @@ from ..rod3d.pose import BasePose, quat_from_matrix
 from ..rod3d.scene import Scene3D
 from ..rod3d.tracker import RodStepResult, RodTracker
 from ..units import convert_lengths
+from . import _jit as _arrays_jit
 from .array import WhiskerArray
 from .whisking import Whisking
 
@@ -106,6 +107,12 @@ class WhiskerError:
 
 def _frozen(a) -> np.ndarray:
     a = np.array(a, dtype=float)
+    a.flags.writeable = False
+    return a
+
+
+def _sealed(a: np.ndarray) -> np.ndarray:
+    """Return ``a`` (an array no one else holds) read-only, without a copy."""
     a.flags.writeable = False
     return a
 
@@ -388,7 +395,7 @@ class ArrayTracker:
 
     def _frames(self, head: BasePose, protraction) -> Tuple[np.ndarray, np.ndarray]:
         R_head = head.rotation
-        R = R_head @ self.whisking.rotations(protraction)
+        R = self.whisking.rotations(protraction, head=R_head)
         p = np.asarray(head.position) + self._base_head @ R_head.T
         return R, p
 
@@ -449,8 +456,18 @@ class ArrayTracker:
             d = self.scene.signed_distances(pts.reshape(-1, 3)).min(axis=0)
         return d.reshape(len(R), -1).min(axis=1)
 
-    def _clear(self, R, p, motion) -> np.ndarray:
+    def _clear(self, R, p) -> np.ndarray:
         """Tell which whiskers are certified free along the tick (coarse samples, then fine)."""
+        if self._geometry is not None:
+            # one compiled call: the motion and both passes, as below
+            if not _jit.WARM:  # (waits for a warm-up under way in another thread)
+                _jit.warm_up()
+            return _arrays_jit.clearance(R, p, self._R, self._p, self._length, self._free,
+                                         _COARSE, self._reach, self._geometry[0],
+                                         self._geometry[1])
+        dp = np.linalg.norm(p - self._p, axis=1)
+        cos = 0.5 * ((self._R * R).sum(axis=(1, 2)) - 1.0)
+        motion = dp + np.arccos(np.clip(cos, -1.0, 1.0)) * self._length
         tol = 1e-12 * self._length
         coarse = self._free[:, ::_COARSE]
         clear = self._distance(R, p, coarse) > _COARSE * self._reach + motion + tol
@@ -488,10 +505,7 @@ class ArrayTracker:
         head = _as_head(head)
         theta = self._protraction(protraction)
         R, p = self._frames(head, theta)
-        dp = np.linalg.norm(p - self._p, axis=1)
-        cos = 0.5 * ((self._R * R).sum(axis=(1, 2)) - 1.0)
-        motion = dp + np.arccos(np.clip(cos, -1.0, 1.0)) * self._length
-        clear = self._clear(R, p, motion)
+        clear = self._clear(R, p)
         events: List[WhiskerEvent] = []
         errors: List[WhiskerError] = []
         solved = np.zeros(len(self._rods), bool)
@@ -537,34 +551,49 @@ class ArrayTracker:
         obstacle = [""] * k
         p = p.copy()
         Rb = R.copy()
-        for i in np.flatnonzero(~self._stale):
+        # the stepped whiskers' rows (SI units), gathered and scaled in one numpy call each
+        moved, frames, places, tips = [], [], [], []
+        loaded, forces, moments, points = [], [], [], []
+        for i in np.flatnonzero(~self._stale).tolist():
             state = self._trackers[i].state
-            L = self._length[i]
             if solved[i] and state.pose is not None:  # stepped, or failed and kept its state
-                Rb[i] = state.pose.rotation
-                p[i] = np.asarray(state.pose.position) * L
-                tip[i] = np.asarray(state.tip) * L
+                moved.append(i)
+                frames.append(state.pose.rotation)
+                places.append(state.pose.position)
+                tips.append(state.tip)
             if not state.contacts:
                 continue
-            contacts[i] = len(state.contacts)
-            force[i] = np.asarray(state.force) * self._force_scale[i]
-            moment[i] = np.asarray(state.moment) * self._moment_scale[i]
             c = state.contacts[0]
-            point[i] = np.asarray(c.point) * L
-            arc[i] = c.s * L
-            normal[i] = c.f * self._force_scale[i]
+            loaded.append(i)
+            forces.append(state.force)
+            moments.append(state.moment)
+            points.append(c.point)
+            contacts[i] = len(state.contacts)
+            arc[i] = c.s
+            normal[i] = c.f
             kind[i] = c.kind
             obstacle[i] = c.name
+        if moved:
+            L = self._length[moved, None]
+            Rb[moved] = frames
+            p[moved] = np.array(places) * L
+            tip[moved] = np.array(tips) * L
+        if loaded:
+            scale = self._force_scale[loaded]
+            force[loaded] = np.array(forces) * scale[:, None]
+            moment[loaded] = np.array(moments) * self._moment_scale[loaded, None]
+            point[loaded] = np.array(points) * self._length[loaded, None]
+            arc[loaded] *= self._length[loaded]
+            normal[loaded] *= scale
         Rt = Rb.transpose(0, 2, 1)
         force_base = (Rt @ force[:, :, None])[:, :, 0]
         moment_base = (Rt @ moment[:, :, None])[:, :, 0]
-        contacts.flags.writeable = False
         solved = solved.copy()
-        solved.flags.writeable = False
-        return ArrayStep(self.names, head, _frozen(theta), _frozen(p), _frozen(Rb), contacts,
-                         _frozen(force), _frozen(moment), _frozen(force_base),
-                         _frozen(moment_base), _frozen(tip), _frozen(point), _frozen(arc),
-                         _frozen(normal), tuple(kind), tuple(obstacle), solved, events, errors)
+        return ArrayStep(self.names, head, _frozen(theta), _sealed(p), _sealed(Rb),
+                         _sealed(contacts), _sealed(force), _sealed(moment),
+                         _sealed(force_base), _sealed(moment_base), _sealed(tip), _sealed(point),
+                         _sealed(arc), _sealed(normal), tuple(kind), tuple(obstacle),
+                         _sealed(solved), events, errors)
 
     def centerlines(self, n: int = 21) -> np.ndarray:
         """

@@ -33,6 +33,8 @@ from typing import Dict, Sequence, Tuple
 import numpy as np
 
 from ..errors import ParameterError
+from ..rod3d import _jit
+from . import _jit as _arrays_jit
 
 #: (dphi/dtheta, dzeta/dtheta) per row: Knutsen et al. 2008 / Hobbs et al. 2016 after RatMap's
 #: head-pitch correction of 13.8 deg, the values WHISKiT uses
@@ -130,14 +132,14 @@ class Whisking:
         angles = np.array([emergence_angles(R, side) for R, side in zip(rotations, sides)])
         self.size = len(sides)
         self._theta = angles[:, 0].reshape(-1) - _RIGHT_ANGLE
-        self._phi = angles[:, 1].reshape(-1)
-        self._zeta = angles[:, 2].reshape(-1)
+        self._phi = np.ascontiguousarray(angles[:, 1].reshape(-1))
+        self._zeta = np.ascontiguousarray(angles[:, 2].reshape(-1))
         slopes = np.asarray(slopes, dtype=float).reshape(-1, 2)
-        self._dphi = slopes[:, 0]
-        self._dzeta = slopes[:, 1]
+        self._dphi = np.ascontiguousarray(slopes[:, 0])
+        self._dzeta = np.ascontiguousarray(slopes[:, 1])
         self._left = np.array([side == "left" for side in sides])
 
-    def rotations(self, protraction) -> np.ndarray:
+    def rotations(self, protraction, head=None) -> np.ndarray:
         """
         Return every whisker's base frame at the given protraction.
 
@@ -145,11 +147,14 @@ class Whisking:
         ----------
         protraction : float or array_like
             theta [rad]: one angle for every whisker, or one per whisker.
+        head : array_like, optional
+            A rotation (3, 3) of the head frame in the world: the frames are then given in
+            the world (``head @ R``).
 
         Returns
         -------
         numpy.ndarray
-            R (k, 3, 3): base frames in the head frame.
+            R (k, 3, 3): base frames in the head frame (in the world with ``head``).
 
         Raises
         ------
@@ -164,11 +169,17 @@ class Whisking:
             raise ParameterError(f"protraction = {np.asarray(protraction).tolist()!r} is not "
                                  f"allowed; it is one finite angle [rad] or {self.size} of them, "
                                  "one per whisker")
+        if _jit.ENABLED:  # one compiled call (the same operations)
+            if not _jit.WARM:
+                _jit.warm_up()
+            R_head = np.eye(3) if head is None else np.array(head, dtype=float)
+            return _arrays_jit.frames(theta, self._theta, self._phi, self._zeta, self._dphi,
+                                      self._dzeta, self._left, R_head)
         R = _rotations(self._theta + theta, -(self._phi + self._dphi * theta),
                        self._zeta + self._dzeta * theta) @ _RX_M90
         if self._left.any():
             R[self._left] = _MIRROR @ R[self._left] @ _FLIP
-        return R
+        return R if head is None else np.asarray(head, dtype=float) @ R
 
 
 @dataclass(frozen=True)

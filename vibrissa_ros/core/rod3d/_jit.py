@@ -75,19 +75,28 @@ def warm_up() -> None:
             parabola_tail(0.5, np.array([1.0]), 1.0, *RodShape(parabola=1.0)._u_table())
             parabola_tip(0.5, 1.0, *RodShape(parabola=1.0)._u_table())
             det_measure(*_lu_factor(J))
+            # the array's tick kernels (arrays/_jit.py), with the argument types it passes
+            from ..arrays import _jit as arrays_jit
+            arrays_jit.frames(np.zeros(2), np.zeros(2), np.zeros(2), np.zeros(2), np.zeros(2),
+                              np.zeros(2), np.zeros(2, np.bool_), np.eye(3))
+            arrays_jit.clearance(np.tile(np.eye(3), (2, 1, 1)), np.zeros((2, 3)),
+                                 np.tile(np.eye(3), (2, 1, 1)), np.zeros((2, 3)), np.ones(2),
+                                 np.zeros((2, 5, 3)), 4, np.ones(2), np.array([SPHERE]),
+                                 np.zeros((1, 7)))
         except BaseException:
             WARM = False
             raise
 
 
-def _shared_cache() -> None:
+def shared_cache(source: str, prefix: str, also=()) -> None:
     """
-    Cache the kernels by this file's content, in the user's numba cache, for every copy of it.
+    Cache the kernels of ``source`` by its content, in the user's numba cache, for every copy.
 
     numba caches by the source file's path by default: a colcon install (a copy) would compile
-    everything again (~10 s). The locator below keys the cache directory on the file's content
-    instead, so a source tree and its installs share one cache (and a changed file gets a new
-    one). It uses numba's cache locator classes; where they differ (another numba release) the
+    everything again (~10 s). The locator below keys the cache directory on the content of
+    ``source`` and of the files ``also`` (those whose kernels it calls, compiled into its own)
+    instead, so a source tree and its installs share one cache, and a changed file gets a new
+    one. It uses numba's cache locator classes; where they differ (another numba release) the
     default per-path cache is kept.
     """
     try:
@@ -96,15 +105,20 @@ def _shared_cache() -> None:
         impl = getattr(caching, "CacheImpl", None) or caching._CacheImpl
     except (ImportError, AttributeError):  # pragma: no cover - another numba layout
         return
-    source = os.path.abspath(__file__)
-    with open(source, "rb") as fh:
-        digest = hashlib.sha256(fh.read()).hexdigest()
+    source = os.path.abspath(source)
+    digest = hashlib.sha256()
+    for path in (source,) + tuple(also):
+        with open(path, "rb") as fh:
+            digest.update(fh.read())
+    digest = digest.hexdigest()
 
     class _SharedLocator(base):
+        shared_source = source
+
         def __init__(self, py_func, py_file):
             super().__init__(py_func, py_file)
             root = numba.config.CACHE_DIR or os.path.dirname(self._cache_path)
-            self._cache_path = os.path.join(root, "vibrissa_ros_rod3d_" + digest[:16])
+            self._cache_path = os.path.join(root, prefix + digest[:16])
 
         def get_source_stamp(self):
             return digest
@@ -115,12 +129,12 @@ def _shared_cache() -> None:
                 return None
             return super().from_function(py_func, py_file)
 
-    if not any(getattr(c, "__name__", "") == "_SharedLocator" for c in impl._locator_classes):
+    if not any(getattr(c, "shared_source", None) == source for c in impl._locator_classes):
         impl._locator_classes.insert(0, _SharedLocator)
 
 
 if numba is not None:
-    _shared_cache()
+    shared_cache(__file__, "vibrissa_ros_rod3d_")
 
     def _kernel(func):
         return numba.njit(cache=True, nogil=True)(func)

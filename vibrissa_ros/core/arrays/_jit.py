@@ -1,0 +1,115 @@
+"""
+Compiled kernels of the array's tick: the whiskers' base frames and the clearance test (numba).
+
+The same operations as the numpy code they stand for (:meth:`.whisking.Whisking.rotations`'s
+Euler angles and :meth:`.tracker.ArrayTracker._clear`'s sampled distances), as loops over the
+whiskers in one call each: a tick of 30 whiskers spent ~45 us in numpy's calls on (30, 3, 3)
+arrays for its frames and ~90 us for its clearance test. The tests compare them with the numpy
+code (to rounding). They are used where :data:`vibrissa_ros.core.rod3d._jit.ENABLED` (numba
+present, ``VIBRISSA_NO_JIT`` not set); compiled by :func:`vibrissa_ros.core.rod3d._jit.warm_up`
+with the solver's kernels.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+
+import numpy as np
+
+from ..rod3d import _jit as _rod3d_jit
+
+ENABLED = _rod3d_jit.ENABLED
+
+if _rod3d_jit.numba is not None:
+    # (the clearance kernel compiles rod3d's distance into its own: both files key its cache)
+    _rod3d_jit.shared_cache(__file__, "vibrissa_ros_arrays_",
+                            also=(os.path.abspath(_rod3d_jit.__file__),))
+
+    def _kernel(func):
+        return _rod3d_jit.numba.njit(cache=True, nogil=True)(func)
+else:  # pragma: no cover
+    def _kernel(func):
+        return func
+
+_distance = _rod3d_jit.distance
+
+
+@_kernel
+def frames(theta, theta0, phi, zeta, dphi, dzeta, left, R_head):
+    """
+    Return every whisker's base frame R_head Rz(a) Ry(b) Rx(c) Rx(-90 deg) (k, 3, 3) at theta.
+
+    a = theta0 + theta, b = -(phi + dphi theta), c = zeta + dzeta theta (one of each per
+    whisker); a left-side whisker's frame is mirrored (M W F, M = diag(-1, 1, 1),
+    F = diag(1, 1, -1)), as :meth:`~.whisking.Whisking.rotations` does.
+    """
+    k = theta.size
+    out = np.empty((k, 3, 3))
+    W = np.empty((3, 3))
+    for i in range(k):
+        a = theta0[i] + theta[i]
+        b = -(phi[i] + dphi[i] * theta[i])
+        c = zeta[i] + dzeta[i] * theta[i]
+        ca, sa, cb, sb = math.cos(a), math.sin(a), math.cos(b), math.sin(b)
+        cc, sc = math.cos(c), math.sin(c)
+        # Rz(a) Ry(b) Rx(c), then Rx(-90 deg): columns (m0, -m2, m1)
+        m00, m01, m02 = ca * cb, ca * sb * sc - sa * cc, ca * sb * cc + sa * sc
+        m10, m11, m12 = sa * cb, sa * sb * sc + ca * cc, sa * sb * cc - ca * sc
+        m20, m21, m22 = -sb, cb * sc, cb * cc
+        W[0, 0], W[0, 1], W[0, 2] = m00, -m02, m01
+        W[1, 0], W[1, 1], W[1, 2] = m10, -m12, m11
+        W[2, 0], W[2, 1], W[2, 2] = m20, -m22, m21
+        if left[i]:
+            W[0, 0], W[0, 1] = -W[0, 0], -W[0, 1]
+            W[1, 2], W[2, 2] = -W[1, 2], -W[2, 2]
+        for r in range(3):
+            for col in range(3):
+                out[i, r, col] = (R_head[r, 0] * W[0, col] + R_head[r, 1] * W[1, col]
+                                  + R_head[r, 2] * W[2, col])
+    return out
+
+
+@_kernel
+def _least(R, p, free, i, stride, codes, prm):
+    """Return the least signed distance of whisker i's samples (every stride-th) at (R, p)."""
+    d = math.inf
+    for j in range(0, free.shape[1], stride):
+        f0, f1, f2 = free[i, j, 0], free[i, j, 1], free[i, j, 2]
+        x = p[i, 0] + (f0 * R[i, 0, 0] + f1 * R[i, 0, 1] + f2 * R[i, 0, 2])
+        y = p[i, 1] + (f0 * R[i, 1, 0] + f1 * R[i, 1, 1] + f2 * R[i, 1, 2])
+        z = p[i, 2] + (f0 * R[i, 2, 0] + f1 * R[i, 2, 1] + f2 * R[i, 2, 2])
+        for c in range(codes.size):
+            dc = _distance(codes[c], prm[c], x, y, z)
+            if dc < d:
+                d = dc
+    return d
+
+
+@_kernel
+def clearance(R, p, R_prev, p_prev, length, free, stride, reach, codes, prm):
+    """
+    Tell which whiskers are certified clear of the obstacles along the tick (k,) bool.
+
+    Whisker i moves by at most m = norm(p - p_prev) + angle(R_prev^T R) L (every point of it,
+    along the straight pose path); its unloaded centerline, sampled at ``free[i]`` ((k, m, 3)
+    in its base frame [m]) with the samples L / (2 (m - 1)) = ``reach[i]`` apart at most from
+    every point, is placed at (R, p). Clear: every stride-th sample farther than
+    stride reach + m (+ 1e-12 L), or else every sample farther than reach + m (+ 1e-12 L).
+    """
+    k = R.shape[0]
+    clear = np.empty(k, np.bool_)
+    for i in range(k):
+        dx, dy, dz = p[i, 0] - p_prev[i, 0], p[i, 1] - p_prev[i, 1], p[i, 2] - p_prev[i, 2]
+        trace = 0.0
+        for r in range(3):
+            for col in range(3):
+                trace += R_prev[i, r, col] * R[i, r, col]
+        cos = min(1.0, max(-1.0, 0.5 * (trace - 1.0)))
+        motion = math.sqrt(dx * dx + dy * dy + dz * dz) + math.acos(cos) * length[i]
+        tol = 1e-12 * length[i]
+        if _least(R, p, free, i, stride, codes, prm) > stride * reach[i] + motion + tol:
+            clear[i] = True
+        else:
+            clear[i] = _least(R, p, free, i, 1, codes, prm) > reach[i] + motion + tol
+    return clear
