@@ -12,11 +12,11 @@ scenes (head frame, metres):
 
 Printed: the events by kind, the failed whisker steps (``ArrayStep.errors``) by whisker and by
 reason (the message with its numbers blanked), the first tick of each, the resets (a whisker
-re-placed where it is clear after a failure) and the time taken. It is how the rules of
-doc/mechanics/rod3d.md, "Snaps", were found: the ``pegs`` scene has no failed step and no reset
-at 7 Hz (4,000 ticks) and 9.5 Hz (6,000); the ``wall`` scene found the touch behind a pressed
-tip (same page, "Snaps") and shows the line contact that point contacts do not model ("What
-is not modelled (yet)").
+re-placed where it is clear after a failure), the solver evaluations and the time taken. It is
+how the rules of doc/mechanics/rod3d.md, "Snaps", were found: the ``pegs`` scene has no failed
+step and no reset at 7 Hz (4,000 ticks) and 9.5 Hz (6,000); the ``wall`` scene found the touch
+behind a pressed tip (same page, "Snaps") and shows the line contact that point contacts do not
+model ("What is not modelled (yet)").
 
 Run: OPENBLAS_NUM_THREADS=1 python bench/soak_array.py [--scene pegs|wall] [--ticks 4000]
      [--frequency HZ]
@@ -87,7 +87,9 @@ def run(scene_name: str, ticks: int, frequency=None) -> None:
     took = time.perf_counter() - t0
     print(f"\n== scene {scene_name!r}: {len(array)} whiskers, {ticks} ticks of 1 ms, whisk "
           f"{frequency:g} Hz from {lo:g} to {hi:g} deg; {took:.0f} s")
-    print(f"   most whiskers in contact at once: {most}")
+    evaluations = sum(tracker.tracker(name).solver.evaluations for name in tracker.names)
+    print(f"   most whiskers in contact at once: {most}; solver evaluations {evaluations:,} "
+          "(counts compare exactly between runs, times do not)")
     print(f"   events: {dict(sorted(kinds.items()))}")
     print(f"   failed whisker steps: {sum(failed.values())} ({len({w for w, _ in failed})} "
           f"whiskers); resets: {kinds.get('reset', 0)}")

@@ -378,6 +378,55 @@ def test_a_trial_step_on_the_unstable_sibling_branch_is_not_a_loss_of_stability(
     assert events[1][2] == "the equilibrium branch folds (no solution beyond this pose)"
 
 
+def _rb2_to_its_first_snap(monkeypatch, extended: bool):
+    """Return RB2's events (with its evaluations), tracker and folds located, to its snap."""
+    found = []
+    locate = RodTracker._locate_fold
+
+    def spy(self, path, *args):
+        fold = locate(self, path, *args) if extended else None
+        if fold is not None:
+            found.append((path, self._modes, fold))
+        return fold
+
+    monkeypatch.setattr(RodTracker, "_locate_fold", spy)
+    whisk = CosineWhisk(8.0)
+    array = ArrayTracker(_subset(RIGHT, ("RB2",)), Scene3D((PEG,)), HEAD, whisk.angle(0.0))
+    single = RodTracker(array._scenes[0], array.whisker_poses(HEAD, whisk.angle(0.0))[0],
+                        shape=RIGHT.rod(RIGHT.names.index("RB2")).shape)
+    events = []
+    for k in range(1, 27):
+        before = single.solver.evaluations
+        result = single.step(array.whisker_poses(HEAD, whisk.angle(k * 1e-3))[0])
+        events += [(k, e, single.solver.evaluations - before) for e in result.events]
+    return events, single, found
+
+
+def test_a_fold_located_by_its_extended_system_is_where_the_sub_steps_find_it(monkeypatch):
+    """The fold found at once (Newton on R = 0, g = 0) is the one closing in on it finds."""
+    events, single, folds = _rb2_to_its_first_snap(monkeypatch, extended=True)
+    with monkeypatch.context() as m:
+        ref_events, ref_single, _ = _rb2_to_its_first_snap(m, extended=False)
+    assert [(k, e.kind) for k, e, _ in events] == [(k, e.kind) for k, e, _ in ref_events]
+    snap = [(k, e, n) for k, e, n in events if e.kind == "snap"]
+    ref_snap = [(k, e, n) for k, e, n in ref_events if e.kind == "snap"]
+    assert len(snap) == 1 and snap[0][0] == 23 and snap[0][1].reason == (
+        "the equilibrium branch folds (no solution beyond this pose)")
+    assert single.state.contacts == ref_single.state.contacts == ()
+    # the same pose, to the sub-steps' few 1e-12 of the tick's path (the base turns by ~5e-3
+    # rad in the tick): 7e-15 apart
+    (_, e, n), (_, e_ref, n_ref) = snap[0], ref_snap[0]
+    assert e.pose.position == e_ref.pose.position
+    assert np.abs(np.subtract(e.pose.quaternion, e_ref.pose.quaternion)).max() < 3e-14
+    # at a third of the work, or less, in the tick that snaps (38 evaluations against 139)
+    assert n < 0.4 * n_ref
+    # the point located: an equilibrium where the Jacobian is singular
+    path, modes, (t_f, v_f) = folds[-1]
+    res, J, _ = single.solver.residual(modes, v_f, path.pose(t_f))
+    sv = np.linalg.svd(J, compute_uv=False)
+    assert np.abs(res).max() < 1e-12 and sv[-1] < 1e-10 * sv[0] and sv[-2] > 1e-6 * sv[0]
+
+
 def _tilted_scene_run(name, first, last, frequency=7.0):
     """
     Return the events and errors of one whisker of the shipped pad, ticks first+1..last.

@@ -102,9 +102,9 @@ def _lu_factor(J: np.ndarray, finite: bool = False):
     return lu, piv
 
 
-def _lu_solve(lu, b: np.ndarray) -> np.ndarray:
-    """Return J^-1 b from the factorization of :func:`_lu_factor` (LAPACK getrs)."""
-    x, info = _getrs(lu[0], lu[1], b)
+def _lu_solve(lu, b: np.ndarray, trans: int = 0) -> np.ndarray:
+    """Return J^-1 b (``trans`` 1: J^-T b) from :func:`_lu_factor`'s factorization (getrs)."""
+    x, info = _getrs(lu[0], lu[1], b, trans=trans)
     return x
 
 

@@ -52,7 +52,7 @@ from ..errors import (
     VibrissaError,
 )
 from . import _jit
-from .model import TAIL_SAMPLES, RodContactMode, RodSolver, _lu_solve
+from .model import TAIL_SAMPLES, RodContactMode, RodSolver, _lu_factor, _lu_solve, _settled
 from .pose import BasePose, quat_matrix, quat_multiply
 from .shape import RodShape
 
@@ -91,6 +91,10 @@ _MINIMUM_XTOL = 1e-13
 _MINIMUM_ITERATIONS = 12
 #: the reason of a snap at a fold of the branch
 _FOLDS = "the equilibrium branch folds (no solution beyond this pose)"
+#: Newton iterations of the fold's extended system (:meth:`RodTracker._locate_fold`)
+_FOLD_ITERATIONS = 8
+#: the step of its central differences along the null vector (max norm)
+_FOLD_EPS = 1e-6
 #: an event value this small and negative at a sub-step's start is a zero's rounding
 _BORN_ZERO = 1e-12
 #: how far on (in the path parameter) such a value's sign is looked at
@@ -431,6 +435,8 @@ class RodTracker:
         self._sign = 1.0
         self._gap_cache = None
         self._fold_prev = None
+        #: (path, contacts) where _locate_fold found no fold (not looked for again there)
+        self._fold_sought = None
         self._last_change = None
         self._last_step = None
         self._history = []
@@ -816,6 +822,15 @@ class RodTracker:
             dt = min(dt, _MAX_CHANGE / big)
         limited, left = self._fold_limit(path, t, tan, dt)
         near_fold, dt = limited < dt, limited
+        # a fold announced within the sub-step: located at once, and the sub-step goes to
+        # _H_MIN short of it (as a failed step would have located it), or None
+        fold = None
+        if near_fold and self._fold_sought != (path, self._modes):
+            fold = self._locate_fold(path, t, tan, left)
+            # (once per path and contacts: where it is not found, not again at every sub-step)
+            self._fold_sought = None if fold is not None else (path, self._modes)
+        if fold is not None:
+            dt = (fold[0] - _H_MIN) - t
         stream = self._extrapolate(path) if t == 0.0 and dt == 1.0 else None
         curve = (self._second_order(path, t, tan) if stream is None and left is None
                  else None)
@@ -833,12 +848,17 @@ class RodTracker:
                 guess = guess + (t_new - t) ** 2 * curve
             if stream is not None and t_new == 1.0:
                 guess = stream
+            if fold is not None:
+                # v = v_f + a sqrt(t_f - t) through this solution
+                t_f, v_f = fold
+                guess = v_f + math.sqrt((t_f - t_new) / (t_f - t)) * (self._vec - v_f)
             try:
                 solved = sol.solve(self._modes, path.pose(t_new), guess, start=self._solved,
                                    max_step=0.5, trusted=stream is not None and t_new == 1.0,
                                    fail_fast=near_fold or (stream is not None and t_new == 1.0))
                 break
             except ConvergenceError:
+                fold = None  # the sub-steps go on toward it as before
                 if near_fold and dt * 0.25 < _H_MIN:
                     near_fold = False  # before it is called a fold: one solve in full
                     continue
@@ -859,6 +879,8 @@ class RodTracker:
             self._check_tail(self._modes, solved.vec, path.pose(t_new))
             self._check_between(self._modes, solved.vec, path.pose(t_new))
             self._accept(solved, path.pose(t_new))
+            if fold is not None:  # _H_MIN short of the fold: it is lost there
+                return self._snap(path, t_new, events, _FOLDS), 1.0
             return t_new, min(1.0, 2.0 * dt)
         if ("stable", -1) in crossed:
             # short of a fold the stable branch and its unstable sibling, v_f +- a sqrt(t_f - t),
@@ -905,6 +927,96 @@ class RodTracker:
         if left >= dt:
             return dt, None
         return (0.9 * left if 0.9 * left >= _H_MIN else 4.0 * _H_MIN), left
+
+    def _locate_fold(self, path: _Path, t: float, tan: np.ndarray, left: float):
+        """
+        Return the fold the tangent announces at about t + ``left``, (t_f, v_f), or None.
+
+        Newton on the minimally extended system (Govaerts, *Numerical methods for bifurcations
+        of dynamical equilibria*, SIAM 2000; MATCONT's system for limit points): R(v, t) = 0
+        and g(v, t) = 0, where g is the last component of the solution of the bordered system
+        [[J, psi], [phi^T, 0]] [w; g] = [0; 1] (phi, psi: the right and left null vectors of
+        the Jacobian here, by inverse iteration), zero exactly where J is singular. Its
+        derivatives are g_z = -u^T J_z w (u from the transposed bordered system); u^T J_v w
+        and u^T J_t w are central differences of u^T J and u^T dR/dt along w (J's symmetric
+        second derivative). From the square root's guess (t + left, v + 2 left dv/dt) it
+        converges quadratically to the fold, regular for this system, in 3-5 iterations of
+        three evaluations and two factorizations each, where the sub-steps closing in on it by
+        a factor 10 each and the failed steps locating it to _H_MIN took ~120 evaluations
+        (``bench/bench_array.py``'s snaps).
+
+        Taken only where Newton settles, within this step (t < t_f <= 1, not closer than
+        2 _H_MIN), at a fold, not a bifurcation (u^T dR/dt not 0 relative to its norms), and
+        on this branch (v_f within 4 times the square root's prediction v - v_f = -2 (t_f - t)
+        dv/dt of v). Newton gives up as soon as a step is not shorter than 0.3 times the one
+        before (near a regular solution it contracts by far more): the tangent also grows
+        where the branch passes close to a fold and goes on (on the rat's pad, ~1 in 2 of the
+        announcements). Otherwise None: the sub-steps close in on it as before. Only where the
+        fold is looked for changes: the caller still solves, checks and accepts an ordinary
+        solution _H_MIN short of it, and the snap goes on from there.
+        """
+        sol = self.solver
+        modes = self._modes
+        v = self._vec
+        n = v.size
+        try:
+            phi = _null_vector(self._solved.lu)
+            psi = _null_vector(self._solved.lu, trans=1)
+            z = v + 2.0 * left * tan
+            t_f = t + left
+            M = np.zeros((n + 1, n + 1))
+            M[:n, n] = psi
+            M[n, :n] = phi
+            A = np.empty((n + 1, n + 1))
+            unit = np.zeros(n + 1)
+            unit[n] = 1.0
+            last = math.inf
+            for _ in range(_FOLD_ITERATIONS):
+                self._check_budget()
+                if not t < t_f <= 1.0:
+                    return None
+                pose = path.pose(t_f)
+                rate = path.rate(pose)
+                res, J, sens = sol.residual(modes, z, pose, pose_sensitivity=True)
+                M[:n, :n] = J
+                bordered = _lu_factor(M)
+                wg = _lu_solve(bordered, unit)
+                w, g = wg[:n], float(wg[n])
+                u = _lu_solve(bordered, unit, trans=1)[:n]
+                eps = _FOLD_EPS / max(float(np.max(np.abs(w))), 1e-300)
+                _, J_plus, sens_plus = sol.residual(modes, z + eps * w, pose,
+                                                    pose_sensitivity=True)
+                _, J_minus, sens_minus = sol.residual(modes, z - eps * w, pose,
+                                                      pose_sensitivity=True)
+                dR_dt = sens @ rate
+                A[:n, :n] = J
+                A[:n, n] = dR_dt
+                A[n, :n] = (u @ J_minus - u @ J_plus) / (2.0 * eps)
+                A[n, n] = float(u @ (sens_minus @ rate) - u @ (sens_plus @ rate)) / (2.0 * eps)
+                step = _lu_solve(_lu_factor(A), np.append(res, g))
+                z = z - step[:n]
+                t_f -= float(step[n])
+                sol._check_breaks(modes, z)
+                size = float(np.max(np.abs(step)))
+                if size <= 1e-13 or _settled(size, last):
+                    break
+                if size > 0.3 * last:
+                    # not contracting as Newton does near a regular solution: no fold near
+                    # (the tangent also grows where the branch passes close to one)
+                    return None
+                last = size
+            else:
+                return None
+        except (ConvergenceError, ArithmeticError, ValueError, np.linalg.LinAlgError):
+            return None
+        if not t + 2.0 * _H_MIN <= t_f <= 1.0:
+            return None
+        transversal = abs(float(u @ dR_dt))
+        if not transversal > 1e-8 * float(np.linalg.norm(u)) * float(np.linalg.norm(dR_dt)):
+            return None
+        if float(np.max(np.abs(z - v))) > 4.0 * float(np.max(np.abs(2.0 * (t_f - t) * tan))):
+            return None
+        return t_f, z
 
     def _extrapolate(self, path: _Path) -> Optional[np.ndarray]:
         """
@@ -1509,12 +1621,16 @@ def _newton_minimum(ob, geometry_at, s: float, lo: float, hi: float) -> Optional
     return None
 
 
-def _null_vector(lu) -> np.ndarray:
-    """Return an approximate null vector of the factorized Jacobian (inverse iteration)."""
+def _null_vector(lu, trans: int = 0) -> np.ndarray:
+    """
+    Return an approximate null vector of the factorized Jacobian (inverse iteration).
+
+    With ``trans`` 1, of its transpose (a left null vector).
+    """
     n = lu[0].shape[0]
     v = np.ones(n) / math.sqrt(n)
     for _ in range(3):
-        w = _lu_solve(lu, v)
+        w = _lu_solve(lu, v, trans=trans)
         norm = float(np.linalg.norm(w))
         if not math.isfinite(norm) or norm == 0.0:
             break
