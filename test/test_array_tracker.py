@@ -427,6 +427,47 @@ def test_a_fold_located_by_its_extended_system_is_where_the_sub_steps_find_it(mo
     assert np.abs(res).max() < 1e-12 and sv[-1] < 1e-10 * sv[0] and sv[-2] > 1e-6 * sv[0]
 
 
+def _single_whisker_run(name, ticks):
+    """Return one right-pad whisker's events (with its evaluations) and tracker, alone."""
+    whisk = CosineWhisk(8.0)
+    array = ArrayTracker(_subset(RIGHT, (name,)), Scene3D((PEG,)), HEAD, whisk.angle(0.0))
+    single = RodTracker(array._scenes[0], array.whisker_poses(HEAD, whisk.angle(0.0))[0],
+                        shape=RIGHT.rod(RIGHT.names.index(name)).shape)
+    events = []
+    for k in range(1, ticks + 1):
+        before = single.solver.evaluations
+        result = single.step(array.whisker_poses(HEAD, whisk.angle(k * 1e-3))[0])
+        events += [(k, e, single.solver.evaluations - before) for e in result.events]
+    return events, single
+
+
+def test_a_release_located_on_the_bordered_system_is_where_brents_search_finds_it(monkeypatch):
+    """Newton on R = 0, f = 0 finds the release Brent's search on f(t) finds, at less work."""
+    located = []
+    locate = RodTracker._locate_linear
+
+    def spy(self, *args):
+        found = locate(self, *args)
+        located.append(found)
+        return found
+
+    monkeypatch.setattr(RodTracker, "_locate_linear", spy)
+    events, single = _single_whisker_run("RC2", 21)
+    monkeypatch.setattr(RodTracker, "_linear_event", lambda self, key: None)
+    ref_events, ref_single = _single_whisker_run("RC2", 21)
+    assert [(k, e.kind) for k, e, _ in events] == [(k, e.kind) for k, e, _ in ref_events] == [
+        (15, "touch"), (20, "release")]
+    assert len(located) == 1 and located[0] is not None
+    (_, e, n), (_, e_ref, n_ref) = events[1], ref_events[1]
+    assert np.abs(np.subtract(e.pose.quaternion, e_ref.pose.quaternion)).max() < 1e-15
+    assert e.s == pytest.approx(e_ref.s, abs=1e-12)
+    assert n < 0.5 * n_ref
+    assert single.state.contacts == ref_single.state.contacts == ()
+    # the contact's force at the located pose is zero to rounding
+    t, solved = located[0]
+    assert abs(solved.vec[-1]) < 1e-15
+
+
 def _tilted_scene_run(name, first, last, frequency=7.0):
     """
     Return the events and errors of one whisker of the shipped pad, ticks first+1..last.
