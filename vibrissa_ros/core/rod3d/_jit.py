@@ -75,6 +75,9 @@ def warm_up() -> None:
             parabola_tail(0.5, np.array([1.0]), 1.0, *RodShape(parabola=1.0)._u_table())
             parabola_tip(0.5, 1.0, *RodShape(parabola=1.0)._u_table())
             det_measure(*_lu_factor(J))
+            table = RodShape(parabola=1.0)._u_table()
+            free_minimum(SPHERE, np.array([0.5, 0.2, 0.0, 0.1, 0.0, 0.0, 0.0]), np.eye(3),
+                         np.zeros(3), 1.0, table[0], table[1], 0.5, 0.4, 0.6, 12, 1e-13)
             # the array's tick kernels (arrays/_jit.py), with the argument types it passes
             from ..arrays import _jit as arrays_jit
             arrays_jit.frames(np.zeros(2), np.zeros(2), np.zeros(2), np.zeros(2), np.zeros(2),
@@ -1000,3 +1003,76 @@ def sample(s, vec, n, breaks, w, r, sp, cheb):
         out[p, 1] = r[first, 1] + 0.5 * a1
         out[p, 2] = r[first, 2] + 0.5 * a2
     return out
+
+
+@_kernel
+def free_frame(s, A, grid, table):
+    """
+    Return (x, y, phi, kappa0) of the unloaded whisker at arc length s, in its base frame.
+
+    RodShape.free_frame of a parabolic whisker y = A x^2 (its u by :func:`_parabola_u`), or of
+    a straight one (A = 0).
+    """
+    if A == 0.0:
+        return s, 0.0, 0.0, 0.0
+    u = _parabola_u(np.full(1, s), A, grid, table)[0]
+    return u / (2.0 * A), u * u / (4.0 * A), math.atan(u), 2.0 * A / (1.0 + u * u) ** 1.5
+
+
+@_kernel
+def _free_distance(code, prm, R, p, A, grid, table, s):
+    """Return the signed distance of the unloaded whisker's point at s, placed at (R, p)."""
+    x, y, _, _ = free_frame(s, A, grid, table)
+    return distance(code, prm, p[0] + x * R[0, 0] + y * R[0, 1],
+                    p[1] + x * R[1, 0] + y * R[1, 1], p[2] + x * R[2, 0] + y * R[2, 1])
+
+
+@_kernel
+def free_minimum(code, prm, R, p, A, grid, table, s, lo, hi, iterations, xtol):
+    """
+    Return (found, s*, d(s*), d(lo), d(hi)): the unloaded whisker's least distance near s.
+
+    The whisker placed at (R, p) (its base frame's axes, columns, and base point); Newton on
+    d'(s) = n . t from s, d''(s) = t . H t + n . t' (the obstacle's normal n and distance
+    Hessian H at the point, t the tangent, t' = kappa0 times the normal), kept in [lo, hi], as
+    the tracker's _newton_minimum does: a step out of the bracket stops at its end, taken
+    where d still falls toward it there; not found where d'' <= 0 or Newton has not settled to
+    ``xtol`` in ``iterations``.
+    """
+    normal = np.empty((1, 3))
+    hess = np.empty((1, 3, 3))
+    found = False
+    bound = math.nan
+    for _ in range(iterations):
+        x, y, phi, kappa = free_frame(s, A, grid, table)
+        c, sn = math.cos(phi), math.sin(phi)
+        t0 = c * R[0, 0] + sn * R[0, 1]
+        t1 = c * R[1, 0] + sn * R[1, 1]
+        t2 = c * R[2, 0] + sn * R[2, 1]
+        dt0 = kappa * (c * R[0, 1] - sn * R[0, 0])
+        dt1 = kappa * (c * R[1, 1] - sn * R[1, 0])
+        dt2 = kappa * (c * R[2, 1] - sn * R[2, 0])
+        surface(code, prm, p[0] + x * R[0, 0] + y * R[0, 1], p[1] + x * R[1, 0] + y * R[1, 1],
+                p[2] + x * R[2, 0] + y * R[2, 1], normal, hess, 0)
+        n0, n1, n2 = normal[0, 0], normal[0, 1], normal[0, 2]
+        d1 = n0 * t0 + n1 * t1 + n2 * t2
+        if bound == bound and (d1 <= 0.0 if bound == hi else d1 >= 0.0):
+            s, found = bound, True
+            break
+        h0 = hess[0, 0, 0] * t0 + hess[0, 0, 1] * t1 + hess[0, 0, 2] * t2
+        h1 = hess[0, 1, 0] * t0 + hess[0, 1, 1] * t1 + hess[0, 1, 2] * t2
+        h2 = hess[0, 2, 0] * t0 + hess[0, 2, 1] * t1 + hess[0, 2, 2] * t2
+        d2 = (t0 * h0 + t1 * h1 + t2 * h2) + (n0 * dt0 + n1 * dt1 + n2 * dt2)
+        if not (d2 > 0.0 and math.isfinite(d1)):
+            break
+        step = d1 / d2
+        s, bound = s - step, math.nan
+        if s > hi or s < lo:
+            s = hi if s > hi else lo
+            bound = s
+        elif abs(step) <= xtol:
+            found = True
+            break
+    return (found, s, _free_distance(code, prm, R, p, A, grid, table, s),
+            _free_distance(code, prm, R, p, A, grid, table, lo),
+            _free_distance(code, prm, R, p, A, grid, table, hi))
