@@ -143,6 +143,29 @@ def test_the_free_whiskers_compiled_least_distance_equals_the_python_one(monkeyp
     assert compiled >= 0.7 * checked
 
 
+def test_the_free_whiskers_compiled_sampled_distances_equal_numpys():
+    # the free whisker's 321 samples placed at a pose: each obstacle's least distance and the
+    # first sample there, as numpy's min and argmin of the obstacle's signed_distance
+    from vibrissa_ros.core.rod3d import tracker as tracker_module
+    from vibrissa_ros.core.rod3d.model import kernel_obstacles
+    obstacles = (Sphere((0.55, 0.2, 0.05), 0.12, "ball"),
+                 Cylinder((0.5, -0.1, 0.0), (0.1, 0.2, 1.0), 0.04, "peg"),
+                 Plane((0.0, 0.0, -0.3), (0.1, 0.0, 1.0), "floor"))
+    codes, prm = kernel_obstacles(obstacles)
+    points = RodShape(parabola=0.8).free_centerline(tracker_module._FREE_SAMPLES)
+    rng = np.random.default_rng(13)
+    for _ in range(100):
+        axis = rng.normal(size=3)
+        pose = BasePose(tuple(rng.normal(0.0, 0.3, 3)),
+                        tuple(quat_about(axis / np.linalg.norm(axis), rng.uniform(0, 6))))
+        dmin, index = _jit.free_samples(codes, prm, np.array(pose.rotation), pose.p, points)
+        placed = np.array(pose.position) + points @ pose.rotation.T
+        for k, ob in enumerate(obstacles):
+            d = ob.signed_distance(placed)
+            assert abs(dmin[k] - d.min()) <= 1e-15
+            assert index[k] == np.argmin(d) or abs(d[index[k]] - d.min()) <= 1e-15
+
+
 def test_the_one_call_evaluation_equals_prepare_and_equations():
     # the analytic obstacles' path (one kernel call) and the Python objects' (their surface
     # data from Python, as for an obstacle the kernels do not know): bitwise equal

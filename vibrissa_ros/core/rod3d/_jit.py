@@ -78,6 +78,8 @@ def warm_up() -> None:
             table = RodShape(parabola=1.0)._u_table()
             free_minimum(SPHERE, np.array([0.5, 0.2, 0.0, 0.1, 0.0, 0.0, 0.0]), np.eye(3),
                          np.zeros(3), 1.0, table[0], table[1], 0.5, 0.4, 0.6, 12, 1e-13)
+            free_samples(np.array([SPHERE]), np.zeros((1, 7)), np.eye(3), np.zeros(3),
+                         np.zeros((3, 3)))
             # the array's tick kernels (arrays/_jit.py), with the argument types it passes
             from ..arrays import _jit as arrays_jit
             arrays_jit.frames(np.zeros(2), np.zeros(2), np.zeros(2), np.zeros(2), np.zeros(2),
@@ -1076,3 +1078,28 @@ def free_minimum(code, prm, R, p, A, grid, table, s, lo, hi, iterations, xtol):
     return (found, s, _free_distance(code, prm, R, p, A, grid, table, s),
             _free_distance(code, prm, R, p, A, grid, table, lo),
             _free_distance(code, prm, R, p, A, grid, table, hi))
+
+
+@_kernel
+def free_samples(codes, prm, R, p, points):
+    """
+    Return each obstacle's least signed distance to sampled points and the first sample there.
+
+    The points (m, 3) are the unloaded whisker's samples in its base frame, placed at (R, p)
+    (p + R x); (dmin (k,), index (k,)) per obstacle, as numpy's min and argmin of
+    ``signed_distance`` over the placed points.
+    """
+    k = codes.size
+    dmin = np.full(k, math.inf)
+    index = np.zeros(k, np.int64)
+    for i in range(points.shape[0]):
+        f0, f1, f2 = points[i, 0], points[i, 1], points[i, 2]
+        x = p[0] + (f0 * R[0, 0] + f1 * R[0, 1] + f2 * R[0, 2])
+        y = p[1] + (f0 * R[1, 0] + f1 * R[1, 1] + f2 * R[1, 2])
+        z = p[2] + (f0 * R[2, 0] + f1 * R[2, 1] + f2 * R[2, 2])
+        for c in range(k):
+            d = distance(codes[c], prm[c], x, y, z)
+            if d < dmin[c]:
+                dmin[c] = d
+                index[c] = i
+    return dmin, index

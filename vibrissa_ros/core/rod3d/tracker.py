@@ -54,6 +54,7 @@ from ..errors import (
 from . import _jit
 from .model import (
     TAIL_SAMPLES, RodContactMode, RodSolver, _lu_factor, _lu_solve, _settled, kernel_geometry,
+    kernel_obstacles,
 )
 from .pose import BasePose, quat_matrix, quat_multiply
 from .shape import RodShape
@@ -419,6 +420,8 @@ class RodTracker:
             self._free_kernels = (self.shape.parabola or 0.0, table[0], table[1], [
                 None if g is None else (g[0], np.array(g[1], dtype=float))
                 for g in (kernel_geometry(ob) for ob in self.obstacles)])
+        # and its sampled distances to every obstacle, where the kernels know them all
+        self._free_samples = kernel_obstacles(self.obstacles) if _jit.ENABLED else None
         # only prisms have edges (a polygon's corners, a point peg)
         self._edges = any(getattr(ob, "planar", None) is not None for ob in self.obstacles)
         pose = _as_pose(pose)
@@ -614,10 +617,19 @@ class RodTracker:
         is returned as it is, without the exact minimum: enough to size a free sub-step and to
         know there is no touch; the exact minimum is taken only where the bound is not positive.
         """
-        pts = np.array(pose.position) + self._free_points @ pose.rotation.T
+        if self._free_samples is not None and self.obstacles:
+            # the samples' nearest to each obstacle in one kernel call (as below)
+            if not _jit.WARM:
+                _jit.warm_up()
+            pts, nearest = None, _jit.free_samples(self._free_samples[0], self._free_samples[1],
+                                                   np.array(pose.rotation), pose.p,
+                                                   self._free_points)
+        else:
+            pts = np.array(pose.position) + self._free_points @ pose.rotation.T
+            nearest = None
         return self._gap_of_points(pts, lambda s: self._free_point(pose, s), exact, skip,
                                    certify, _FREE_SAMPLES, _FREE_HALF_SPACING,
-                                   lambda s: self._free_geometry(pose, s), pose)
+                                   lambda s: self._free_geometry(pose, s), pose, nearest)
 
     def _free_point(self, pose: BasePose, s: float) -> np.ndarray:
         x, y = self.shape.free_frame(s)[:2]
@@ -633,14 +645,25 @@ class RodTracker:
         return (pose.p + x * e1 + y * e2, c * e1 + sn * e2, kappa * (c * e2 - sn * e1))
 
     def _gap_of_points(self, pts, point_at, exact, skip, certify=False, samples=_SAMPLES,
-                       half=_HALF_SPACING, geometry_at=None, free_pose=None):
+                       half=_HALF_SPACING, geometry_at=None, free_pose=None, nearest=None):
+        """
+        Return (value, obstacle, s): the least distance of the sampled curve to an obstacle.
+
+        ``pts`` are the samples (at ``samples``), or ``nearest`` gives each obstacle's least
+        sampled distance and its sample; near an obstacle (or ``exact``) the distance is
+        minimized over s about that sample (:meth:`_refine_free` for the free whisker at
+        ``free_pose``, else :meth:`_refine`).
+        """
         best = (math.inf, -1, 0.0)
         for k, ob in enumerate(self.obstacles):
             if k in skip:
                 continue
-            d = ob.signed_distance(pts)
-            j = int(np.argmin(d))
-            dmin = float(d[j])
+            if nearest is not None:
+                dmin, j = float(nearest[0][k]), int(nearest[1][k])
+            else:
+                d = ob.signed_distance(pts)
+                j = int(np.argmin(d))
+                dmin = float(d[j])
             if (dmin > _NEAR and not exact) or (certify and dmin - half > 0.0):
                 value, s = dmin - half, float(samples[j])
             else:
