@@ -427,7 +427,7 @@ def test_a_fold_located_by_its_extended_system_is_where_the_sub_steps_find_it(mo
     assert np.abs(res).max() < 1e-12 and sv[-1] < 1e-10 * sv[0] and sv[-2] > 1e-6 * sv[0]
 
 
-def _single_whisker_run(name, ticks):
+def _single_whisker_run(name, ticks, states=None):
     """Return one right-pad whisker's events (with its evaluations) and tracker, alone."""
     whisk = CosineWhisk(8.0)
     array = ArrayTracker(_subset(RIGHT, (name,)), Scene3D((PEG,)), HEAD, whisk.angle(0.0))
@@ -438,7 +438,39 @@ def _single_whisker_run(name, ticks):
         before = single.solver.evaluations
         result = single.step(array.whisker_poses(HEAD, whisk.angle(k * 1e-3))[0])
         events += [(k, e, single.solver.evaluations - before) for e in result.events]
+        if states is not None:
+            states.append(result.state)
     return events, single
+
+
+def test_a_stream_step_beyond_the_sub_step_bound_is_taken_whole_where_newton_allows(
+        monkeypatch):
+    """RD0's steps that change the unknowns most are solved whole from the stream's guess."""
+    taken = []
+    whole = RodTracker._whole_step
+
+    def spy(self, path):
+        solved = whole(self, path)
+        taken.append(solved is not None)
+        return solved
+
+    monkeypatch.setattr(RodTracker, "_whole_step", spy)
+    states = []
+    events, single = _single_whisker_run("RD0", 90, states)
+    monkeypatch.setattr(RodTracker, "_whole_step", lambda self, path: None)
+    ref_states = []
+    ref_events, ref_single = _single_whisker_run("RD0", 90, ref_states)
+    assert sum(taken) >= 5 and not all(taken)  # (and where one Newton step is not enough, not)
+    assert [(k, e.kind) for k, e, _ in events] == [(k, e.kind) for k, e, _ in ref_events] == [
+        (43, "touch"), (83, "release")]
+    # the same equilibria, tick by tick, at fewer evaluations
+    for got, want in zip(states, ref_states):
+        assert len(got.contacts) == len(want.contacts)
+        assert np.abs(np.subtract(got.force, want.force)).max() <= 1e-12
+        assert np.abs(np.subtract(got.tip, want.tip)).max() <= 1e-12
+        for a, b in zip(got.contacts, want.contacts):
+            assert abs(a.s - b.s) <= 1e-12
+    assert single.solver.evaluations < ref_single.solver.evaluations
 
 
 def test_a_release_located_on_the_bordered_system_is_where_brents_search_finds_it(monkeypatch):
