@@ -414,17 +414,48 @@ def test_a_fold_located_by_its_extended_system_is_where_the_sub_steps_find_it(mo
         "the equilibrium branch folds (no solution beyond this pose)")
     assert single.state.contacts == ref_single.state.contacts == ()
     # the same pose, to the sub-steps' few 1e-12 of the tick's path (the base turns by ~5e-3
-    # rad in the tick): 7e-15 apart
+    # rad in the tick): 9e-15 apart
     (_, e, n), (_, e_ref, n_ref) = snap[0], ref_snap[0]
     assert e.pose.position == e_ref.pose.position
     assert np.abs(np.subtract(e.pose.quaternion, e_ref.pose.quaternion)).max() < 3e-14
-    # at a third of the work, or less, in the tick that snaps (38 evaluations against 139)
+    # at a third of the work, or less, in the tick that snaps (45 evaluations against 139)
     assert n < 0.4 * n_ref
     # the point located: an equilibrium where the Jacobian is singular
     path, modes, (t_f, v_f) = folds[-1]
     res, J, _ = single.solver.residual(modes, v_f, path.pose(t_f))
     sv = np.linalg.svd(J, compute_uv=False)
     assert np.abs(res).max() < 1e-12 and sv[-1] < 1e-10 * sv[0] and sv[-2] > 1e-6 * sv[0]
+
+
+def test_a_located_fold_is_lost_only_where_no_solution_follows_it(monkeypatch):
+    """Just past the fold a solve must fail; where it does not, the sub-steps close in."""
+    answers = []
+    lost_beyond = RodTracker._lost_beyond
+
+    def spy(self, path, t):
+        answers.append(lost_beyond(self, path, t))
+        return answers[-1]
+
+    monkeypatch.setattr(RodTracker, "_lost_beyond", spy)
+    events, single, folds = _rb2_to_its_first_snap(monkeypatch, extended=True)
+    assert answers == [True] and len(folds) == 1
+    # told that the branch goes on there: the sub-steps close in on the fold as before, and
+    # find the same snap (the fold is looked for once per path and contacts)
+    monkeypatch.setattr(RodTracker, "_lost_beyond", lambda self, path, t: False)
+    forced, forced_single, forced_folds = _rb2_to_its_first_snap(monkeypatch, extended=True)
+    assert [(k, e.kind) for k, e, _ in forced] == [(k, e.kind) for k, e, _ in events]
+    snap = [e for _, e, _ in events if e.kind == "snap"][0]
+    forced_snap = [e for _, e, _ in forced if e.kind == "snap"][0]
+    assert np.abs(np.subtract(snap.pose.quaternion, forced_snap.pose.quaternion)).max() < 3e-14
+    assert forced_single.state.contacts == single.state.contacts == ()
+    # and where the branch goes on, the solve just past it converges: RC1 pressed on the peg
+    from vibrissa_ros.core.rod3d.tracker import _Path
+    _, pressed = _single_whisker_run("RC1", 40)
+    assert pressed.state.contacts
+    array = ArrayTracker(_subset(RIGHT, ("RC1",)), Scene3D((PEG,)), HEAD,
+                         CosineWhisk(8.0).angle(0.0))
+    ahead = array.whisker_poses(HEAD, CosineWhisk(8.0).angle(0.041))[0]
+    assert lost_beyond(pressed, _Path(pressed.state.pose, ahead), 0.0) is False
 
 
 def _single_whisker_run(name, ticks, states=None):

@@ -449,7 +449,7 @@ class ArrayTracker:
             return np.full(len(R), np.inf)
         pts = p[:, None, :] + free @ R.transpose(0, 2, 1)
         if self._geometry is not None:
-            if not _jit.WARM:  # (waits for a warm-up under way in another thread)
+            if not _jit.WARM:  # every kernel at once, not one in the middle of a tick
                 _jit.warm_up()
             d = _jit.least_distance(self._geometry[0], self._geometry[1], pts.reshape(-1, 3))
         else:
@@ -460,7 +460,7 @@ class ArrayTracker:
         """Tell which whiskers are certified free along the tick (coarse samples, then fine)."""
         if self._geometry is not None:
             # one compiled call: the motion and both passes, as below
-            if not _jit.WARM:  # (waits for a warm-up under way in another thread)
+            if not _jit.WARM:  # every kernel at once, not one in the middle of a tick
                 _jit.warm_up()
             return _arrays_jit.clearance(R, p, self._R, self._p, self._length, self._free,
                                          _COARSE, self._reach, self._geometry[0],

@@ -162,7 +162,8 @@ class Whisking:
             When ``protraction`` is not finite or has the wrong length.
 
         """
-        theta = np.asarray(protraction, dtype=float)
+        # (a copy: a read-only array would compile a second version of the kernel)
+        theta = np.array(protraction, dtype=float)
         if theta.ndim == 0:
             theta = np.full(self.size, float(theta))
         if theta.shape != (self.size,) or not np.all(np.isfinite(theta)):

@@ -6,8 +6,9 @@ solved by :class:`~.model.RodSolver`). :meth:`RodTracker.step` moves the base al
 path to a new pose (position linear, orientation along the shorter great arc, in the path
 parameter t in [0, 1]) and follows the equilibrium by natural-parameter continuation in t
 (tangent predictor, Newton corrector). After every accepted sub-step it evaluates the
-configuration's inequalities; where one of them crosses zero the crossing is located by root
-finding in t (Brent, to 1e-14) and the configuration changes:
+configuration's inequalities; where one of them crosses zero the crossing is located in t
+(Newton on a bordered system where the value is an unknown, a force or an arc length; else
+Brent's method, to 1e-14) and the configuration changes:
 
 ===============  ====================================================================
 event            change of the configuration
@@ -17,8 +18,10 @@ event            change of the configuration
 ``release``      a contact's normal force returns to zero: the contact is dropped
 ``tip``          a side contact reaches the tip (s = 1): side -> tip
 ``tangential``   the tip's tangent reaches the surface's tangent plane: tip -> side
-``snap``         the equilibrium is lost: the branch folds (Newton finds no solution
-                 beyond t) or becomes unstable (the sign of the Jacobian's determinant
+``snap``         the equilibrium is lost: the branch folds (no solution beyond t: the
+                 fold located by its extended system, or closed in on by sub-steps, and
+                 confirmed by a solve just past it that fails) or becomes unstable (the
+                 sign of the Jacobian's determinant
                  changes, e.g. a planar equilibrium buckling out of its plane); the
                  whisker jumps to the stable equilibrium found from there
 ``reset``        the step could not be followed; the unloaded whisker was re-placed
@@ -295,6 +298,10 @@ class RodStepResult:
     evaluations: int
 
 
+class _OverBudget(ConvergenceError):
+    """A step spent its budget of solver evaluations (internal: never swallowed)."""
+
+
 class _Unlocated(ConvergenceError):
     """No event could be located between two sub-steps (nothing changed yet) (internal)."""
 
@@ -563,7 +570,7 @@ class RodTracker:
 
     def _check_budget(self) -> None:
         if self.solver.evaluations - self._start > self.max_evaluations:
-            raise ConvergenceError(
+            raise _OverBudget(
                 f"the step used more than {self.max_evaluations} solver evaluations without "
                 "settling")
 
@@ -884,15 +891,17 @@ class RodTracker:
         bounded = big > 0.0 and _MAX_CHANGE / big < dt
         if bounded:
             dt = _MAX_CHANGE / big
+        reach = dt
         limited, left = self._fold_limit(path, t, tan, dt)
         near_fold, dt = limited < dt, limited
         # a fold announced within the sub-step: located at once, and the sub-step goes to
-        # _H_MIN short of it (as a failed step would have located it), or None
+        # _H_MIN short of it (as a failed step would have located it), or None; looked for
+        # once per path and contacts (where it is not found or not confirmed, the sub-steps
+        # close in on it as before)
         fold = None
         if near_fold and self._fold_sought != (path, self._modes):
-            fold = self._locate_fold(path, t, tan, left)
-            # (once per path and contacts: where it is not found, not again at every sub-step)
-            self._fold_sought = None if fold is not None else (path, self._modes)
+            self._fold_sought = (path, self._modes)
+            fold = self._locate_fold(path, t, tan, left, min(reach, 2.0 * left))
         if fold is not None:
             dt = (fold[0] - _H_MIN) - t
         stream = self._extrapolate(path) if t == 0.0 and dt == 1.0 else None
@@ -904,7 +913,8 @@ class RodTracker:
                 dt, t_new = 1.0, 1.0
         curve = (self._second_order(path, t, tan) if stream is None and left is None
                  else None)
-        for _ in range(0 if solved is not None else 64):
+        whole = solved is not None
+        for _ in range(0 if whole else 64):
             self._check_budget()
             t_new = min(1.0, t + dt)
             if left is not None and t_new - t < left:
@@ -938,19 +948,31 @@ class RodTracker:
         else:
             if solved is None:
                 raise ConvergenceError("the continuation step could not be shortened enough")
+            try:
+                # a step taken whole that a check refuses: from bounded sub-steps instead
+                # (an event before its end may change the contacts first)
+                self._check_features(self._modes, solved.vec, path.b)
+                self._check_tail(self._modes, solved.vec, path.b)
+                self._check_between(self._modes, solved.vec, path.b)
+            except ModelAssumptionError:
+                return t, reach
         self._check_features(self._modes, solved.vec, path.pose(t_new))
         values = self._event_values(path, t_new, solved.vec, solved.lu)
         gap = self._contact_gap(path, t_new, solved.vec)[0]
         crossed = [key for key, v in values.items() if v < 0.0]
         if gap < _CUT:
             crossed.append(("touch", -1))
+        if crossed and whole:
+            # an event within a step taken whole: located from bounded sub-steps instead
+            return t, reach
         if not crossed:
             # (after the events: one crossed in the sub-step changes the contacts before its
             # end, e.g. a tip contact turned into the surface becomes a side contact)
             self._check_tail(self._modes, solved.vec, path.pose(t_new))
             self._check_between(self._modes, solved.vec, path.pose(t_new))
             self._accept(solved, path.pose(t_new))
-            if fold is not None:  # _H_MIN short of the fold: it is lost there
+            if fold is not None and self._lost_beyond(path, t_new):
+                # _H_MIN short of the fold, and no solution just past it: lost there
                 return self._snap(path, t_new, events, _FOLDS), 1.0
             return t_new, min(1.0, 2.0 * dt)
         if ("stable", -1) in crossed:
@@ -973,17 +995,41 @@ class RodTracker:
                 raise
             return t, 0.25 * dt
 
+    def _lost_beyond(self, path: _Path, t: float) -> bool:
+        """
+        Tell whether no solution of this branch follows 2 _H_MIN past t (just short of a fold).
+
+        Newton from this solution, at most four iterations: where the branch goes on (it only
+        passed close to a fold: the extended system may have found the fold of a neighbouring
+        branch) it converges in one or two from 2e-12 away; past a fold there is no solution
+        near, and it does not settle (it halves its steps for about ten iterations there).
+        """
+        t_past = min(1.0, t + 2.0 * _H_MIN)
+        if t_past <= t:
+            return True
+        try:
+            self.solver.solve(self._modes, path.pose(t_past), self._vec, max_step=0.5,
+                              max_iterations=4)
+        except _OverBudget:
+            raise
+        except ConvergenceError:
+            return True
+        return False
+
     def _whole_step(self, path: _Path):
         """
         Return the solution at a pose stream's next pose in one solve, or None.
 
         For a step whose tangent changes the unknowns by more than the sub-step bound
         (_MAX_CHANGE): solved whole from the stream's prediction (:meth:`_extrapolate`), and
-        taken only where one Newton step of at most 1e-7 converges it (the prediction is then
-        on this branch, and the solution within ~1e-14); None otherwise (no prediction, or
-        Newton needs more), and the bounded sub-steps follow. Its end is checked for events
-        like every sub-step's. On the rat's pad (``bench/bench_array.py``) 30 of 46 such
-        steps are taken whole: 1-2 evaluations each instead of ~7 in two sub-steps.
+        taken only where the first Newton step from it, on a fresh Jacobian, converges it: a
+        step of at most 1e-7, or of at most 1e-4 followed by at most three chord steps each a
+        tenth of the one before (:meth:`RodSolver.solve`, ``trusted``, one iteration: the
+        prediction is then within ~1e-4 of this branch's solution); None otherwise (no
+        prediction, or Newton needs more), and the bounded sub-steps follow. Where an event
+        is crossed within it, the caller drops it and locates the event from bounded
+        sub-steps. On the rat's pad (``bench/bench_array.py``) 30 of 46 such steps are taken
+        whole: 1-2 evaluations each instead of ~7 in two sub-steps.
         """
         whole = self._extrapolate(path)
         if whole is None:
@@ -1004,9 +1050,12 @@ class RodTracker:
         t_f. Aiming at 90% of the way there, the fold is approached by a factor 10 per sub-step
         instead of being found by quartering failed steps, and the trial steps there give up as
         soon as Newton stops contracting (past a fold it wanders and would spend every
-        iteration). Only the sub-step length and the starting guess change: the fold is still
-        located to _H_MIN by a failed step, and every accepted sub-step is an ordinary converged
-        solve. The distance t_f - t is None where no fold is announced within the sub-step.
+        iteration). Only the sub-step length and the starting guess change, and every accepted
+        sub-step is an ordinary converged solve. The announced fold is first looked for by
+        its extended system (:meth:`_locate_fold`: the sub-step then goes to _H_MIN short of
+        it, and a solve just past it must fail); where that does not find it, it is located
+        to _H_MIN by a failed step. The distance t_f - t is None where no fold is announced
+        within the sub-step.
         """
         g = 1.0 / max(float(tan @ tan), 1e-300)
         prev = self._fold_prev
@@ -1021,7 +1070,7 @@ class RodTracker:
             return dt, None
         return (0.9 * left if 0.9 * left >= _H_MIN else 4.0 * _H_MIN), left
 
-    def _locate_fold(self, path: _Path, t: float, tan: np.ndarray, left: float):
+    def _locate_fold(self, path: _Path, t: float, tan: np.ndarray, left: float, reach: float):
         """
         Return the fold the tangent announces at about t + ``left``, (t_f, v_f), or None.
 
@@ -1038,15 +1087,19 @@ class RodTracker:
         a factor 10 each and the failed steps locating it to _H_MIN took ~120 evaluations
         (``bench/bench_array.py``'s snaps).
 
-        Taken only where Newton settles, within this step (t < t_f <= 1, not closer than
-        2 _H_MIN), at a fold, not a bifurcation (u^T dR/dt not 0 relative to its norms), and
+        Taken only where Newton settles, within this step and the sub-step's bounds (t < t_f
+        <= 1, not closer than 2 _H_MIN, t_f - t at most ``reach``: the sub-step the bounds on
+        the change and on the motion allow, and twice ``left``; the events are checked only
+        at the end of the sub-step it gives), at a fold, not a bifurcation (u^T dR/dt not 0
+        relative to its norms), and
         on this branch (v_f within 4 times the square root's prediction v - v_f = -2 (t_f - t)
         dv/dt of v). Newton gives up as soon as a step is not shorter than 0.3 times the one
         before (near a regular solution it contracts by far more): the tangent also grows
         where the branch passes close to a fold and goes on (on the rat's pad, ~1 in 2 of the
         announcements). Otherwise None: the sub-steps close in on it as before. Only where the
         fold is looked for changes: the caller still solves, checks and accepts an ordinary
-        solution _H_MIN short of it, and the snap goes on from there.
+        solution _H_MIN short of it, and snaps there only where a solve just past it fails
+        (:meth:`_lost_beyond`), as the sub-steps closing in on it call a fold.
         """
         sol = self.solver
         modes = self._modes
@@ -1100,9 +1153,11 @@ class RodTracker:
                 last = size
             else:
                 return None
+        except _OverBudget:
+            raise
         except (ConvergenceError, ArithmeticError, ValueError, np.linalg.LinAlgError):
             return None
-        if not t + 2.0 * _H_MIN <= t_f <= 1.0:
+        if not t + 2.0 * _H_MIN <= t_f <= 1.0 or t_f - t > reach:
             return None
         transversal = abs(float(u @ dR_dt))
         if not transversal > 1e-8 * float(np.linalg.norm(u)) * float(np.linalg.norm(dR_dt)):
@@ -1317,6 +1372,8 @@ class RodTracker:
             else:
                 return None
             return tau, sol.solve(modes, path.pose(tau), z, max_step=0.5, exact_jacobian=True)
+        except _OverBudget:
+            raise
         except (ConvergenceError, ArithmeticError, ValueError, np.linalg.LinAlgError):
             return None
 
