@@ -1105,58 +1105,40 @@ class RodTracker:
         modes = self._modes
         v = self._vec
         n = v.size
+        last_border = {}
+
+        def border(z, pose, J, dR_dt, rate):
+            # g of the bordered system at (z, t) and its derivatives by central differences
+            M[:n, :n] = J
+            bordered = _lu_factor(M)
+            wg = _lu_solve(bordered, unit)
+            w, g = wg[:n], float(wg[n])
+            u = _lu_solve(bordered, unit, trans=1)[:n]
+            eps = _FOLD_EPS / max(float(np.max(np.abs(w))), 1e-300)
+            _, J_plus, sens_plus = sol.residual(modes, z + eps * w, pose, pose_sensitivity=True)
+            _, J_minus, sens_minus = sol.residual(modes, z - eps * w, pose,
+                                                  pose_sensitivity=True)
+            last_border.update(u=u, dR_dt=dR_dt)
+            return (g, (u @ J_minus - u @ J_plus) / (2.0 * eps),
+                    float(u @ (sens_minus @ rate) - u @ (sens_plus @ rate)) / (2.0 * eps))
+
         try:
             phi = _null_vector(self._solved.lu)
             psi = _null_vector(self._solved.lu, trans=1)
-            z = v + 2.0 * left * tan
-            t_f = t + left
             M = np.zeros((n + 1, n + 1))
             M[:n, n] = psi
             M[n, :n] = phi
-            A = np.empty((n + 1, n + 1))
             unit = np.zeros(n + 1)
             unit[n] = 1.0
-            last = math.inf
-            for _ in range(_FOLD_ITERATIONS):
-                self._check_budget()
-                if not t < t_f <= 1.0:
-                    return None
-                pose = path.pose(t_f)
-                rate = path.rate(pose)
-                res, J, sens = sol.residual(modes, z, pose, pose_sensitivity=True)
-                M[:n, :n] = J
-                bordered = _lu_factor(M)
-                wg = _lu_solve(bordered, unit)
-                w, g = wg[:n], float(wg[n])
-                u = _lu_solve(bordered, unit, trans=1)[:n]
-                eps = _FOLD_EPS / max(float(np.max(np.abs(w))), 1e-300)
-                _, J_plus, sens_plus = sol.residual(modes, z + eps * w, pose,
-                                                    pose_sensitivity=True)
-                _, J_minus, sens_minus = sol.residual(modes, z - eps * w, pose,
-                                                      pose_sensitivity=True)
-                dR_dt = sens @ rate
-                A[:n, :n] = J
-                A[:n, n] = dR_dt
-                A[n, :n] = (u @ J_minus - u @ J_plus) / (2.0 * eps)
-                A[n, n] = float(u @ (sens_minus @ rate) - u @ (sens_plus @ rate)) / (2.0 * eps)
-                step = _lu_solve(_lu_factor(A), np.append(res, g))
-                z = z - step[:n]
-                t_f -= float(step[n])
-                sol._check_breaks(modes, z)
-                size = float(np.max(np.abs(step)))
-                if size <= 1e-13 or _settled(size, last):
-                    break
-                if size > 0.3 * last:
-                    # not contracting as Newton does near a regular solution: no fold near
-                    # (the tangent also grows where the branch passes close to one)
-                    return None
-                last = size
-            else:
-                return None
+            found = self._bordered_newton(path, v + 2.0 * left * tan, t + left, t, 1.0, border)
         except _OverBudget:
             raise
         except (ConvergenceError, ArithmeticError, ValueError, np.linalg.LinAlgError):
             return None
+        if found is None:
+            return None
+        z, t_f = found
+        u, dR_dt = last_border["u"], last_border["dR_dt"]
         if not t + 2.0 * _H_MIN <= t_f <= 1.0 or t_f - t > reach:
             return None
         transversal = abs(float(u @ dR_dt))
@@ -1309,6 +1291,47 @@ class RodTracker:
         self._accept(solution(t_star), path.pose(t_star))
         return self._change(path, t_star, key, events)
 
+    def _bordered_newton(self, path, z, t, lo, hi, border):
+        """
+        Return (v, t) where R(v, t) = 0 and one more equation b(v, t) = 0 hold, or None.
+
+        Newton on the bordered Jacobian [[J, dR/dt], [db/dv, db/dt]] from (z, t) along the
+        path; ``border(z, pose, J, dR/dt, rate)`` gives (b, db/dv, db/dt) there. None where t
+        leaves [lo, hi], where a step is not shorter than 0.3 times the one before (not
+        contracting as Newton does near a regular solution), or after _FOLD_ITERATIONS; the
+        evaluations' errors pass through. For :meth:`_locate_fold` (b = g, J's singularity) and
+        :meth:`_locate_linear` (b = v_i - bound).
+        """
+        sol = self.solver
+        modes = self._modes
+        n = z.size
+        A = np.empty((n + 1, n + 1))
+        last = math.inf
+        for _ in range(_FOLD_ITERATIONS):
+            self._check_budget()
+            pose = path.pose(t)
+            rate = path.rate(pose)
+            res, J, sens = sol.residual(modes, z, pose, pose_sensitivity=True)
+            dR_dt = sens @ rate
+            value, A[n, :n], A[n, n] = border(z, pose, J, dR_dt, rate)
+            A[:n, :n] = J
+            A[:n, n] = dR_dt
+            step = _lu_solve(_lu_factor(A), np.append(res, value))
+            z = z - step[:n]
+            t -= float(step[n])
+            sol._check_breaks(modes, z)
+            if not lo <= t <= hi:
+                return None
+            size = float(np.max(np.abs(step)))
+            if size <= 1e-13 or _settled(size, last):
+                return z, t
+            if size > 0.3 * last:
+                # not contracting as Newton does near a regular solution (for a fold: none
+                # near; the tangent also grows where the branch passes close to one)
+                return None
+            last = size
+        return None
+
     def _linear_event(self, key):
         """
         Return (index, bound) where an event's value is an unknown less its bound, or None.
@@ -1345,32 +1368,18 @@ class RodTracker:
         slope = float(tan[index])
         tau = t_a - value / slope if slope != 0.0 else 0.5 * (t_a + t_b)
         tau = min(max(tau, t_a), t_b)
-        z = solved_a.vec + (tau - t_a) * tan
-        n = z.size
-        A = np.zeros((n + 1, n + 1))
-        A[n, index] = 1.0
-        last = math.inf
+        row = np.zeros(solved_a.vec.size)
+        row[index] = 1.0
+
+        def border(z, pose, J, dR_dt, rate):
+            return z[index] - bound, row, 0.0
+
         try:
-            for _ in range(_FOLD_ITERATIONS):
-                self._check_budget()
-                pose = path.pose(tau)
-                res, J, sens = sol.residual(modes, z, pose, pose_sensitivity=True)
-                A[:n, :n] = J
-                A[:n, n] = sens @ path.rate(pose)
-                step = _lu_solve(_lu_factor(A), np.append(res, z[index] - bound))
-                z = z - step[:n]
-                tau -= float(step[n])
-                sol._check_breaks(modes, z)
-                if not t_a <= tau <= t_b:
-                    return None
-                size = float(np.max(np.abs(step)))
-                if size <= 1e-13 or _settled(size, last):
-                    break
-                if size > 0.3 * last:
-                    return None
-                last = size
-            else:
+            found = self._bordered_newton(path, solved_a.vec + (tau - t_a) * tan, tau, t_a, t_b,
+                                          border)
+            if found is None:
                 return None
+            z, tau = found
             return tau, sol.solve(modes, path.pose(tau), z, max_step=0.5, exact_jacobian=True)
         except _OverBudget:
             raise
