@@ -175,7 +175,7 @@ def test_the_one_call_evaluation_equals_prepare_and_equations():
         vec = _vector(solver, modes, breaks, forces, pose)
         assert solver._geometry_of(modes) is not None
         fused = solver._residual_compiled(modes, vec, pose, True, True)
-        solver._geometries[modes] = None
+        solver._config(modes).geometry = None
         apart = solver._residual_compiled(modes, vec, pose, True, True)
         for a, b in zip(fused, apart):
             assert np.array_equal(a, b)

@@ -66,7 +66,7 @@ def warm_up() -> None:
             solver._residual_compiled(modes, vec, pose, False, False)
             solver._accepted(modes, vec, pose)
             # and as for an obstacle the kernels do not know (its surface data from Python)
-            solver._geometries[modes] = None
+            solver._config(modes).geometry = None
             solver._residual_compiled(modes, vec, pose, True, True)
             solver._residual_compiled(modes, vec, pose, False, False)
             solver._nodes(modes, vec, pose)

@@ -60,6 +60,13 @@ DEFAULT_SEGMENT_POINTS = 16
 POINTS_TOLERANCE = 1e-11
 _POINTS_LADDER = (16, 20, 24, 28, 32, 36, 40, 48)
 _POINTS_REFERENCE = 64
+#: a solution is resolved by m points per segment (m on the ladder, below the solver's n) where
+#: every Chebyshev coefficient of its quaternions from degree m - 2 up is below this (the error
+#: of m points is then ~1e-12 to 1e-11, as POINTS_TOLERANCE asks of the probe load)
+POINTS_COARSEN = 1e-12
+#: and asks for more points again where its last two coefficients exceed this (ten times
+#: POINTS_COARSEN: a solution does not go back and forth between two counts)
+POINTS_REFINE = 1e-11
 KINDS = ("side", "tip")
 _E3 = np.array([0.0, 0.0, 1.0])
 _NEWTON_ITERATIONS = 30
@@ -191,6 +198,60 @@ def points_for(shape: RodShape) -> int:
         except ConvergenceError:
             continue
     return _POINTS_REFERENCE
+
+
+class _Operators(NamedTuple):
+    """Chebyshev collocation operators of n points (internal)."""
+
+    x: np.ndarray           # the points on [-1, 1], ascending
+    S: np.ndarray           # cumulative integration from -1 (n x n)
+    Vinv: np.ndarray        # nodal values -> Chebyshev coefficients
+    tau: np.ndarray         # the points mapped to [0, 1]
+    int_matrix: np.ndarray  # nodal values -> their integral's Chebyshev coefficients
+
+
+def _same(a: np.ndarray, b: np.ndarray) -> bool:
+    """Tell whether two arrays are equal (numpy.array_equal, without its wrapper's checks)."""
+    return a.shape == b.shape and bool((a == b).all())
+
+
+@lru_cache(maxsize=None)
+def _operators(n: int) -> _Operators:
+    """Return the collocation operators of n points (one set per process, read-only)."""
+    x, S, Vinv = chebyshev_operators(n)
+    # nodal values -> their interpolant's integral from -1, as Chebyshev series of degree n
+    C = np.polynomial.chebyshev
+    cint = np.stack([C.chebint(np.eye(n)[j], lbnd=-1.0) for j in range(n)], 1)
+    # (tau and the integral's matrix go to the kernels as writable arrays: numba compiles its
+    # kernels once more for read-only ones; no one writes into them)
+    return _Operators(x, S, Vinv, 0.5 * (x + 1.0), cint @ Vinv)
+
+
+@lru_cache(maxsize=None)
+def _resampler(n_old: int, n: int) -> np.ndarray:
+    """Return the matrix (n, n_old) of the interpolant of n_old points at n points."""
+    M = np.polynomial.chebyshev.chebvander(_operators(n).x, n_old - 1) @ _operators(n_old).Vinv
+    M.setflags(write=False)
+    return M
+
+
+class _Config:
+    """A configuration's contacts as the solver's kernels take them (internal, cached)."""
+
+    __slots__ = ("kinds", "extra", "geometry", "touched")
+
+    def __init__(self, solver: "RodSolver", modes: Tuple["RodContactMode", ...]):
+        self.kinds = np.array([m.kind == "side" for m in modes], dtype=np.int64)
+        self.extra = sum(m.size for m in modes)
+        # (none for contacts on no obstacle: the probe load of points_for)
+        self.geometry = (kernel_obstacles([solver.obstacles[m.obstacle] for m in modes])
+                         if all(m.obstacle < len(solver.obstacles) for m in modes) else None)
+        # the obstacles touched, and the first contact on each
+        first = {}
+        for c, m in enumerate(modes):
+            first.setdefault(m.obstacle, c)
+        self.touched = (tuple(sorted(first)),
+                        np.array([first[k] for k in sorted(first)], dtype=np.int64))
 
 
 class Solved(NamedTuple):
@@ -422,14 +483,14 @@ class _Layout:
     __slots__ = ("breaks", "n", "k", "N", "s", "w", "G", "ends", "tau", "a", "b", "L", "sp",
                  "T")
 
-    def __init__(self, solver: "RodSolver", breaks: Sequence[float]):
-        n = solver.n
+    def __init__(self, solver: "RodSolver", breaks: Sequence[float], n: Optional[int] = None):
+        n = solver.n if n is None else n
         self.breaks = tuple(float(v) for v in breaks)
         self.n, self.k = n, len(self.breaks)
         self.N = n * self.k
         self.a = np.array((0.0,) + self.breaks[:-1])
         self.b = np.array(self.breaks)
-        self.tau = tau = solver._tau
+        self.tau = tau = solver._operators(n).tau
         self.sp = solver._sp
         a = self.a[:, None]
         if self.sp is None:
@@ -444,7 +505,7 @@ class _Layout:
             gap = (sp - a) * np.exp(tau * L)
             self.s = (sp - gap).ravel()
             self.w = (-L * gap).ravel()
-        self.T = solver._template(self.k)
+        self.T = solver._template(self.k, n)
         self.G = self.T * self.w[None, :]
         self.ends = np.arange(1, self.k + 1) * n - 1
 
@@ -623,14 +684,13 @@ class RodSolver:
         self.shape = shape
         self.obstacles = tuple(obstacles)
         self.n = int(n)
-        x, S, Vinv = chebyshev_operators(self.n)
-        self._x, self._S, self._Vinv = x, S, Vinv
-        self._tau = 0.5 * (x + 1.0)
-        # nodal values -> their interpolant's integral from -1, as Chebyshev series of degree n
-        C = np.polynomial.chebyshev
-        cint = np.stack([C.chebint(np.eye(self.n)[j], lbnd=-1.0) for j in range(self.n)], 1)
-        self._int_matrix = cint @ Vinv
+        self._ops = {}
         self._templates = {}
+        self._configs = {}
+        self._config_modes = self._config_last = None
+        ops = self._operators(self.n)
+        self._x, self._S, self._Vinv = ops.x, ops.S, ops.Vinv
+        self._tau, self._int_matrix = ops.tau, ops.int_matrix
         self._nu1 = 1.0 + shape.poisson
         self._sp = None if shape.taper == 1.0 else 1.0 / (1.0 - shape.taper)
         self.evaluations = 0
@@ -638,12 +698,9 @@ class RodSolver:
         self._free_tip_cache = None
         self._nodes_cache = None
         self._accepted_cache = None
-        self._touched = {}
         self._chord_rate = 1.0
         self._identity_columns = {}
         # the compiled kernels' view of the shape (vibrissa_ros.core.rod3d._jit)
-        self._kinds = {}
-        self._geometries = {}
         self._finite_jacobian = None
         self._jit_sp = -1.0 if self._sp is None else float(self._sp)
         if shape.parabola is not None:
@@ -654,27 +711,34 @@ class RodSolver:
                                     shape.parabola or 0.0, float(shape.parabola is not None)))
 
     # -- operators ----------------------------------------------------------------------------
-    def _template(self, k: int) -> np.ndarray:
-        """G for unit segment lengths (N x N), k segments."""
-        T = self._templates.get(k)
+    def _operators(self, n: int) -> "_Operators":
+        """Return the collocation operators for n points per segment (shared, cached)."""
+        ops = self._ops.get(n)
+        if ops is None:
+            ops = self._ops[n] = _operators(n)
+        return ops
+
+    def _template(self, k: int, n: Optional[int] = None) -> np.ndarray:
+        """G for unit segment lengths (N x N), k segments of n points (default: the solver's)."""
+        n = self.n if n is None else n
+        T = self._templates.get((n, k))
         if T is None:
-            n = self.n
             T = np.zeros((n * k, n * k))
-            half = 0.5 * self._S
+            half = 0.5 * self._operators(n).S
             for c in range(k):
                 rows = slice(c * n, (c + 1) * n)
                 T[rows, c * n:(c + 1) * n] = half
                 for cp in range(c):
                     T[rows, cp * n:(cp + 1) * n] = half[-1]
             T.setflags(write=False)
-            self._templates[k] = T
+            self._templates[(n, k)] = T
         return T
 
     def layout(self, modes: Sequence[RodContactMode], vec: np.ndarray) -> _Layout:
         """Return the segment layout of a configuration at its unknown vector (internal)."""
-        return _Layout(self, self.breaks_of(modes, vec))
+        return _Layout(self, self.breaks_of(modes, vec), self.points_of(modes, vec))
 
-    def size(self, modes: Sequence[RodContactMode]) -> int:
+    def size(self, modes: Sequence[RodContactMode], n: Optional[int] = None) -> int:
         """
         Return the number of unknowns of a configuration.
 
@@ -682,6 +746,8 @@ class RodSolver:
         ----------
         modes : sequence of RodContactMode
             The contacts from the base to the tip.
+        n : int, optional
+            Points per segment; default the solver's.
 
         Returns
         -------
@@ -689,12 +755,46 @@ class RodSolver:
             4 N + the contacts' unknowns.
 
         """
-        return 4 * self.n * len(modes) + sum(m.size for m in modes)
+        return 4 * (self.n if n is None else n) * len(modes) + self._contact_unknowns(modes)
+
+    def _contact_unknowns(self, modes) -> int:
+        """Return the number of the contacts' own unknowns (s_c, f_c or f_c each), cached."""
+        return self._config(modes).extra
+
+    def points_of(self, modes: Sequence[RodContactMode], vec: np.ndarray) -> int:
+        """
+        Return the points per segment of an unknown vector (its length tells them).
+
+        Parameters
+        ----------
+        modes : sequence of RodContactMode
+            The contacts (at least one).
+        vec : numpy.ndarray
+            The unknown vector.
+
+        Returns
+        -------
+        int
+            n, with len(vec) = 4 n k + the contacts' unknowns.
+
+        Raises
+        ------
+        ParameterError
+            When no n fits the vector's length.
+
+        """
+        k = len(modes)
+        n, rest = divmod(len(vec) - self._config(modes).extra, 4 * k) if k else (0, 1)
+        if rest or n < 2:
+            raise ParameterError(
+                f"an unknown vector of {len(vec)} values does not fit {k} contacts "
+                "(4 n per contact's segment and the contacts' own unknowns)")
+        return n
 
     def breaks_of(self, modes, vec) -> Tuple[float, ...]:
         """Return the contacts' arc lengths from an unknown vector."""
         out = []
-        o = 4 * self.n * len(modes)
+        o = len(vec) - self._config(modes).extra
         for m in modes:
             if m.kind == "side":
                 out.append(float(vec[o]))
@@ -706,7 +806,7 @@ class RodSolver:
     def forces_of(self, modes, vec) -> Tuple[float, ...]:
         """Return the contacts' normal forces from an unknown vector."""
         out = []
-        o = 4 * self.n * len(modes)
+        o = len(vec) - self._config(modes).extra
         for m in modes:
             out.append(float(vec[o + m.size - 1]))
             o += m.size
@@ -741,15 +841,27 @@ class RodSolver:
             return self._residual_compiled(modes, vec, pose, jacobian, pose_sensitivity)
         return self._residual_numpy(modes, vec, pose, jacobian, pose_sensitivity)
 
+    def _config(self, modes) -> "_Config":
+        """
+        Return what the solver keeps of a configuration (its kinds, sizes, obstacles), cached.
+
+        The last one asked for is answered first by identity: a tracker passes the same tuple
+        of modes for every evaluation of a configuration, and hashing its modes costs more
+        than the lookups themselves.
+        """
+        if modes is self._config_modes:
+            return self._config_last
+        key = modes if isinstance(modes, tuple) else tuple(modes)
+        config = self._configs.get(key)
+        if config is None:
+            config = self._configs[key] = _Config(self, key)
+        if type(modes) is tuple:
+            self._config_modes, self._config_last = modes, config
+        return config
+
     def _kinds_of(self, modes) -> np.ndarray:
         """Return the contacts' kinds as the kernels take them (1 side, 0 tip), cached."""
-        if not isinstance(modes, tuple):
-            modes = tuple(modes)
-        kinds = self._kinds.get(modes)
-        if kinds is None:
-            kinds = np.array([m.kind == "side" for m in modes], dtype=np.int64)
-            self._kinds[modes] = kinds
-        return kinds
+        return self._config(modes).kinds
 
     def _geometry_of(self, modes):
         """
@@ -758,34 +870,29 @@ class RodSolver:
         None unless every one is a Sphere, Cylinder or Plane (exactly: a subclass may answer
         otherwise); cached per configuration.
         """
-        if not isinstance(modes, tuple):
-            modes = tuple(modes)
-        out = self._geometries.get(modes, False)
-        if out is False:
-            out = self._geometries[modes] = kernel_obstacles(
-                [self.obstacles[m.obstacle] for m in modes])
-        return out
+        return self._config(modes).geometry
 
     def _residual_compiled(self, modes, vec, pose, jacobian, pose_sensitivity):
         """:meth:`residual` by the compiled kernels (:mod:`._jit`)."""
         if not _jit.WARM:
             _jit.warm_up()
         self.evaluations += 1
-        n = self.n
         k = len(modes)
+        n = self.points_of(modes, vec)
+        tau = self._operators(n).tau
         kinds = self._kinds_of(modes)
         vec = np.ascontiguousarray(vec, dtype=float)
-        T = self._template(k)
+        T = self._template(k, n)
         geometry = self._geometry_of(modes)
         if geometry is not None:
             # analytic obstacles: their surface data computed in the same kernel call
             res, J, sens, finite = _jit.evaluate(
-                vec, pose.q, n, kinds, self._tau, self._jit_sp, T, pose.p, self._jit_shape,
+                vec, pose.q, n, kinds, tau, self._jit_sp, T, pose.p, self._jit_shape,
                 self._jit_grid, self._jit_table, self._nu1, geometry[0], geometry[1], jacobian,
                 pose_sensitivity)
         else:
             s, w, ds, dw, kinv, kap0, slope, dkinv, r = _jit.prepare(
-                vec, n, kinds, self._tau, self._jit_sp, T, pose.p, self._jit_shape,
+                vec, n, kinds, tau, self._jit_sp, T, pose.p, self._jit_shape,
                 self._jit_grid, self._jit_table)
             dist = np.empty(k)
             normal = np.empty((k, 3))
@@ -807,7 +914,7 @@ class RodSolver:
         """:meth:`residual` in numpy: the reference the compiled kernels are tested against."""
         self.evaluations += 1
         k = len(modes)
-        lay = _Layout(self, self.breaks_of(modes, vec))
+        lay = self.layout(modes, vec)
         N, G, ends = lay.N, lay.G, lay.ends
         Q = vec[:4 * N].reshape(N, 4)
         R = _rotations(Q)
@@ -825,7 +932,7 @@ class RodSolver:
             o += m.size
         M = self._moments(r, ends, F)
         kap, Lv, g = self._curvature(Q, R, M, kinv, kap0)
-        res = np.empty(self.size(modes))
+        res = np.empty(self.size(modes, lay.n))
         res[:4 * N] = (Q - pose.q - G @ g).ravel()
         o = 4 * N
         for c, m in enumerate(modes):
@@ -964,7 +1071,7 @@ class RodSolver:
             dM[:e] += _cross(drc - dr[:e], F[cp]) + _cross(r[lay.ends[cp]] - r[:e], dF)
         # the moment's change (through P R^T) and the stiffness' and curvature's at moved nodes
         dg = np.matmul(PRt, dM[:, :, None])[:, :, 0] + shared * ds[:, None]
-        col = np.empty(self.size(modes))
+        col = np.empty(self.size(modes, lay.n))
         col[:4 * N] = -(dG @ g + lay.G @ dg).ravel()
         o = 4 * N
         for cp, m in enumerate(modes):
@@ -1145,7 +1252,7 @@ class RodSolver:
 
     @staticmethod
     def _take(step, max_step) -> float:
-        size = float(np.max(np.abs(step)))
+        size = float(np.abs(step).max())
         if not math.isfinite(size):
             raise ConvergenceError("3D whisker: Newton step is not finite")
         if max_step is not None and size > max_step:
@@ -1259,6 +1366,103 @@ class RodSolver:
                 )
         return vec
 
+    # -- points per segment -------------------------------------------------------------------
+    def coefficient_magnitudes(self, modes: Sequence[RodContactMode], vec: np.ndarray,
+                               lowest: int = 0) -> np.ndarray:
+        """
+        Return the largest Chebyshev coefficient of each degree of a solution's quaternions.
+
+        Parameters
+        ----------
+        modes : sequence of RodContactMode
+            The contacts (at least one).
+        vec : numpy.ndarray
+            The unknown vector.
+        lowest : int, optional
+            The lowest degree wanted.
+
+        Returns
+        -------
+        numpy.ndarray
+            (n - lowest,): max over the segments and the four components of |c_j|,
+            j = lowest .. n - 1, of the interpolant in each segment's own coordinate (the
+            layout's tau).
+
+        """
+        n = self.points_of(modes, vec)
+        k = len(modes)
+        Q = np.asarray(vec[:4 * n * k], dtype=float).reshape(k, n, 4)
+        coef = np.matmul(self._operators(n).Vinv[lowest:], Q)       # (k, n - lowest, 4)
+        return np.abs(coef).max(axis=(0, 2))
+
+    def points_needed(self, modes: Sequence[RodContactMode], vec: np.ndarray) -> int:
+        """
+        Return the points per segment a configuration's solution asks for.
+
+        :func:`points_for` sizes the whisker for its hardest case, a load at the tip; a
+        lighter load, or a contact nearer the base, leaves a smoother loaded part that fewer
+        points resolve. The count drops to the least m on the ladder (16, 20, 24, ...) whose
+        omitted Chebyshev coefficients (degree m - 2 up) are all below :data:`POINTS_COARSEN`,
+        and climbs one rung where the last two coefficients of the current count exceed
+        :data:`POINTS_REFINE`; never above the solver's n, which every new configuration
+        starts from.
+
+        Parameters
+        ----------
+        modes : sequence of RodContactMode
+            The contacts (at least one).
+        vec : numpy.ndarray
+            A converged unknown vector.
+
+        Returns
+        -------
+        int
+            The points per segment to solve it with (the current count where it may stay).
+
+        """
+        n = self.points_of(modes, vec)
+        lo = _POINTS_LADDER[0] - 2
+        if n <= _POINTS_LADDER[0] and n >= self.n:
+            return n  # as few as there are, and no more allowed
+        # above[j - lo]: the largest coefficient of degree j or more
+        above = np.maximum.accumulate(self.coefficient_magnitudes(modes, vec, lo)[::-1])[::-1]
+        if n < self.n and float(above[n - 2 - lo]) > POINTS_REFINE:
+            return min([m for m in _POINTS_LADDER if n < m < self.n] + [self.n])
+        for m in _POINTS_LADDER:
+            if m >= n:
+                break
+            if float(above[m - 2 - lo]) <= POINTS_COARSEN:
+                return m
+        return n
+
+    def resample(self, modes: Sequence[RodContactMode], vec: np.ndarray, n: int) -> np.ndarray:
+        """
+        Return an unknown vector on n points per segment (spectral interpolation), same contacts.
+
+        Parameters
+        ----------
+        modes : sequence of RodContactMode
+            The contacts (at least one).
+        vec : numpy.ndarray
+            The unknown vector.
+        n : int
+            The new points per segment.
+
+        Returns
+        -------
+        numpy.ndarray
+            The quaternions' interpolant at the new nodes of each segment, then the contacts'
+            unknowns unchanged (a guess for :meth:`solve` with n points).
+
+        """
+        n_old = self.points_of(modes, vec)
+        k = len(modes)
+        vec = np.asarray(vec, dtype=float)
+        if n == n_old:
+            return vec.copy()
+        Q = np.matmul(_resampler(n_old, n), vec[:4 * n_old * k].reshape(k, n_old, 4))
+        return np.concatenate((Q.ravel(), vec[4 * n_old * k:]))
+
     def _check_breaks(self, modes, vec):
         b = self.breaks_of(modes, vec)
         prev = 0.0
@@ -1326,7 +1530,7 @@ class RodSolver:
         return quat_multiply(pose.q, _turns_about_d3(phi))
 
     def guess(self, modes: Sequence[RodContactMode], breaks: Sequence[float],
-              forces: Sequence[float], quaternions) -> np.ndarray:
+              forces: Sequence[float], quaternions, n: Optional[int] = None) -> np.ndarray:
         """
         Build an unknown vector from contact arc lengths, forces and a quaternion field.
 
@@ -1340,6 +1544,8 @@ class RodSolver:
             Their normal forces.
         quaternions : callable
             s (m,) -> q (m, 4), e.g. an old solution's :meth:`quaternions`.
+        n : int, optional
+            Points per segment; default the solver's.
 
         Returns
         -------
@@ -1347,7 +1553,7 @@ class RodSolver:
             The unknown vector.
 
         """
-        lay = _Layout(self, breaks)
+        lay = _Layout(self, breaks, n)
         out = [np.asarray(quaternions(lay.s), dtype=float).ravel()]
         for m, b, f in zip(modes, breaks, forces):
             out.append([b, f] if m.kind == "side" else [f])
@@ -1356,7 +1562,7 @@ class RodSolver:
     def _interpolate(self, lay: _Layout, values: np.ndarray, s: np.ndarray) -> np.ndarray:
         """Nodal values (N, d) interpolated at arc lengths s (m,) inside the segments."""
         c, x = lay.locate(s)
-        V = np.polynomial.chebyshev.chebvander(x, self.n - 1) @ self._Vinv     # (m, n)
+        V = np.polynomial.chebyshev.chebvander(x, lay.n - 1) @ self._operators(lay.n).Vinv
         vals = values.reshape(lay.k, lay.n, -1)[c]                            # (m, n, d)
         return np.einsum("mj,mjd->md", V, vals)
 
@@ -1384,7 +1590,7 @@ class RodSolver:
         s = np.atleast_1d(np.asarray(s, dtype=float))
         if not modes:
             return self.free_quaternions(pose, s)
-        lay = _Layout(self, self.breaks_of(modes, vec))
+        lay = self.layout(modes, vec)
         Q = vec[:4 * lay.N].reshape(lay.N, 4)
         end = lay.breaks[-1]
         out = np.empty((s.size, 4))
@@ -1428,7 +1634,7 @@ class RodSolver:
     def _centerline_numpy(self, modes, vec, pose, s):
         """:meth:`centerline` (with contacts) in numpy: the reference of the kernels."""
         p = pose.p
-        lay = _Layout(self, self.breaks_of(modes, vec))
+        lay = self.layout(modes, vec)
         Q = vec[:4 * lay.N].reshape(lay.N, 4)
         R = _rotations(Q)
         D1 = R[:, :, 0]
@@ -1439,7 +1645,8 @@ class RodSolver:
         inside = s <= end
         if np.any(inside):
             c, x = lay.locate(s[inside])
-            W = np.polynomial.chebyshev.chebvander(x, self.n) @ self._int_matrix   # (m, n)
+            W = (np.polynomial.chebyshev.chebvander(x, lay.n)
+                 @ self._operators(lay.n).int_matrix)                         # (m, n)
             vals = (D1 * lay.w[:, None]).reshape(lay.k, lay.n, 3)[c]
             starts = r_nodes.reshape(lay.k, lay.n, 3)[c, 0]
             out[inside] = starts + 0.5 * np.einsum("mj,mjd->md", W, vals)
@@ -1453,13 +1660,14 @@ class RodSolver:
         vec = np.ascontiguousarray(vec, dtype=float)
         s = np.ascontiguousarray(s)
         breaks, w, r_nodes, frames = self._nodes(modes, vec, pose)
+        n = self.points_of(modes, vec)
+        int_matrix = self._operators(n).int_matrix
         end = breaks[-1]
         last = frames[-1]
         beyond = s > end
         n_beyond = int(np.count_nonzero(beyond))
         if n_beyond == 0:
-            return _jit.sample(s, vec, self.n, breaks, w, r_nodes, self._jit_sp,
-                               self._int_matrix)
+            return _jit.sample(s, vec, n, breaks, w, r_nodes, self._jit_sp, int_matrix)
         tail = s if n_beyond == s.size else s[beyond]
         if self.shape.parabola is not None:
             off = _jit.parabola_tail(end, tail, self.shape.parabola, self._jit_grid,
@@ -1471,8 +1679,8 @@ class RodSolver:
             return pts
         out = np.empty((s.size, 3))
         out[beyond] = pts
-        out[~beyond] = _jit.sample(s[~beyond], vec, self.n, breaks, w, r_nodes, self._jit_sp,
-                                   self._int_matrix)
+        out[~beyond] = _jit.sample(s[~beyond], vec, n, breaks, w, r_nodes, self._jit_sp,
+                                   int_matrix)
         return out
 
     def _nodes(self, modes, vec, pose):
@@ -1491,10 +1699,11 @@ class RodSolver:
         vec = np.ascontiguousarray(vec, dtype=float)
         last = self._nodes_cache
         if (last is not None and last[1] == pose and last[2] == modes
-                and np.array_equal(last[0], vec)):
+                and _same(last[0], vec)):
             return last[3]
-        out = _jit.nodes(vec, self.n, self._kinds_of(modes), self._tau, self._jit_sp,
-                         self._template(len(modes)), pose.p)
+        n = self.points_of(modes, vec)
+        out = _jit.nodes(vec, n, self._kinds_of(modes), self._operators(n).tau, self._jit_sp,
+                         self._template(len(modes), n), pose.p)
         self._nodes_cache = (vec.copy(), pose, modes, out)
         return out
 
@@ -1521,18 +1730,14 @@ class RodSolver:
         vec = np.ascontiguousarray(vec, dtype=float)
         last = self._accepted_cache
         if (last is not None and last[1] == pose and last[2] == modes
-                and np.array_equal(last[0], vec)):
+                and _same(last[0], vec)):
             return last[3]
-        touched = self._touched.get(modes)
-        if touched is None:
-            first = {}
-            for c, m in enumerate(modes):
-                first.setdefault(m.obstacle, c)
-            touched = self._touched[modes] = (tuple(sorted(first)), np.array(
-                [first[k] for k in sorted(first)], dtype=np.int64))
+        n = self.points_of(modes, vec)
+        touched = self._config(modes).touched
         points, normals, tip, frame, tail_depth, depth, where = _jit.accepted(
-            vec, self.n, self._kinds_of(modes), self._tau, self._jit_sp,
-            self._template(len(modes)), pose.p, geometry[0], geometry[1], touched[1], TAIL_SAMPLES,
+            vec, n, self._kinds_of(modes), self._operators(n).tau, self._jit_sp,
+            self._template(len(modes), n), pose.p, geometry[0], geometry[1], touched[1],
+            TAIL_SAMPLES,
             shape.parabola or 0.0, self._jit_grid, self._jit_table)
         out = _Accepted(points, normals, tip, frame, float(tail_depth), touched[0], depth, where)
         self._accepted_cache = (vec.copy(), pose, modes, out)
@@ -1571,10 +1776,11 @@ class RodSolver:
             else:
                 if _jit.ENABLED:
                     _, _, r_nodes, R = self._nodes(modes, vec, pose)
-                    r_ends = r_nodes[self.n - 1::self.n]
-                    Q_last = vec[4 * self.n * len(modes) - 4:4 * self.n * len(modes)]
+                    n = self.points_of(modes, vec)
+                    r_ends = r_nodes[n - 1::n]
+                    Q_last = vec[4 * n * len(modes) - 4:4 * n * len(modes)]
                 else:
-                    lay = _Layout(self, breaks)
+                    lay = self.layout(modes, vec)
                     Q = vec[:4 * lay.N].reshape(lay.N, 4)
                     R = _rotations(Q[lay.ends])
                     r_ends = p + lay.G[lay.ends] @ _tangents(Q)

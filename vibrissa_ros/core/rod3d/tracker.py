@@ -69,6 +69,10 @@ _MAX_MOVE = 0.05
 #: smallest free sub-step motion [L] (the finest sampling of the free whisker's path)
 _MIN_FREE_MOVE = 2e-3
 _H_MIN = 1e-12
+#: a solution is moved to other points per segment only where every event value exceeds this
+_RESOLVE_MARGIN = 1e-6
+#: and only where the new solution, resampled back, lies this close to the old one
+_RESOLVE_JUMP = 1e-8
 _EVENT_XTOL = 1e-14
 _MAX_EVENTS = 64
 _MAX_SUBSTEPS = 5000
@@ -400,6 +404,11 @@ class RodTracker:
     recover : bool, optional
         Re-place the unloaded whisker when a step cannot be followed and the unloaded whisker
         is clear of every obstacle at the new pose (a ``reset`` event).
+    adapt_points : bool, optional
+        Solve each contact configuration on as few points per segment as its solution needs
+        (:meth:`~vibrissa_ros.core.rod3d.model.RodSolver.points_needed`, at most ``n``): the
+        same equilibria to ~1e-14, with about a third less factorization work on the rat's pad
+        (``bench/bench_array.py``). False: always ``n``.
 
     Raises
     ------
@@ -410,12 +419,14 @@ class RodTracker:
 
     def __init__(self, obstacles: Sequence[Any], pose: BasePose,
                  shape: Optional[RodShape] = None, n: Optional[int] = None,
-                 max_evaluations: int = 20000, recover: bool = True):
+                 max_evaluations: int = 20000, recover: bool = True,
+                 adapt_points: bool = True):
         self.shape = RodShape() if shape is None else shape
         self.obstacles = tuple(getattr(obstacles, "obstacles", obstacles))
         self.solver = RodSolver(self.shape, self.obstacles, n=n)
         self.max_evaluations = int(max_evaluations)
         self.recover = bool(recover)
+        self.adapt_points = bool(adapt_points)
         self._nested = False
         self._free_points = self.shape.free_centerline(_FREE_SAMPLES)
         # the free whisker's least distance near a sample, compiled (_jit.free_minimum) for a
@@ -611,6 +622,8 @@ class RodTracker:
         self._pose = target
         if not self._modes:
             self._vec, self._solved = np.zeros(0), None
+        elif not events and self.adapt_points:
+            self._resolve_points()
         self._state = self._make_state()
         return RodStepResult(self._state, tuple(events), substeps,
                              self.solver.evaluations - self._start)
@@ -886,7 +899,7 @@ class RodTracker:
         sol = self.solver
         pose = path.pose(t)
         tan = sol.tangent(self._solved, path.rate(pose))
-        big = float(np.max(np.abs(tan * self._scales())))
+        big = self._largest_change(tan)
         dt = min(1.0 - t, h, _MAX_MOVE / path.speed)
         bounded = big > 0.0 and _MAX_CHANGE / big < dt
         if bounded:
@@ -994,6 +1007,49 @@ class RodTracker:
             if dt * 0.25 < _H_MIN:
                 raise
             return t, 0.25 * dt
+
+    def _resolve_points(self) -> None:
+        """
+        Solve the accepted solution again on the points per segment it asks for, if others.
+
+        :meth:`RodSolver.points_needed` reads them from its Chebyshev coefficients: a contact
+        near the base needs fewer than the tip probe's count, and a solve costs about the cube
+        of the unknowns. The solution, resampled, is solved at the same pose (Newton from
+        ~1e-11 away: one step); the stream's past solutions are resampled with it, so that its
+        predictor goes on. Kept as it is where an event is near (a value within
+        _RESOLVE_MARGIN of its bound: the discretizations may differ on its side), or the new
+        solve fails or lands farther than _RESOLVE_JUMP (not the same equilibrium).
+        """
+        sol = self.solver
+        modes, vec = self._modes, self._vec
+        n_now = sol.points_of(modes, vec)
+        n_new = sol.points_needed(modes, vec)
+        if n_new == n_now:
+            return
+        path = _Path(self._pose, self._pose)
+        if min(self._event_values(path, 1.0, vec, self._solved.lu).values()) < _RESOLVE_MARGIN:
+            return
+        try:
+            solved = sol.solve(modes, self._pose, sol.resample(modes, vec, n_new), trusted=True,
+                               max_step=0.5, max_iterations=4)
+        except _OverBudget:
+            raise
+        except ConvergenceError:
+            return
+        if float(np.max(np.abs(sol.resample(modes, solved.vec, n_now) - vec))) > _RESOLVE_JUMP:
+            return
+        # the stable value keeps its sign (det J of another size may have the other)
+        old = _det_measure(self._solved.lu)
+        new = _det_measure(solved.lu)
+        if old == 0.0 or new == 0.0:
+            return
+        self._sign *= math.copysign(1.0, old) * math.copysign(1.0, new)
+        self._solved, self._vec = solved, solved.vec
+        self._history = [(p, sol.resample(modes, v, n_new)) for p, v in self._history]
+        if self._last_step is not None:
+            p, v, m = self._last_step
+            self._last_step = (p, sol.resample(modes, v, n_new), m)
+        self._fold_prev = None
 
     def _lost_beyond(self, path: _Path, t: float) -> bool:
         """
@@ -1176,14 +1232,16 @@ class RodTracker:
                 q = (-w, -x, -y, -z)
             rows.append(pose.position + q)
         rows = np.array(rows)
-        step = float(np.linalg.norm(rows[-1] - rows[-2]))
+        last = rows[-1] - rows[-2]
+        step = math.sqrt(float(last.dot(last)))  # (np.linalg.norm, without its wrapper)
         if step == 0.0:
             return None
         for k in _STREAM_ORDERS:
             if k + 2 > len(rows):
                 continue  # too short a history yet
             c = _STREAM_WEIGHTS[k]
-            if float(np.linalg.norm(c @ rows[-(k + 2):])) <= _STREAM_TOLERANCE * step:
+            diff = c @ rows[-(k + 2):]
+            if math.sqrt(float(diff.dot(diff))) <= _STREAM_TOLERANCE * step:
                 # the (k+1)-th difference of the solutions, target's included, vanishes
                 known = np.array([v for _, v in self._history[-k:]] + [v0])
                 return -(c[:-1] @ known)
@@ -1216,14 +1274,20 @@ class RodTracker:
             return None
         return (vec_last - self._vec + r * tan) / (r * r)
 
-    def _scales(self) -> np.ndarray:
-        """Weights of the unknowns in the sub-step bound: forces count relative to their size."""
-        w = np.ones(self._vec.size)
-        o = 4 * self.solver.n * len(self._modes)
+    def _largest_change(self, tan: np.ndarray) -> float:
+        """
+        Return the sub-step bound's measure of a change of the unknowns (its largest entry).
+
+        Forces count relative to their size, |df| / (1 + |f|); every other unknown as it is.
+        """
+        a = np.abs(tan)
+        vec = self._vec
+        o = len(vec) - self.solver._contact_unknowns(self._modes)
         for m in self._modes:
             o += m.size
-            w[o - 1] = 1.0 / (1.0 + abs(float(self._vec[o - 1])))
-        return w
+            # (as abs(tan * w) with the weight w of the force: a weight 1 changes no other)
+            a[o - 1] = abs(float(tan[o - 1]) * (1.0 / (1.0 + abs(float(vec[o - 1])))))
+        return float(a.max())
 
     def _first_event(self, path, t_a, t_b, crossed, events) -> float:
         solved_a = self._solved
@@ -1342,7 +1406,7 @@ class RodTracker:
         kind, c = key
         if kind not in ("release", "tip") or c < 0:
             return None
-        o = 4 * self.solver.n * len(self._modes)
+        o = len(self._vec) - self.solver._contact_unknowns(self._modes)
         for m in self._modes[:c]:
             o += m.size
         mode = self._modes[c]
@@ -1680,7 +1744,8 @@ class RodTracker:
             try:
                 left = self.max_evaluations - (self.solver.evaluations - self._start)
                 helper = RodTracker(self.obstacles, start, shape=self.shape, n=self.solver.n,
-                                    max_evaluations=max(left, 1), recover=False)
+                                    max_evaluations=max(left, 1), recover=False,
+                                    adapt_points=self.adapt_points)
                 helper._nested = True
                 helper.step(pose)
             except VibrissaError:

@@ -1,0 +1,105 @@
+"""
+Points per segment that follow the contacts.
+
+Each configuration is solved on as few Chebyshev points as its solution needs
+(RodSolver.points_needed), never more than points_for's count.
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+from vibrissa_ros.core.arrays import WhiskerArray
+from vibrissa_ros.core.arrays.rat import rat_array
+from vibrissa_ros.core.arrays.tracker import ArrayTracker
+from vibrissa_ros.core.arrays.whisking import CosineWhisk
+from vibrissa_ros.core.errors import ParameterError
+from vibrissa_ros.core.rod3d import (
+    BasePose, Cylinder, RodContactMode, RodShape, RodSolver, RodTracker, Scene3D, Sphere,
+)
+from vibrissa_ros.core.rod3d.model import POINTS_COARSEN
+
+#: the right pad's peg of bench/bench_array.py; RB1 touches it at s ~ 0.74 as it whisks, and
+#: its contact slides out to ~ 0.82 as the load grows
+PEG = Cylinder((0.03, -0.016, 0.0), (0, 0, 1), 0.0015, "peg")
+HEAD = BasePose((0.0, 0.0, 0.0))
+WHISK = CosineWhisk(8.0, -math.radians(20.0), math.radians(20.0))
+
+
+@pytest.fixture(scope="module")
+def rb1_cycle():
+    """RB1's base poses over one whisk cycle (125 ticks of 1 ms), and its scene and shape."""
+    array = WhiskerArray((rat_array("right")["RB1"],), "RB1")
+    tracker = ArrayTracker(array, Scene3D((PEG,)), HEAD, WHISK.angle(0.0))
+    rod = tracker.tracker("RB1")
+    poses = [tracker.whisker_poses(HEAD, WHISK.angle(k * 1e-3))[0] for k in range(126)]
+    return poses, rod.obstacles, rod.shape
+
+
+def _run(rb1_cycle, adapt):
+    poses, obstacles, shape = rb1_cycle
+    tracker = RodTracker(obstacles, poses[0], shape=shape, adapt_points=adapt)
+    loads, events, points, states = [], [], [], []
+    for pose in poses[1:]:
+        result = tracker.step(pose)
+        loads.append(np.concatenate((result.state.force, result.state.moment)))
+        events += [(e.kind, e.contacts_after) for e in result.events]
+        modes, vec = tracker._modes, tracker._vec
+        points.append(tracker.solver.points_of(modes, vec) if modes else 0)
+        states.append((modes, vec))
+    return np.array(loads), events, points, tracker
+
+
+def test_adapted_points_give_the_same_equilibria_and_events_as_the_full_count(rb1_cycle):
+    full_loads, full_events, full_points, full = _run(rb1_cycle, False)
+    loads, events, points, tracker = _run(rb1_cycle, True)
+    n = tracker.solver.n
+    assert n == 28 and set(full_points) == {0, n}
+    assert events == full_events and [e[0] for e in events] == ["touch", "snap", "touch"]
+    # the same base wrench to rounding (the omitted coefficients are below 1e-12)
+    assert np.abs(loads - full_loads).max() <= 1e-13 * np.abs(full_loads).max()
+    # fewer points where the contact is near the base, more again as it slides out: the count
+    # follows the contact down and back up, and never above n
+    changes = [m for i, m in enumerate(points) if m and m != points[i - 1]]
+    assert min(changes) <= 20 and max(points) <= n
+    assert any(b > a > 0 for a, b in zip(points, points[1:]))
+    assert any(0 < b < a for a, b in zip(points, points[1:]))
+
+
+def test_a_lightly_loaded_solution_asks_for_fewer_points_and_resamples_exactly(rb1_cycle):
+    poses, obstacles, shape = rb1_cycle
+    tracker = RodTracker(obstacles, poses[0], shape=shape, adapt_points=False)
+    sol = tracker.solver
+    for pose in poses[1:]:
+        tracker.step(pose)
+        if tracker._modes:
+            break  # its first contact, at s ~ 0.74 under a light load
+    modes, vec = tracker._modes, tracker._vec
+    assert sol.points_of(modes, vec) == sol.n == 28
+    m = sol.points_needed(modes, vec)
+    assert m < 28
+    # its coefficients from degree m - 2 up are below POINTS_COARSEN
+    assert sol.coefficient_magnitudes(modes, vec)[m - 2:].max() <= POINTS_COARSEN
+    coarse = sol.resample(modes, vec, m)
+    assert coarse.size == 4 * m + 2 and sol.points_of(modes, coarse) == m
+    assert np.array_equal(coarse[-2:], vec[-2:])  # the contact's s and f unchanged
+    # and back: the interpolant of the coarse nodes at the fine ones is within the omitted
+    # coefficients of the fine solution
+    assert np.abs(sol.resample(modes, coarse, 28) - vec).max() <= 1e-11
+    # solved on m points: the same contact to rounding
+    solved = sol.solve(modes, tracker.pose, coarse, trusted=True)
+    assert abs(solved.vec[-2] - vec[-2]) <= 1e-13 and abs(solved.vec[-1] - vec[-1]) <= 1e-13
+    assert sol.points_needed(modes, solved.vec) == m
+
+
+def test_a_vector_of_no_count_is_refused_and_the_fewest_points_stay():
+    sol = RodSolver(RodShape(), (Sphere((0.5, 0.2, 0.0), 0.1),))
+    modes = (RodContactMode("side", 0),)
+    assert sol.n == 16  # a uniform straight whisker: the fewest on the ladder
+    vec = sol.guess(modes, (0.5,), (0.1,), lambda s: sol.free_quaternions(BasePose((0, 0, 0)), s))
+    assert sol.points_of(modes, vec) == 16 and sol.points_needed(modes, vec) == 16
+    with pytest.raises(ParameterError, match="does not fit 1 contacts"):
+        sol.points_of(modes, vec[:-1])
+    # a whisker's count from points_for is the most it is ever solved on
+    assert RodSolver(RodShape(taper=0.05, parabola=0.5)).n > 16
