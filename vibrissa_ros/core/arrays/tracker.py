@@ -400,8 +400,9 @@ class ArrayTracker:
         return R, p
 
     def _pose(self, R, p, i) -> BasePose:
-        return BasePose(tuple((p[i] / self._length[i]).tolist()),
-                        tuple(quat_from_matrix(R[i]).tolist()))
+        # (from the checked head pose and protraction: finite, and a rotation matrix)
+        return BasePose._of_floats((p[i] / self._length[i]).tolist(),
+                                   quat_from_matrix(R[i]).tolist())
 
     def whisker_poses(self, head: BasePose, protraction=0.0) -> Tuple[BasePose, ...]:
         """

@@ -233,6 +233,22 @@ class BasePose:
         object.__setattr__(self, "position", pos)
         object.__setattr__(self, "quaternion", tuple(v / norm for v in q))
 
+    @classmethod
+    def _of_floats(cls, position: Tuple[float, float, float],
+                   quaternion: Tuple[float, float, float, float]) -> "BasePose":
+        """
+        Return the pose of finite floats and a unit quaternion, without checking them (internal).
+
+        For poses computed from checked ones (the arrays' tracker makes one per whisker and
+        tick): the quaternion is normalised as the constructor does it, and nothing else
+        differs.
+        """
+        pose = object.__new__(cls)
+        norm = math.sqrt(sum(v * v for v in quaternion))
+        object.__setattr__(pose, "position", tuple(position))
+        object.__setattr__(pose, "quaternion", tuple(v / norm for v in quaternion))
+        return pose
+
     @staticmethod
     def _floats(what, values, names):
         try:
