@@ -228,6 +228,14 @@ def _operators(n: int) -> _Operators:
 
 
 @lru_cache(maxsize=None)
+def _end_row(n: int) -> np.ndarray:
+    """Return the interpolation row (1, n) of a segment's end, x = 1 (as _interpolate makes it)."""
+    row = np.polynomial.chebyshev.chebvander(np.array([1.0]), n - 1) @ _operators(n).Vinv
+    row.setflags(write=False)
+    return row
+
+
+@lru_cache(maxsize=None)
 def _resampler(n_old: int, n: int) -> np.ndarray:
     """Return the matrix (n, n_old) of the interpolant of n_old points at n points."""
     M = np.polynomial.chebyshev.chebvander(_operators(n).x, n_old - 1) @ _operators(n_old).Vinv
@@ -1590,6 +1598,12 @@ class RodSolver:
         s = np.atleast_1d(np.asarray(s, dtype=float))
         if not modes:
             return self.free_quaternions(pose, s)
+        if s.size == 1 and float(s[0]) == self.breaks_of(modes, vec)[-1]:
+            # the last contact's end, x = 1 of its segment (a tip contact's q(1), asked at every
+            # sub-step): the same operations as below, without the layout and the Vandermonde
+            n, k = self.points_of(modes, vec), len(modes)
+            last = vec[4 * n * (k - 1):4 * n * k].reshape(1, n, 4)
+            return np.einsum("mj,mjd->md", _end_row(n), last)
         lay = self.layout(modes, vec)
         Q = vec[:4 * lay.N].reshape(lay.N, 4)
         end = lay.breaks[-1]
