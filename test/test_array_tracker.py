@@ -185,6 +185,33 @@ def test_the_compiled_frames_and_clearance_equal_the_numpy_code(monkeypatch):
     assert outcomes == {True, False}
 
 
+@pytest.mark.skipif(not whisking_module._jit.ENABLED,
+                    reason="the compiled kernels are off (VIBRISSA_NO_JIT=1 or no numba)")
+def test_the_compiled_rows_of_a_tick_equal_the_numpy_code():
+    from vibrissa_ros.core.arrays import _jit as arrays_jit
+    from vibrissa_ros.core.arrays.tracker import _collect_numpy
+
+    rng = np.random.default_rng(3)
+    k = 30
+    R = np.array([BasePose((0, 0, 0), tuple(q / np.linalg.norm(q))).rotation
+                  for q in rng.normal(size=(k, 4))])
+    p, free_tip = rng.normal(size=(k, 3)), rng.normal(size=(k, 3))
+    length, fs, ms = rng.uniform(0.01, 0.05, (3, k))
+    moved = np.array([2, 3, 7, 20], dtype=np.int64)
+    loaded = np.array([3, 20], dtype=np.int64)
+    mrows = np.concatenate((R[[5, 6, 8, 9]].reshape(4, 9), rng.normal(size=(4, 6))), axis=1)
+    lrows = rng.normal(size=(2, 11))
+    for none in (False, True):
+        args = (moved[:0], mrows[:0], loaded[:0], lrows[:0]) if none else (moved, mrows,
+                                                                           loaded, lrows)
+        got = arrays_jit.collect(R, p, free_tip, length, fs, ms, *args)
+        want = _collect_numpy(R, p, free_tip, length, fs, ms, *args)
+        for a, b in zip(got, want):
+            assert a.shape == b.shape
+            assert np.abs(a - b).max() <= 4e-16 * max(1.0, np.abs(b).max())
+    assert np.array_equal(got[1][7], R[7]) and not got[3].any()
+
+
 def test_free_whiskers_are_skipped_and_unloaded():
     far = Sphere((1.0, 1.0, 1.0), 0.01, "far")
     tracker = ArrayTracker(RIGHT, Scene3D((far,)), HEAD)

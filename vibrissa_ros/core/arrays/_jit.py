@@ -1,13 +1,14 @@
 """
-Compiled kernels of the array's tick: the whiskers' base frames and the clearance test (numba).
+Compiled kernels of the array's tick: base frames, clearance test, the tick's rows (numba).
 
 The same operations as the numpy code they stand for (:meth:`.whisking.Whisking.rotations`'s
-Euler angles and :meth:`.tracker.ArrayTracker._clear`'s sampled distances), as loops over the
-whiskers in one call each: a tick of 30 whiskers spent ~45 us in numpy's calls on (30, 3, 3)
-arrays for its frames and ~90 us for its clearance test. The tests compare them with the numpy
-code (to rounding). They are used where :data:`vibrissa_ros.core.rod3d._jit.ENABLED` (numba
-present, ``VIBRISSA_NO_JIT`` not set); compiled by :func:`vibrissa_ros.core.rod3d._jit.warm_up`
-with the solver's kernels.
+Euler angles, :meth:`.tracker.ArrayTracker._clear`'s sampled distances and the SI rows of
+:meth:`.tracker.ArrayTracker._collect`), as loops over the whiskers in one call each: a tick of
+30 whiskers spent ~45 us in numpy's calls on (30, 3, 3) arrays for its frames, ~90 us for its
+clearance test and ~60 us for its rows. The tests compare them with the numpy code (to
+rounding: numpy's 3 x 3 products may sum in another order). They are used where
+:data:`vibrissa_ros.core.rod3d._jit.ENABLED` (numba present, ``VIBRISSA_NO_JIT`` not set);
+compiled by :func:`vibrissa_ros.core.rod3d._jit.warm_up` with the solver's kernels.
 """
 
 from __future__ import annotations
@@ -113,3 +114,56 @@ def clearance(R, p, R_prev, p_prev, length, free, stride, reach, codes, prm):
         else:
             clear[i] = _least(R, p, free, i, 1, codes, prm) > reach[i] + motion + tol
     return clear
+
+
+@_kernel
+def collect(R, p, free_tip, length, force_scale, moment_scale, moved, mrows, loaded, lrows):
+    """
+    Return the tick's rows in SI units, as :meth:`.tracker.ArrayTracker._collect` makes them.
+
+    ``R`` (k, 3, 3), ``p`` (k, 3): the base frames and points of the tick; ``free_tip`` (k, 3)
+    the unloaded tips in the base frames [m]. ``mrows`` (m, 15) for the whiskers ``moved``
+    (stepped, or failed and kept their state): the base frame (9, row-major), base point and
+    tip [L] of their states; ``lrows`` (l, 11) for the whiskers ``loaded`` (in contact): force,
+    moment, first contact point [L], its s and f. Returns (p, R, tip, force, moment, point,
+    arc, normal, force in the base frame, moment in the base frame).
+    """
+    k = R.shape[0]
+    p_out = p.copy()
+    Rb = R.copy()
+    tip = np.empty((k, 3))
+    for i in range(k):
+        for a in range(3):
+            tip[i, a] = p[i, a] + (R[i, a, 0] * free_tip[i, 0] + R[i, a, 1] * free_tip[i, 1]
+                                   + R[i, a, 2] * free_tip[i, 2])
+    for j in range(moved.size):
+        i = moved[j]
+        L = length[i]
+        for a in range(3):
+            for b in range(3):
+                Rb[i, a, b] = mrows[j, 3 * a + b]
+            p_out[i, a] = mrows[j, 9 + a] * L
+            tip[i, a] = mrows[j, 12 + a] * L
+    force = np.zeros((k, 3))
+    moment = np.zeros((k, 3))
+    point = np.zeros((k, 3))
+    arc = np.zeros(k)
+    normal = np.zeros(k)
+    for j in range(loaded.size):
+        i = loaded[j]
+        for a in range(3):
+            force[i, a] = lrows[j, a] * force_scale[i]
+            moment[i, a] = lrows[j, 3 + a] * moment_scale[i]
+            point[i, a] = lrows[j, 6 + a] * length[i]
+        arc[i] = lrows[j, 9] * length[i]
+        normal[i] = lrows[j, 10] * force_scale[i]
+    force_base = np.zeros((k, 3))
+    moment_base = np.zeros((k, 3))
+    for j in range(loaded.size):
+        i = loaded[j]
+        for a in range(3):
+            force_base[i, a] = (Rb[i, 0, a] * force[i, 0] + Rb[i, 1, a] * force[i, 1]
+                                + Rb[i, 2, a] * force[i, 2])
+            moment_base[i, a] = (Rb[i, 0, a] * moment[i, 0] + Rb[i, 1, a] * moment[i, 1]
+                                 + Rb[i, 2, a] * moment[i, 2])
+    return p_out, Rb, tip, force, moment, point, arc, normal, force_base, moment_base

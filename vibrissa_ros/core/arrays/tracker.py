@@ -541,60 +541,40 @@ class ArrayTracker:
 
     def _collect(self, head, theta, R, p, solved, events, errors) -> ArrayStep:
         k = len(self._rods)
-        force = np.zeros((k, 3))
-        moment = np.zeros((k, 3))
-        tip = p + (R @ self._free_tip[:, :, None])[:, :, 0]
-        point = np.zeros((k, 3))
-        arc = np.zeros(k)
-        normal = np.zeros(k)
         contacts = np.zeros(k, dtype=int)
         kind = [""] * k
         obstacle = [""] * k
-        p = p.copy()
-        Rb = R.copy()
-        # the stepped whiskers' rows (SI units), gathered and scaled in one numpy call each
-        moved, frames, places, tips = [], [], [], []
-        loaded, forces, moments, points = [], [], [], []
+        # the stepped whiskers' rows, gathered in floats and scaled to SI in one call
+        moved, loaded, mrows, lrows = [], [], [], []
         for i in np.flatnonzero(~self._stale).tolist():
             state = self._trackers[i].state
             if solved[i] and state.pose is not None:  # stepped, or failed and kept its state
                 moved.append(i)
-                frames.append(state.pose.rotation)
-                places.append(state.pose.position)
-                tips.append(state.tip)
+                mrows += state.pose.rotation.ravel().tolist()
+                mrows += state.pose.position
+                mrows += state.tip
             if not state.contacts:
                 continue
             c = state.contacts[0]
             loaded.append(i)
-            forces.append(state.force)
-            moments.append(state.moment)
-            points.append(c.point)
+            lrows += state.force
+            lrows += state.moment
+            lrows += c.point
+            lrows.append(c.s)
+            lrows.append(c.f)
             contacts[i] = len(state.contacts)
-            arc[i] = c.s
-            normal[i] = c.f
             kind[i] = c.kind
             obstacle[i] = c.name
-        if moved:
-            L = self._length[moved, None]
-            Rb[moved] = frames
-            p[moved] = np.array(places) * L
-            tip[moved] = np.array(tips) * L
-        if loaded:
-            scale = self._force_scale[loaded]
-            force[loaded] = np.array(forces) * scale[:, None]
-            moment[loaded] = np.array(moments) * self._moment_scale[loaded, None]
-            point[loaded] = np.array(points) * self._length[loaded, None]
-            arc[loaded] *= self._length[loaded]
-            normal[loaded] *= scale
-        Rt = Rb.transpose(0, 2, 1)
-        force_base = (Rt @ force[:, :, None])[:, :, 0]
-        moment_base = (Rt @ moment[:, :, None])[:, :, 0]
-        solved = solved.copy()
+        rows = (np.array(moved, dtype=np.int64), np.array(mrows, dtype=float).reshape(-1, 15),
+                np.array(loaded, dtype=np.int64), np.array(lrows, dtype=float).reshape(-1, 11))
+        scaled = (_arrays_jit.collect if _arrays_jit.ENABLED else _collect_numpy)(
+            R, p, self._free_tip, self._length, self._force_scale, self._moment_scale, *rows)
+        p, Rb, tip, force, moment, point, arc, normal, force_base, moment_base = scaled
         return ArrayStep(self.names, head, _frozen(theta), _sealed(p), _sealed(Rb),
                          _sealed(contacts), _sealed(force), _sealed(moment),
                          _sealed(force_base), _sealed(moment_base), _sealed(tip), _sealed(point),
                          _sealed(arc), _sealed(normal), tuple(kind), tuple(obstacle),
-                         _sealed(solved), events, errors)
+                         _sealed(solved.copy()), events, errors)
 
     def centerlines(self, n: int = 21) -> np.ndarray:
         """
@@ -682,3 +662,33 @@ def describe(step: ArrayStep) -> str:
         parts.append(f"{len(step.errors)} error(s): "
                      + "; ".join(f"{e.whisker}: {e.message}" for e in step.errors[:3]))
     return "; ".join(parts)
+
+
+def _collect_numpy(R, p, free_tip, length, force_scale, moment_scale, moved, mrows, loaded,
+                   lrows):
+    """:func:`._jit.collect` in numpy (the reference its test compares with)."""
+    k = len(R)
+    tip = p + (R @ free_tip[:, :, None])[:, :, 0]
+    p = p.copy()
+    Rb = R.copy()
+    if moved.size:
+        L = length[moved, None]
+        Rb[moved] = mrows[:, :9].reshape(-1, 3, 3)
+        p[moved] = mrows[:, 9:12] * L
+        tip[moved] = mrows[:, 12:15] * L
+    force = np.zeros((k, 3))
+    moment = np.zeros((k, 3))
+    point = np.zeros((k, 3))
+    arc = np.zeros(k)
+    normal = np.zeros(k)
+    if loaded.size:
+        scale = force_scale[loaded]
+        force[loaded] = lrows[:, 0:3] * scale[:, None]
+        moment[loaded] = lrows[:, 3:6] * moment_scale[loaded, None]
+        point[loaded] = lrows[:, 6:9] * length[loaded, None]
+        arc[loaded] = lrows[:, 9] * length[loaded]
+        normal[loaded] = lrows[:, 10] * scale
+    Rt = Rb.transpose(0, 2, 1)
+    force_base = (Rt @ force[:, :, None])[:, :, 0]
+    moment_base = (Rt @ moment[:, :, None])[:, :, 0]
+    return p, Rb, tip, force, moment, point, arc, normal, force_base, moment_base
