@@ -462,7 +462,7 @@ def equations(vec, qb, n, kinds, T, w, ds, dw, kinv, kap0, slope, dkinv, r, nu1,
             res[o + 1] = (R[e, 0, 0] * normal[c, 0] + R[e, 1, 0] * normal[c, 1]
                           + R[e, 2, 0] * normal[c, 2])
     if not jacobian and not sensitivity:
-        return res, np.zeros((0, 0)), np.zeros((0, 0)), False
+        return res, np.zeros((0, 0)).T, np.zeros((0, 0)), False
     # D[j, ax, b] = d d1_l / d q_jb;  P = dg/dkappa;  PRt = P R^T = dg/dM
     dR = np.empty((N, 4, 3, 3))
     D = np.empty((N, 3, 4))
@@ -491,7 +491,9 @@ def equations(vec, qb, n, kinds, T, w, ds, dw, kinv, kap0, slope, dkinv, r, nu1,
                 dMdp[i, 0, col] += f * (v1 * h2 - v2 * h1)
                 dMdp[i, 1, col] += f * (v2 * h0 - v0 * h2)
                 dMdp[i, 2, col] += f * (v0 * h1 - v1 * h0)
-    J = np.zeros((size, size)) if jacobian else np.zeros((0, 0))
+    # the Jacobian is written as its transpose Jt (C order), and J = Jt.T returned: Fortran
+    # order, which LAPACK's getrf factors in place, without a transposed copy
+    Jt = np.zeros((size, size)) if jacobian else np.zeros((0, 0))
     sens = np.zeros((size, 7)) if sensitivity else np.zeros((0, 0))
     if jacobian:
         # d g_i / d q_j = [i == j] diag_i + V_ij D_j: the moments' part of every pair (i, j)
@@ -553,18 +555,18 @@ def equations(vec, qb, n, kinds, T, w, ds, dw, kinv, kap0, slope, dkinv, r, nu1,
                         for col in range(3):
                             V[i, base + 3 * a + col] += gc * C[c, i, a, col]
         GV = np.dot(G, V)
-        for i in range(N):
-            for j in range(N):
+        for j in range(N):
+            base = j * 12
+            for i in range(N):
                 gij = G[i, j]
-                base = j * 12
                 for a in range(4):
                     o3 = base + 3 * a
                     g0, g1, g2 = GV[i, o3], GV[i, o3 + 1], GV[i, o3 + 2]
                     for b in range(4):
-                        J[4 * i + a, 4 * j + b] = -(g0 * D[j, 0, b] + g1 * D[j, 1, b]
-                                                    + g2 * D[j, 2, b] + gij * diag[j, a, b])
-            for a in range(4):
-                J[4 * i + a, 4 * i + a] += 1.0
+                        Jt[4 * j + b, 4 * i + a] = -(g0 * D[j, 0, b] + g1 * D[j, 1, b]
+                                                     + g2 * D[j, 2, b] + gij * diag[j, a, b])
+        for i in range(4 * N):
+            Jt[i, i] += 1.0
         # the columns of the forces and the rows of the contact equations
         Z = np.empty((N, 4))
         for c in range(k):
@@ -587,7 +589,7 @@ def equations(vec, qb, n, kinds, T, w, ds, dw, kinv, kap0, slope, dkinv, r, nu1,
                     acc = 0.0
                     for j in range(N):
                         acc += G[i, j] * Z[j, a]
-                    J[4 * i + a, o + sz - 1] = -acc
+                    Jt[o + sz - 1, 4 * i + a] = -acc
             if kinds[c] == 1:
                 t0, t1_, t2 = R[e, 0, 0], R[e, 1, 0], R[e, 2, 0]
                 hd0 = hess[c, 0, 0] * t0 + hess[c, 0, 1] * t1_ + hess[c, 0, 2] * t2
@@ -596,12 +598,12 @@ def equations(vec, qb, n, kinds, T, w, ds, dw, kinv, kap0, slope, dkinv, r, nu1,
             for j in range(N):
                 ge = G[e, j]
                 for b in range(4):
-                    J[o, 4 * j + b] = (n0 * D[j, 0, b] + n1 * D[j, 1, b] + n2 * D[j, 2, b]) * ge
+                    Jt[4 * j + b, o] = (n0 * D[j, 0, b] + n1 * D[j, 1, b] + n2 * D[j, 2, b]) * ge
                     if kinds[c] == 1:
                         val = (hd0 * D[j, 0, b] + hd1 * D[j, 1, b] + hd2 * D[j, 2, b]) * ge
                         if j == e:
                             val += n0 * D[j, 0, b] + n1 * D[j, 1, b] + n2 * D[j, 2, b]
-                        J[o + 1, 4 * j + b] = val
+                        Jt[4 * j + b, o + 1] = val
         # the columns of the contact arc lengths: moving nodes and integration weights
         shared = np.empty((N, 4))
         for i in range(N):
@@ -651,18 +653,18 @@ def equations(vec, qb, n, kinds, T, w, ds, dw, kinv, kap0, slope, dkinv, r, nu1,
                     acc = 0.0
                     for j in range(N):
                         acc += T[i, j] * dw[c, j] * g[j, a] + G[i, j] * dg2[j, a]
-                    J[4 * i + a, o] = -acc
+                    Jt[o, 4 * i + a] = -acc
             for cp in range(k):
                 e = ends[cp]
                 op = offs[cp]
                 x0, x1, x2 = dr[e, 0], dr[e, 1], dr[e, 2]
-                J[op, o] = normal[cp, 0] * x0 + normal[cp, 1] * x1 + normal[cp, 2] * x2
+                Jt[o, op] = normal[cp, 0] * x0 + normal[cp, 1] * x1 + normal[cp, 2] * x2
                 if kinds[cp] == 1:
                     acc = 0.0
                     for ax in range(3):
                         acc += R[e, ax, 0] * (hess[cp, ax, 0] * x0 + hess[cp, ax, 1] * x1
                                               + hess[cp, ax, 2] * x2)
-                    J[op + 1, o] = acc
+                    Jt[o, op + 1] = acc
     if sensitivity:
         for c in range(k):
             e = ends[c]
@@ -692,9 +694,9 @@ def equations(vec, qb, n, kinds, T, w, ds, dw, kinv, kap0, slope, dkinv, r, nu1,
     if jacobian:
         for i in range(size):
             for j in range(size):
-                if not math.isfinite(J[i, j]):
+                if not math.isfinite(Jt[i, j]):
                     finite = False
-    return res, J, sens, finite
+    return res, Jt.T, sens, finite
 
 
 #: the obstacles whose surface data the kernels compute themselves (obstacles.py's formulas, in

@@ -93,17 +93,18 @@ TAIL_SAMPLES = np.linspace(0.125, 1.0, 8)
 _S_EXTEND = 1.25
 
 
-def _lu_factor(J: np.ndarray, finite: bool = False):
+def _lu_factor(J: np.ndarray, finite: bool = False, overwrite: bool = False):
     """
     Return the LU factorization (lu, piv) of J, as scipy.linalg.lu_factor gives it.
 
     LAPACK's getrf directly: scipy.linalg's wrappers cost more than the factorization of these
     small matrices. A non-finite J raises ValueError (``finite``: J is known to be finite); an
-    exactly singular one numpy.linalg.LinAlgError.
+    exactly singular one numpy.linalg.LinAlgError. ``overwrite``: J is not needed afterwards,
+    and a J in Fortran order (the kernels') is factored in place, without a copy.
     """
     if not finite and not np.all(np.isfinite(J)):
         raise ValueError("the Jacobian has non-finite entries")
-    lu, piv, info = _getrf(J)
+    lu, piv, info = _getrf(J, overwrite_a=int(overwrite))
     if info > 0:
         raise np.linalg.LinAlgError(f"the Jacobian is singular (pivot {info})")
     return lu, piv
@@ -1191,7 +1192,7 @@ class RodSolver:
                 # sensitivities there; its Newton step is one more (tiny) correction
                 res, J, sens = self.residual(modes, vec, pose, pose_sensitivity=True)
                 self.factorizations += 1
-                lu = _lu_factor(J, finite=J is self._finite_jacobian)
+                lu = _lu_factor(J, finite=J is self._finite_jacobian, overwrite=True)
                 step = _lu_solve(lu, res)
                 size = self._take(step, max_step)
                 at = vec
@@ -1208,7 +1209,8 @@ class RodSolver:
                     if exact_jacobian:
                         _, J, sens = self.residual(modes, vec, pose, pose_sensitivity=True)
                         self.factorizations += 1
-                        lu = _lu_factor(J, finite=J is self._finite_jacobian)
+                        lu = _lu_factor(J, finite=J is self._finite_jacobian,
+                                        overwrite=True)
                     return Solved(vec, lu, sens)
                 newton += 1
                 if fail_fast and newton >= 3 and size > 0.9 * last:
