@@ -19,6 +19,7 @@ from vibrissa_ros.core.rod3d import (
     BasePose, Cylinder, RodContactMode, RodShape, RodSolver, RodTracker, Scene3D, Sphere,
 )
 from vibrissa_ros.core.rod3d.model import POINTS_COARSEN
+from vibrissa_ros.core.rod3d.pose import quat_about
 
 #: the right pad's peg of bench/bench_array.py; RB1 touches it at s ~ 0.74 as it whisks, and
 #: its contact slides out to ~ 0.82 as the load grows
@@ -103,3 +104,24 @@ def test_a_vector_of_no_count_is_refused_and_the_fewest_points_stay():
         sol.points_of(modes, vec[:-1])
     # a whisker's count from points_for is the most it is ever solved on
     assert RodSolver(RodShape(taper=0.05, parabola=0.5)).n > 16
+
+
+def test_a_long_step_from_fewer_points_is_followed_on_the_full_count():
+    # a light touch drops the count; a long turn then presses the whisker hard: its end, as the
+    # tangent predicts it, asks for more, and the step is taken on the full count (before, a
+    # jump check refused the finer solution and the tracker stayed on 16 points, 1e-9 off)
+    obstacles = (Cylinder((0.7, -0.03, 0.0), (0, 0, 1), 0.01),)
+    angles = [-0.03, -0.04, -0.05, -0.45] + [-0.45 - 0.001 * k for k in range(1, 6)]
+    runs = {}
+    for adapt in (True, False):
+        tracker = RodTracker(obstacles, HEAD, shape=RodShape(taper=0.03), adapt_points=adapt)
+        loads, points = [], []
+        for a in angles:
+            state = tracker.step(BasePose((0, 0, 0), tuple(quat_about((0, 0, 1), a)))).state
+            loads.append(np.concatenate((state.force, state.moment)))
+            points.append(tracker.solver.points_of(tracker._modes, tracker._vec))
+        runs[adapt] = np.array(loads), points, tracker.solver.n
+    (loads, points, n), (full, _, _) = runs[True], runs[False]
+    assert n == 32 and points[1] == points[2] == 16 and points[3] > 16
+    for got, want in zip(loads, full):
+        assert np.abs(got - want).max() <= 1e-13 * np.abs(want).max()

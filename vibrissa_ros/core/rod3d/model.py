@@ -668,7 +668,9 @@ class RodSolver:
     obstacles : sequence
         The scene's 3D obstacles (objects with ``surface(point)`` and ``signed_distance``).
     n : int, optional
-        Chebyshev points per segment; default :func:`points_for` the shape.
+        Chebyshev points per segment; default :func:`points_for` the shape. New
+        configurations start from it; a vector of fewer (:meth:`points_needed`,
+        :meth:`resample`) is solved on its own count, read from its length.
 
     Attributes
     ----------
@@ -696,7 +698,7 @@ class RodSolver:
         self._ops = {}
         self._templates = {}
         self._configs = {}
-        self._config_modes = self._config_last = None
+        self._config_last = None
         ops = self._operators(self.n)
         self._x, self._S, self._Vinv = ops.x, ops.S, ops.Vinv
         self._tau, self._int_matrix = ops.tau, ops.int_matrix
@@ -858,14 +860,15 @@ class RodSolver:
         of modes for every evaluation of a configuration, and hashing its modes costs more
         than the lookups themselves.
         """
-        if modes is self._config_modes:
-            return self._config_last
+        last = self._config_last  # (modes, config): one read, consistent across threads
+        if last is not None and modes is last[0]:
+            return last[1]
         key = modes if isinstance(modes, tuple) else tuple(modes)
         config = self._configs.get(key)
         if config is None:
             config = self._configs[key] = _Config(self, key)
         if type(modes) is tuple:
-            self._config_modes, self._config_last = modes, config
+            self._config_last = (modes, config)
         return config
 
     def _kinds_of(self, modes) -> np.ndarray:
@@ -1432,8 +1435,10 @@ class RodSolver:
         """
         n = self.points_of(modes, vec)
         lo = _POINTS_LADDER[0] - 2
-        if n <= _POINTS_LADDER[0] and n >= self.n:
-            return n  # as few as there are, and no more allowed
+        if n < _POINTS_LADDER[0] or (n == _POINTS_LADDER[0] and n >= self.n):
+            # as few as the ladder has, or fewer (a solver made so): none dropped, and a vector
+            # of fewer than the solver's goes to the solver's
+            return max(n, self.n)
         # above[j - lo]: the largest coefficient of degree j or more
         above = np.maximum.accumulate(self.coefficient_magnitudes(modes, vec, lo)[::-1])[::-1]
         if n < self.n and float(above[n - 2 - lo]) > POINTS_REFINE:

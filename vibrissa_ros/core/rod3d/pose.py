@@ -243,6 +243,8 @@ class BasePose:
         tick): the quaternion is normalised as the constructor does it, and nothing else
         differs.
         """
+        if not all(map(math.isfinite, position)):
+            return cls(tuple(position), tuple(quaternion))  # (which says what is wrong)
         pose = object.__new__(cls)
         norm = math.sqrt(sum(v * v for v in quaternion))
         object.__setattr__(pose, "position", tuple(position))

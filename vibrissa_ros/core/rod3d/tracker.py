@@ -397,7 +397,7 @@ class RodTracker:
     shape : RodShape, optional
         The whisker (default: uniform, straight, nu = 0.38).
     n : int, optional
-        Chebyshev points per segment; default
+        Chebyshev points per segment, the most it solves on; default
         :func:`~vibrissa_ros.core.rod3d.model.points_for` the shape.
     max_evaluations : int, optional
         Budget of solver evaluations per step.
@@ -406,8 +406,9 @@ class RodTracker:
         is clear of every obstacle at the new pose (a ``reset`` event).
     adapt_points : bool, optional
         Solve each contact configuration on as few points per segment as its solution needs
-        (:meth:`~vibrissa_ros.core.rod3d.model.RodSolver.points_needed`, at most ``n``): the
-        same equilibria to ~1e-14, with about a third less factorization work on the rat's pad
+        (:meth:`~vibrissa_ros.core.rod3d.model.RodSolver.points_needed`, at most ``n``; a long
+        step whose end asks for more goes on ``n``): on the rat's pad, the same events and base
+        wrenches within 2e-14 relative, with a third less factorization work
         (``bench/bench_array.py``). False: always ``n``.
 
     Raises
@@ -518,7 +519,8 @@ class RodTracker:
         if float(np.dot(given.q, self._pose.q)) < 0.0:
             target = BasePose(given.position, tuple(-v for v in given.quaternion))
         self._start = self.solver.evaluations
-        saved = (self._pose, self._modes, self._vec, self._solved, self._sign, self._state)
+        saved = (self._pose, self._modes, self._vec, self._solved, self._sign, self._state,
+                 self._history, self._last_step)
         try:
             result = self._step_checked(target)
             if target is not given:
@@ -526,7 +528,8 @@ class RodTracker:
                 result = replace(result, state=self._state)
             return result
         except (ModelAssumptionError, ConvergenceError) as exc:
-            (self._pose, self._modes, self._vec, self._solved, self._sign, self._state) = saved
+            (self._pose, self._modes, self._vec, self._solved, self._sign, self._state,
+             self._history, self._last_step) = saved
             if not self.recover:
                 raise
             spent = self.solver.evaluations - self._start
@@ -536,7 +539,8 @@ class RodTracker:
                 raise exc from None
             return RodStepResult(result.state, result.events, 0, spent + result.evaluations)
         except BaseException:
-            (self._pose, self._modes, self._vec, self._solved, self._sign, self._state) = saved
+            (self._pose, self._modes, self._vec, self._solved, self._sign, self._state,
+             self._history, self._last_step) = saved
             raise
 
     def reset(self, pose: Optional[BasePose] = None, reason: str = "reset on request"
@@ -611,6 +615,11 @@ class RodTracker:
             substeps += 1
         else:
             raise ConvergenceError(f"the step needed more than {_MAX_SUBSTEPS} sub-steps")
+        if (self._modes and start_modes == self._modes
+                and len(start_vec) != len(self._vec)):
+            # (the step went to the full count first: its start on the same points)
+            start_vec = self.solver.resample(start_modes, start_vec,
+                                             self.solver.points_of(self._modes, self._vec))
         # (pose, solution, configuration) at this step's start, for the next step's predictor
         self._last_step = ((start_pose, start_vec, start_modes)
                            if not events and start_modes == self._modes and self._modes
@@ -904,6 +913,12 @@ class RodTracker:
         bounded = big > 0.0 and _MAX_CHANGE / big < dt
         if bounded:
             dt = _MAX_CHANGE / big
+        if (bounded and t == 0.0 and self.adapt_points and len(self._vec) < sol.size(self._modes)
+                and sol.points_needed(self._modes, self._vec + tan)
+                > sol.points_of(self._modes, self._vec) and self._resolve_points(full=True)):
+            # a long step (sub-steps, events, folds) whose end, as the tangent predicts it,
+            # would ask for more points is followed on the full count
+            return self._contact_advance(path, t, h, events)
         reach = dt
         limited, left = self._fold_limit(path, t, tan, dt)
         near_fold, dt = limited < dt, limited
@@ -1008,48 +1023,67 @@ class RodTracker:
                 raise
             return t, 0.25 * dt
 
-    def _resolve_points(self) -> None:
+    def _resolve_points(self, full: bool = False) -> bool:
         """
         Solve the accepted solution again on the points per segment it asks for, if others.
 
-        :meth:`RodSolver.points_needed` reads them from its Chebyshev coefficients: a contact
-        near the base needs fewer than the tip probe's count, and a solve costs about the cube
-        of the unknowns. The solution, resampled, is solved at the same pose (Newton from
-        ~1e-11 away: one step); the stream's past solutions are resampled with it, so that its
-        predictor goes on. Kept as it is where an event is near (a value within
-        _RESOLVE_MARGIN of its bound: the discretizations may differ on its side), or the new
-        solve fails or lands farther than _RESOLVE_JUMP (not the same equilibrium).
+        :meth:`RodSolver.points_needed` reads them from its Chebyshev coefficients: a light
+        load, or a contact near the base, needs fewer than the tip probe's count, and a solve
+        costs about the cube of the unknowns. Fewer points are taken from ~1e-11 away (one
+        Newton step), and only well inside the admissible region: every event value above
+        _RESOLVE_MARGIN, the new solution within _RESOLVE_JUMP of the old one (the same
+        equilibrium), its checks and its gap to the other obstacles still holding. Where the
+        solution asks for more, it takes them (one rung up the ladder; ``full``: the solver's
+        own count, before a long step, so that its sub-steps and events are located on it),
+        unless an event value of the finer solution is on the other side of its bound. The
+        stream's past solutions are resampled with it, so that its predictor goes on. Returns
+        whether the count changed.
         """
         sol = self.solver
         modes, vec = self._modes, self._vec
         n_now = sol.points_of(modes, vec)
-        n_new = sol.points_needed(modes, vec)
+        n_new = sol.n if full else sol.points_needed(modes, vec)
         if n_new == n_now:
-            return
+            return False
+        finer = n_new > n_now
         path = _Path(self._pose, self._pose)
-        if min(self._event_values(path, 1.0, vec, self._solved.lu).values()) < _RESOLVE_MARGIN:
-            return
+        values = self._event_values(path, 1.0, vec, self._solved.lu)
+        if not finer and min(values.values()) < _RESOLVE_MARGIN:
+            return False
         try:
             solved = sol.solve(modes, self._pose, sol.resample(modes, vec, n_new), trusted=True,
                                max_step=0.5, max_iterations=4)
+            # the stable value keeps its sign (det J of another size may have the other)
+            old, new = _det_measure(self._solved.lu), _det_measure(solved.lu)
+            if old == 0.0 or new == 0.0:
+                return False
+            sign = self._sign * math.copysign(1.0, old) * math.copysign(1.0, new)
+            saved_sign, self._sign = self._sign, sign
+            try:
+                after = self._event_values(path, 1.0, solved.vec, solved.lu)
+            finally:
+                self._sign = saved_sign
+            if any((after[key] < 0.0) != (v < 0.0) for key, v in values.items()):
+                return False
+            if not finer:
+                jump = float(np.max(np.abs(sol.resample(modes, solved.vec, n_now) - vec)))
+                if jump > _RESOLVE_JUMP or self._contact_gap(path, 1.0, solved.vec)[0] < min(
+                        _RESOLVE_MARGIN, self._contact_gap(path, 1.0, vec)[0]):
+                    return False
+                self._check_tail(modes, solved.vec, self._pose)
+                self._check_between(modes, solved.vec, self._pose)
         except _OverBudget:
             raise
-        except ConvergenceError:
-            return
-        if float(np.max(np.abs(sol.resample(modes, solved.vec, n_now) - vec))) > _RESOLVE_JUMP:
-            return
-        # the stable value keeps its sign (det J of another size may have the other)
-        old = _det_measure(self._solved.lu)
-        new = _det_measure(solved.lu)
-        if old == 0.0 or new == 0.0:
-            return
-        self._sign *= math.copysign(1.0, old) * math.copysign(1.0, new)
+        except (ConvergenceError, ModelAssumptionError):
+            return False
+        self._sign = sign
         self._solved, self._vec = solved, solved.vec
         self._history = [(p, sol.resample(modes, v, n_new)) for p, v in self._history]
         if self._last_step is not None:
             p, v, m = self._last_step
             self._last_step = (p, sol.resample(modes, v, n_new), m)
         self._fold_prev = None
+        return True
 
     def _lost_beyond(self, path: _Path, t: float) -> bool:
         """
@@ -1801,8 +1835,8 @@ class RodTracker:
 
         New touches are looked for on the other obstacles (and behind a tip contact); a further
         contact on an obstacle already touched is not modelled, so the loaded part of the
-        whisker is checked against each obstacle it touches at its collocation nodes (n per
-        segment, so densely between two close contacts): refused rather than returned cutting
+        whisker is checked against each obstacle it touches at its collocation nodes (16 or more
+        per segment, so densely between two close contacts): refused rather than returned cutting
         the obstacle.
         """
         depth, where, k_cut = self._touched_depth(modes, vec, pose)
@@ -1825,10 +1859,10 @@ class RodTracker:
         """
         Return (depth, s, obstacle): the least distance to an obstacle touched, at the nodes.
 
-        The nodes are the collocation points of the loaded part (n per segment, a segment
-        between each two contacts: their positions are kept from the solve, so this costs one
-        distance evaluation per obstacle touched); beyond the last contact the tail's own
-        check samples it.
+        The nodes are the collocation points of the loaded part (the solution's points per
+        segment, 16 or more, a segment between each two contacts: their positions are kept from
+        the solve, so this costs one distance evaluation per obstacle touched); beyond the last
+        contact the tail's own check samples it.
         """
         depth, j_cut, k_cut = math.inf, -1, -1
         post = self.solver._accepted(modes, vec, pose)
