@@ -125,3 +125,21 @@ def test_a_long_step_from_fewer_points_is_followed_on_the_full_count():
     assert n == 32 and points[1] == points[2] == 16 and points[3] > 16
     for got, want in zip(loads, full):
         assert np.abs(got - want).max() <= 1e-13 * np.abs(want).max()
+
+
+def test_the_array_passes_its_choice_of_points_to_every_whisker():
+    array = WhiskerArray((rat_array("right")["RB1"], rat_array("right")["RC1"]), "two")
+    counts = {}
+    for adapt in (True, False):
+        tracker = ArrayTracker(array, Scene3D((PEG,)), HEAD, WHISK.angle(0.0),
+                               adapt_points=adapt)
+        assert all(tracker.tracker(n).adapt_points is adapt for n in tracker.names)
+        seen = set()
+        for k in range(1, 61):
+            tracker.step(HEAD, WHISK.angle(k * 1e-3))
+            for name in tracker.names:
+                rod = tracker.tracker(name)
+                if rod._modes:
+                    seen.add(rod.solver.points_of(rod._modes, rod._vec))
+        counts[adapt] = seen
+    assert counts[False] == {28} and min(counts[True]) < 28

@@ -301,6 +301,10 @@ class ArrayTracker:
         of 4 (a first pass takes every fourth).
     max_evaluations : int, optional
         Each whisker tracker's budget of solver evaluations per step.
+    adapt_points : bool, optional
+        Each whisker in contact solved on as few points per segment as its solution needs
+        (:class:`~vibrissa_ros.core.rod3d.tracker.RodTracker`'s ``adapt_points``); False: always
+        its shape's full count, for comparisons.
 
     Raises
     ------
@@ -313,7 +317,7 @@ class ArrayTracker:
 
     def __init__(self, array: WhiskerArray, scene, head: Optional[BasePose] = None,
                  protraction=0.0, samples: int = CLEARANCE_SAMPLES,
-                 max_evaluations: int = 20000):
+                 max_evaluations: int = 20000, adapt_points: bool = True):
         if not isinstance(array, WhiskerArray):
             raise ParameterError(f"array = {array!r} is not allowed; it is a WhiskerArray")
         samples = int(samples)
@@ -352,7 +356,8 @@ class ArrayTracker:
             try:
                 self._trackers.append(RodTracker(self._scenes[i], self._pose(R, p, i),
                                                  shape=rod.shape,
-                                                 max_evaluations=max_evaluations))
+                                                 max_evaluations=max_evaluations,
+                                                 adapt_points=adapt_points))
             except InvalidPoseError as exc:
                 raise InvalidPoseError(f"whisker {rod.name}: {exc}") from None
         self._R, self._p = R, p
