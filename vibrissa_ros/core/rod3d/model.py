@@ -499,7 +499,7 @@ class _Layout:
         self.N = n * self.k
         self.a = np.array((0.0,) + self.breaks[:-1])
         self.b = np.array(self.breaks)
-        self.tau = tau = solver._operators(n).tau
+        self.tau = tau = _operators(n).tau
         self.sp = solver._sp
         a = self.a[:, None]
         if self.sp is None:
@@ -695,11 +695,10 @@ class RodSolver:
         self.shape = shape
         self.obstacles = tuple(obstacles)
         self.n = int(n)
-        self._ops = {}
         self._templates = {}
         self._configs = {}
         self._config_last = None
-        ops = self._operators(self.n)
+        ops = _operators(self.n)
         self._x, self._S, self._Vinv = ops.x, ops.S, ops.Vinv
         self._tau, self._int_matrix = ops.tau, ops.int_matrix
         self._nu1 = 1.0 + shape.poisson
@@ -722,20 +721,13 @@ class RodSolver:
                                     shape.parabola or 0.0, float(shape.parabola is not None)))
 
     # -- operators ----------------------------------------------------------------------------
-    def _operators(self, n: int) -> "_Operators":
-        """Return the collocation operators for n points per segment (shared, cached)."""
-        ops = self._ops.get(n)
-        if ops is None:
-            ops = self._ops[n] = _operators(n)
-        return ops
-
     def _template(self, k: int, n: Optional[int] = None) -> np.ndarray:
         """G for unit segment lengths (N x N), k segments of n points (default: the solver's)."""
         n = self.n if n is None else n
         T = self._templates.get((n, k))
         if T is None:
             T = np.zeros((n * k, n * k))
-            half = 0.5 * self._operators(n).S
+            half = 0.5 * _operators(n).S
             for c in range(k):
                 rows = slice(c * n, (c + 1) * n)
                 T[rows, c * n:(c + 1) * n] = half
@@ -891,7 +883,7 @@ class RodSolver:
         self.evaluations += 1
         k = len(modes)
         n = self.points_of(modes, vec)
-        tau = self._operators(n).tau
+        tau = _operators(n).tau
         kinds = self._kinds_of(modes)
         vec = np.ascontiguousarray(vec, dtype=float)
         T = self._template(k, n)
@@ -1405,7 +1397,7 @@ class RodSolver:
         n = self.points_of(modes, vec)
         k = len(modes)
         Q = np.asarray(vec[:4 * n * k], dtype=float).reshape(k, n, 4)
-        coef = np.matmul(self._operators(n).Vinv[lowest:], Q)       # (k, n - lowest, 4)
+        coef = np.matmul(_operators(n).Vinv[lowest:], Q)       # (k, n - lowest, 4)
         return np.abs(coef).max(axis=(0, 2))
 
     def points_needed(self, modes: Sequence[RodContactMode], vec: np.ndarray) -> int:
@@ -1577,7 +1569,7 @@ class RodSolver:
     def _interpolate(self, lay: _Layout, values: np.ndarray, s: np.ndarray) -> np.ndarray:
         """Nodal values (N, d) interpolated at arc lengths s (m,) inside the segments."""
         c, x = lay.locate(s)
-        V = np.polynomial.chebyshev.chebvander(x, lay.n - 1) @ self._operators(lay.n).Vinv
+        V = np.polynomial.chebyshev.chebvander(x, lay.n - 1) @ _operators(lay.n).Vinv
         vals = values.reshape(lay.k, lay.n, -1)[c]                            # (m, n, d)
         return np.einsum("mj,mjd->md", V, vals)
 
@@ -1667,7 +1659,7 @@ class RodSolver:
         if np.any(inside):
             c, x = lay.locate(s[inside])
             W = (np.polynomial.chebyshev.chebvander(x, lay.n)
-                 @ self._operators(lay.n).int_matrix)                         # (m, n)
+                 @ _operators(lay.n).int_matrix)                         # (m, n)
             vals = (D1 * lay.w[:, None]).reshape(lay.k, lay.n, 3)[c]
             starts = r_nodes.reshape(lay.k, lay.n, 3)[c, 0]
             out[inside] = starts + 0.5 * np.einsum("mj,mjd->md", W, vals)
@@ -1682,7 +1674,7 @@ class RodSolver:
         s = np.ascontiguousarray(s)
         breaks, w, r_nodes, frames = self._nodes(modes, vec, pose)
         n = self.points_of(modes, vec)
-        int_matrix = self._operators(n).int_matrix
+        int_matrix = _operators(n).int_matrix
         end = breaks[-1]
         last = frames[-1]
         beyond = s > end
@@ -1723,7 +1715,7 @@ class RodSolver:
                 and _same(last[0], vec)):
             return last[3]
         n = self.points_of(modes, vec)
-        out = _jit.nodes(vec, n, self._kinds_of(modes), self._operators(n).tau, self._jit_sp,
+        out = _jit.nodes(vec, n, self._kinds_of(modes), _operators(n).tau, self._jit_sp,
                          self._template(len(modes), n), pose.p)
         self._nodes_cache = (vec.copy(), pose, modes, out)
         return out
@@ -1756,7 +1748,7 @@ class RodSolver:
         n = self.points_of(modes, vec)
         touched = self._config(modes).touched
         points, normals, tip, frame, tail_depth, depth, where = _jit.accepted(
-            vec, n, self._kinds_of(modes), self._operators(n).tau, self._jit_sp,
+            vec, n, self._kinds_of(modes), _operators(n).tau, self._jit_sp,
             self._template(len(modes), n), pose.p, geometry[0], geometry[1], touched[1],
             TAIL_SAMPLES,
             shape.parabola or 0.0, self._jit_grid, self._jit_table)

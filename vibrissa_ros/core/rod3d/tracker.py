@@ -1058,11 +1058,8 @@ class RodTracker:
             if old == 0.0 or new == 0.0:
                 return False
             sign = self._sign * math.copysign(1.0, old) * math.copysign(1.0, new)
-            saved_sign, self._sign = self._sign, sign
-            try:
-                after = self._event_values(path, 1.0, solved.vec, solved.lu)
-            finally:
-                self._sign = saved_sign
+            after = self._event_values(path, 1.0, solved.vec, solved.lu)
+            after[("stable", -1)] = sign * new
             if any((after[key] < 0.0) != (v < 0.0) for key, v in values.items()):
                 return False
             if not finer:
