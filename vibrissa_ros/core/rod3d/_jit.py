@@ -51,7 +51,8 @@ def warm_up() -> None:
         if WARM:
             return
         # imported here: model imports this module
-        from .model import RodContactMode, RodSolver, _lu_factor
+        from ..errors import ConvergenceError
+        from .model import RodContactMode, RodSolver, Solved, _lu_factor
         from .obstacles import Sphere
         from .pose import BasePose
         from .shape import RodShape
@@ -62,9 +63,15 @@ def warm_up() -> None:
         vec = solver.guess(modes, (0.5,), (0.1,), lambda s: solver.free_quaternions(pose, s))
         WARM = True  # the calls below would otherwise come back here
         try:
-            _, J, _ = solver._residual_compiled(modes, vec, pose, True, True)
+            _, J, sens = solver._residual_compiled(modes, vec, pose, True, True)
             solver._residual_compiled(modes, vec, pose, False, False)
             solver._accepted(modes, vec, pose)
+            if LAPACK:
+                try:
+                    solver.trusted_step(modes, Solved(vec, _lu_factor(J), sens), np.zeros(7),
+                                        vec, pose, 0.05)
+                except ConvergenceError:
+                    pass  # (compiled all the same)
             # and as for an obstacle the kernels do not know (its surface data from Python)
             solver._config(modes).geometry = None
             solver._residual_compiled(modes, vec, pose, True, True)
@@ -75,6 +82,7 @@ def warm_up() -> None:
             parabola_tail(0.5, np.array([1.0]), 1.0, *RodShape(parabola=1.0)._u_table())
             parabola_tip(0.5, 1.0, *RodShape(parabola=1.0)._u_table())
             det_measure(*_lu_factor(J))
+            solver.points_needed(modes, vec)
             table = RodShape(parabola=1.0)._u_table()
             free_minimum(SPHERE, np.array([0.5, 0.2, 0.0, 0.1, 0.0, 0.0, 0.0]), np.eye(3),
                          np.zeros(3), 1.0, table[0], table[1], 0.5, 0.4, 0.6, 12, 1e-13)
@@ -149,6 +157,38 @@ if numba is not None:
 else:  # pragma: no cover
     def _kernel(func):
         return func
+
+
+def _bind_lapack():
+    """
+    Return LAPACK's getrf and getrs as functions the kernels call, or (None, None).
+
+    scipy's ``cython_lapack`` (the LAPACK scipy.linalg itself uses: the same results) exports
+    them as C functions; their addresses are bound to symbol names that the compiled code calls
+    by name, so that numba's on-disk cache stays valid in every process (an address baked into
+    the code would not).
+    """
+    if numba is None:  # pragma: no cover
+        return None, None
+    try:
+        import llvmlite.binding as llvm
+        from numba.extending import get_cython_function_address
+
+        out = []
+        vp = numba.types.voidptr
+        for name, nargs in (("dgetrf", 6), ("dgetrs", 9)):
+            symbol = "vibrissa_rod3d_" + name
+            address = get_cython_function_address("scipy.linalg.cython_lapack", name)
+            llvm.add_symbol(symbol, address)
+            out.append(numba.types.ExternalFunction(symbol, numba.types.void(*([vp] * nargs))))
+    except (ImportError, ValueError, AttributeError):  # pragma: no cover - another layout
+        return None, None
+    return tuple(out)
+
+
+_getrf, _getrs = _bind_lapack()
+#: LAPACK is callable from the kernels (:func:`trusted_step`); else the tracker's general path
+LAPACK = ENABLED and _getrf is not None
 
 
 @_kernel
@@ -903,6 +943,34 @@ def evaluate(vec, qb, n, kinds, tau, sp, T, p, shape, grid, table, nu1, codes, p
 
 
 @_kernel
+def coefficient_tail(Vinv, vec, n, k, lowest):
+    """
+    Return, for each degree j >= ``lowest``, the largest Chebyshev coefficient of degree j or more.
+
+    Over the k segments and the four components of the quaternions (the first 4 n k values of
+    ``vec``, segment by segment, node by node); ``Vinv`` (n, n) maps nodal values to
+    coefficients (model.RodSolver.points_needed's ``above``, from coefficient_magnitudes).
+    """
+    m = n - lowest
+    out = np.zeros(m)
+    for c in range(k):
+        base = 4 * n * c
+        for j in range(m):
+            row = lowest + j
+            for a in range(4):
+                acc = 0.0
+                for i in range(n):
+                    acc += Vinv[row, i] * vec[base + 4 * i + a]
+                acc = abs(acc)
+                if acc > out[j]:
+                    out[j] = acc
+    for j in range(m - 2, -1, -1):
+        if out[j + 1] > out[j]:
+            out[j] = out[j + 1]
+    return out
+
+
+@_kernel
 def det_measure(lu, piv):
     """
     Return sign(det J) times the geometric mean of abs(U_ii), from getrf's (lu, piv).
@@ -921,6 +989,202 @@ def det_measure(lu, piv):
         total += math.log(abs(d)) if d != 0.0 else -math.inf
     sign = -1.0 if odd % 2 else 1.0
     return sign * math.exp(total / n)
+
+
+@_kernel
+def _lu_solve(lu, piv1, b, trans):
+    """Solve with getrf's factorization, in place of ``b`` (piv1: LAPACK's, 1-based; 78 'N')."""
+    n = np.empty(1, np.int32)
+    n[0] = lu.shape[0]
+    one = np.ones(1, np.int32)
+    info = np.zeros(1, np.int32)
+    code = np.empty(1, np.uint8)
+    code[0] = trans
+    _getrs(code.ctypes, n.ctypes, one.ctypes, lu.ctypes, n.ctypes, piv1.ctypes, b.ctypes,
+           n.ctypes, info.ctypes)
+
+
+@_kernel
+def _largest(step):
+    """Return max |step|, or inf if an entry is not finite (RodSolver._take's size)."""
+    size = 0.0
+    for i in range(step.size):
+        a = abs(step[i])
+        if not math.isfinite(a):
+            return math.inf
+        if a > size:
+            size = a
+    return size
+
+
+@_kernel
+def _breaks_hold(vec, n, kinds, limit):
+    """Tell whether 0 < s_1 < ... <= 1 (the last up to ``limit``) (RodSolver._check_breaks)."""
+    b = _breaks(vec, n, kinds)
+    prev = 0.0
+    k = b.size
+    for i in range(k):
+        top = limit if i == k - 1 else 1.0
+        v = b[i]
+        if not (prev < v <= top) or not math.isfinite(v):
+            return False
+        prev = v
+    return True
+
+
+@_kernel
+def trusted_step(lu0, piv0, sens0, rate, forces, vec0, max_change, guess, qb, p, n, kinds, tau,
+                 sp, T, shape, grid, table, nu1, codes, prm, limit, touched, samples, A, tol,
+                 trusted_step_size, trusted_chord, chord_tol, max_step, max_iterations, stall,
+                 noise, rounding):
+    """
+    Take a plain continuation step in one call: RodTracker._contact_advance's common case.
+
+    From the solution ``vec0`` (its factorization ``lu0``, ``piv0`` as scipy's getrf gives them,
+    and pose sensitivities ``sens0``) along a path of pose rate ``rate``, to the pose (``p``,
+    ``qb``) the path ends at, from ``guess`` (the pose stream's extrapolation): the tangent
+    -J^-1 sens rate and its bound's measure (RodTracker._largest_change, the force unknowns at
+    the indices ``forces`` relative to 1 + |f|); where the bound does not shorten the step,
+    RodSolver.solve with ``trusted`` and ``fail_fast`` (Newton, chord steps on a Jacobian
+    within 1e-4, as RodSolver._polish) and, on the solution, :func:`accepted`. The other
+    arguments are those of :func:`evaluate` and :func:`accepted`, the contact arc lengths'
+    bound ``limit``, and the solver's tolerances and bounds.
+
+    Returns (status, tangent, g, vec, lu, piv, sens, evaluations, factorizations, points,
+    normals, tip, frame, tail_depth, depth, where): status 0 solved; 1 the bound shortens the
+    step (nothing solved); 2 the solve failed where RodSolver.solve raises ConvergenceError
+    (the caller takes the general path, which meets the same failure). g is
+    1 / |tangent|^2 (RodTracker._fold_limit's), piv 0-based as scipy's, and the counts those
+    spent.
+    """
+    size0 = vec0.size
+    piv1 = np.empty(size0, np.int32)
+    for i in range(size0):
+        piv1[i] = piv0[i] + 1
+    # the tangent, -J^-1 (sens rate)
+    tan = np.dot(sens0, rate)
+    _lu_solve(lu0, piv1, tan, 78)
+    tt = 0.0
+    for i in range(size0):
+        tan[i] = -tan[i]
+        tt += tan[i] * tan[i]
+    # RodTracker._largest_change: |tan|, each force's entry relative to 1 + |f|; its max
+    weighted = np.abs(tan)
+    for j in range(forces.size):
+        o = forces[j]
+        weighted[o] = abs(tan[o] * (1.0 / (1.0 + abs(vec0[o]))))
+    big = 0.0
+    for i in range(size0):
+        if weighted[i] > big:
+            big = weighted[i]
+    g = 1.0 / max(tt, 1e-300)
+    e2 = np.zeros((0, 0)).T
+    e1 = np.zeros(0)
+    ei = np.zeros(0, np.int32)
+    ek = np.zeros(0, np.int64)
+    m0 = np.zeros((0, 3))
+    f0 = np.zeros((3, 3))
+    if not math.isfinite(tt):
+        return 2, tan, g, e1, e2, ei, m0, 0, 0, m0, m0, e1, f0, math.inf, e1, ek
+    if big > 0.0 and max_change / big < 1.0:
+        return 1, tan, g, e1, e2, ei, m0, 0, 0, m0, m0, e1, f0, math.inf, e1, ek
+    # RodSolver.solve with ``trusted`` and ``fail_fast``: Newton from the guess; where a step
+    # is short enough, chord steps on its Jacobian (RodSolver._polish)
+    evaluations = 0
+    factorizations = 0
+    # (run-time booleans: literal ones would compile evaluate once more for their types)
+    yes = kinds.size > 0
+    no = not yes
+    vec = guess.copy()
+    last = math.inf
+    shortest = math.inf
+    since = 0
+    newton = 0
+    for it in range(max_iterations):
+        evaluations += 1
+        res, J, sens, finite = evaluate(vec, qb, n, kinds, tau, sp, T, p, shape, grid, table,
+                                        nu1, codes, prm, yes, yes)
+        factorizations += 1
+        if not finite:
+            break
+        size = res.size
+        piv = np.empty(size, np.int32)
+        nn = np.empty(1, np.int32)
+        nn[0] = size
+        info = np.zeros(1, np.int32)
+        _getrf(nn.ctypes, nn.ctypes, J.ctypes, nn.ctypes, piv.ctypes, info.ctypes)
+        if info[0] != 0:
+            break
+        rmax = 0.0
+        for i in range(size):
+            if abs(res[i]) > rmax:
+                rmax = abs(res[i])
+        _lu_solve(J, piv, res, 78)
+        step_size = _largest(res)
+        if not step_size <= max_step:
+            break
+        at = vec
+        vec = vec - res
+        if not _breaks_hold(vec, n, kinds, limit):
+            break
+        settled = (step_size <= tol or (last < math.inf and step_size ** 3 / last ** 2 <= tol)
+                   or (last < math.inf and step_size <= noise and step_size > 0.25 * last)
+                   or (it == 0 and step_size <= trusted_step_size))
+        failed = False
+        if not settled and step_size <= trusted_chord and not step_size > 0.1 * last:
+            chord_last = math.inf
+            for _ in range(3):
+                evaluations += 1
+                res2, _, _, _ = evaluate(vec, qb, n, kinds, tau, sp, T, p, shape, grid, table,
+                                         nu1, codes, prm, no, no)
+                _lu_solve(J, piv, res2, 78)
+                s2 = _largest(res2)
+                if not s2 <= max_step:
+                    failed = True
+                    break
+                if s2 > 0.1 * chord_last:
+                    break
+                vec = vec - res2
+                if not _breaks_hold(vec, n, kinds, limit):
+                    failed = True
+                    break
+                if s2 <= chord_tol * 1e-2:
+                    settled = True
+                    break
+                chord_last = s2
+        if failed:
+            break
+        if settled:
+            piv0_new = np.empty(size, np.int32)
+            for i in range(size):
+                piv0_new[i] = piv[i] - 1
+            points, normals, tip, frame, tail_depth, depth, where = accepted(
+                vec, n, kinds, tau, sp, T, p, codes, prm, touched, samples, A, grid, table)
+            return (0, tan, g, vec, J, piv0_new, sens, evaluations, factorizations, points,
+                    normals, tip, frame, tail_depth, depth, where)
+        newton += 1
+        if newton >= 3 and step_size > 0.9 * last:
+            break  # fail_fast: Newton is not contracting
+        if step_size < 0.9 * shortest:
+            shortest = step_size
+            since = 0
+        else:
+            since += 1
+            if since >= stall and newton >= 2 * stall and step_size > noise:
+                if rmax <= rounding:
+                    # the equations hold to rounding where the steps level off
+                    piv0_new = np.empty(size, np.int32)
+                    for i in range(size):
+                        piv0_new[i] = piv[i] - 1
+                    points, normals, tip, frame, tail_depth, depth, where = accepted(
+                        at, n, kinds, tau, sp, T, p, codes, prm, touched, samples, A, grid,
+                        table)
+                    return (0, tan, g, at, J, piv0_new, sens, evaluations, factorizations,
+                            points, normals, tip, frame, tail_depth, depth, where)
+                break
+        last = step_size
+    return (2, tan, g, e1, e2, ei, m0, evaluations, factorizations, m0, m0, e1, f0, math.inf,
+            e1, ek)
 
 
 @_kernel

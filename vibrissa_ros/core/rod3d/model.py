@@ -1233,6 +1233,99 @@ class RodSolver:
             f"3D whisker: Newton did not converge in {max_iterations} iterations"
         )
 
+    def trusted_step(self, modes: Sequence[RodContactMode], start: "Solved", rate: np.ndarray,
+                     guess: np.ndarray, pose: BasePose, max_change: float,
+                     max_step: float = 0.5
+                     ) -> Optional[Tuple["Solved", np.ndarray, float]]:
+        """
+        Take a plain continuation step whole in one compiled call, or return None.
+
+        The tracker's commonest step: from the solution ``start`` along a path of pose rate
+        ``rate`` (d(p, q)/dt, the path parameter t from 0 to 1) to ``pose``, from ``guess``, a
+        pose stream's extrapolation (within ~1e-7). The tangent's bound (the largest change
+        of an unknown, forces relative to 1 + |f|, over the whole step) must stay within
+        ``max_change``; then the solve is :meth:`solve`'s with ``trusted`` and ``fail_fast``
+        (Newton; chord steps on a Jacobian within 1e-4 of the solution), and the solution's
+        data for the tracker's checks and state are computed in the same call (and kept, as
+        :meth:`_accepted` keeps them). The same operations as those methods, in one kernel
+        (:func:`._jit.trusted_step`, LAPACK's getrf and getrs as scipy.linalg's): the same
+        solution to the last bit, without a Python call per iteration.
+
+        Parameters
+        ----------
+        modes : sequence of RodContactMode
+            The contacts (a tuple; side contacts on spheres, cylinders or planes).
+        start : Solved
+            The solution at the path's start.
+        rate : numpy.ndarray
+            (7,) the pose's rate along the path.
+        guess : numpy.ndarray
+            The predicted solution at ``pose``.
+        pose : BasePose
+            The path's end.
+        max_change : float
+            The sub-step bound on the largest change.
+        max_step : float, optional
+            Refuse a longer Newton step (as :meth:`solve`).
+
+        Returns
+        -------
+        tuple (Solved, numpy.ndarray, float) or None
+            The solution, the tangent at the start and 1 / |tangent|^2 (the tracker's fold
+            monitor); None where the bound would shorten the step (nothing solved), or where
+            the kernel does not apply (other obstacles or shapes, other arrays).
+
+        Raises
+        ------
+        ConvergenceError
+            Where :meth:`solve` would raise it, from the same guess.
+
+        """
+        if not _jit.LAPACK or not modes:
+            return None
+        config = self._config(modes)
+        geometry = config.geometry
+        shape = self.shape
+        if geometry is None or (shape.parabola is None and not shape.is_straight):
+            return None
+        if not _jit.WARM:
+            _jit.warm_up()
+        n = self.points_of(modes, guess)
+        lu0, piv0 = start.lu
+        if (n != self.points_of(modes, start.vec) or not lu0.flags.f_contiguous
+                or piv0.dtype != np.int32 or not start.sens.flags.c_contiguous):
+            return None  # (the kernels' own arrays only: one compiled version, no copies)
+        k = len(modes)
+        forces = self._force_indices(modes, start.vec)
+        limit = _S_EXTEND if self._sp is None else min(_S_EXTEND, 0.5 * (1.0 + self._sp))
+        (status, tan, g, vec, lu, piv, sens, spent, factored, points, normals, tip, frame,
+         tail_depth, depth, where) = _jit.trusted_step(
+            lu0, piv0, start.sens, rate, forces, start.vec, max_change,
+            np.ascontiguousarray(guess, dtype=float), pose.q, pose.p, n, config.kinds,
+            _operators(n).tau, self._jit_sp, self._template(k, n), self._jit_shape,
+            self._jit_grid, self._jit_table, self._nu1, geometry[0], geometry[1], limit,
+            config.touched[1], TAIL_SAMPLES, shape.parabola or 0.0, _TOL, _TRUSTED_STEP,
+            _TRUSTED_CHORD, _CHORD_TOL, float(max_step), _NEWTON_ITERATIONS, _STALL, _NOISE,
+            _ROUNDING)
+        self.evaluations += spent
+        self.factorizations += factored
+        if status == 1:
+            return None
+        if status != 0:
+            raise ConvergenceError("3D whisker: the trusted Newton solve failed")
+        self._accepted_cache = (vec.copy(), pose, tuple(modes), _Accepted(
+            points, normals, tip, frame, float(tail_depth), config.touched[0], depth, where))
+        return Solved(vec, (lu, piv), sens), tan, float(g)
+
+    def _force_indices(self, modes, vec) -> np.ndarray:
+        """Return the indices of the contacts' forces in an unknown vector of this length."""
+        o = len(vec) - self._config(modes).extra
+        out = []
+        for m in modes:
+            o += m.size
+            out.append(o - 1)
+        return np.array(out, dtype=np.int64)
+
     def _polish(self, modes, vec, pose, lu, max_step):
         """
         Return (converged, vec) after at most three chord steps with a fresh factorization.
@@ -1432,7 +1525,14 @@ class RodSolver:
             # of fewer than the solver's goes to the solver's
             return max(n, self.n)
         # above[j - lo]: the largest coefficient of degree j or more
-        above = np.maximum.accumulate(self.coefficient_magnitudes(modes, vec, lo)[::-1])[::-1]
+        if _jit.ENABLED:
+            if not _jit.WARM:
+                _jit.warm_up()
+            above = _jit.coefficient_tail(_operators(n).Vinv, np.ascontiguousarray(vec, float),
+                                          n, len(modes), lo)
+        else:
+            above = np.maximum.accumulate(
+                self.coefficient_magnitudes(modes, vec, lo)[::-1])[::-1]
         if n < self.n and float(above[n - 2 - lo]) > POINTS_REFINE:
             return min([m for m in _POINTS_LADDER if n < m < self.n] + [self.n])
         for m in _POINTS_LADDER:
@@ -1731,6 +1831,13 @@ class RodSolver:
         """
         if not _jit.ENABLED or not modes:
             return None
+        vec = np.ascontiguousarray(vec, dtype=float)
+        last = self._accepted_cache
+        # (asked for several times per step, with the same tuple of modes and the same pose:
+        # identity first, then equality)
+        if (last is not None and (last[2] is modes or last[2] == tuple(modes))
+                and (last[1] is pose or last[1] == pose) and _same(last[0], vec)):
+            return last[3]
         shape = self.shape
         if shape.parabola is None and not shape.is_straight:
             return None
@@ -1740,11 +1847,6 @@ class RodSolver:
             return None
         if not _jit.WARM:
             _jit.warm_up()
-        vec = np.ascontiguousarray(vec, dtype=float)
-        last = self._accepted_cache
-        if (last is not None and last[1] == pose and last[2] == modes
-                and _same(last[0], vec)):
-            return last[3]
         n = self.points_of(modes, vec)
         touched = self._config(modes).touched
         points, normals, tip, frame, tail_depth, depth, where = _jit.accepted(

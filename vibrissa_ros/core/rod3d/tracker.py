@@ -315,7 +315,9 @@ class _Path:
 
     def __init__(self, a: BasePose, b: BasePose):
         self.a, self.b = a, b
-        self.dp = b.p - a.p
+        (ax_, ay_, az_), (bx_, by_, bz_) = a.position, b.position
+        dx, dy, dz = bx_ - ax_, by_ - ay_, bz_ - az_
+        self.dp = np.array((dx, dy, dz))
         # the relative rotation conj(q_a) * q_b, on the shorter arc (in floats: a path is made
         # per step and per event, and numpy's calls cost more than the arithmetic here)
         aw, ax, ay, az = a.quaternion
@@ -330,7 +332,6 @@ class _Path:
         self.angle = 2.0 * math.atan2(sin_half, rw)
         self._turn = ((0.5 * self.angle / sin_half) * rx, (0.5 * self.angle / sin_half) * ry,
                       (0.5 * self.angle / sin_half) * rz) if sin_half > 0.0 else (0.0, 0.0, 0.0)
-        dx, dy, dz = (u - v for u, v in zip(b.position, a.position))
         #: bound on the speed of any point of the whisker per unit t
         self.speed = math.sqrt(dx * dx + dy * dy + dz * dz) + self.angle
         self._cache = {}
@@ -516,7 +517,8 @@ class RodTracker:
         # it, e.g. a rotation matrix's quaternion with w >= 0 as w crosses 0) and the state
         # reports the pose as it was given
         target = given
-        if float(np.dot(given.q, self._pose.q)) < 0.0:
+        (gw, gx, gy, gz), (w, x, y, z) = given.quaternion, self._pose.quaternion
+        if gw * w + gx * x + gy * y + gz * z < 0.0:
             target = BasePose(given.position, tuple(-v for v in given.quaternion))
         self._start = self.solver.evaluations
         saved = (self._pose, self._modes, self._vec, self._solved, self._sign, self._state,
@@ -905,6 +907,12 @@ class RodTracker:
         return (value[0], k, value[1])
 
     def _contact_advance(self, path: _Path, t: float, h: float, events) -> Tuple[float, float]:
+        tried = False  # the trusted solve from the stream's prediction failed already
+        if t == 0.0 and h == 1.0:
+            taken = self._plain_step(path, events)
+            if taken:
+                return taken
+            tried = taken is False
         sol = self.solver
         pose = path.pose(t)
         tan = sol.tangent(self._solved, path.rate(pose))
@@ -961,6 +969,10 @@ class RodTracker:
                 t_f, v_f = fold
                 guess = v_f + math.sqrt((t_f - t_new) / (t_f - t)) * (self._vec - v_f)
             try:
+                if tried and stream is not None and t_new == 1.0:
+                    # (the same solve as _plain_step's: it fails the same way)
+                    tried = False
+                    raise ConvergenceError("3D whisker: the trusted Newton solve failed")
                 solved = sol.solve(self._modes, path.pose(t_new), guess, start=self._solved,
                                    max_step=0.5, trusted=stream is not None and t_new == 1.0,
                                    fail_fast=near_fold or (stream is not None and t_new == 1.0))
@@ -984,6 +996,17 @@ class RodTracker:
                 self._check_between(self._modes, solved.vec, path.b)
             except ModelAssumptionError:
                 return t, reach
+        return self._conclude(path, t, t_new, dt, tan, solved, events, fold, whole, reach)
+
+    def _conclude(self, path, t, t_new, dt, tan, solved, events, fold=None, whole=False,
+                  reach=None) -> Tuple[float, float]:
+        """
+        Accept a sub-step's solution at t_new, or locate the event it crossed; return (t, h).
+
+        ``tan`` is the tangent at t, ``dt`` the sub-step, ``fold`` the located fold it stops
+        short of (or None), ``whole`` a step taken whole (``reach`` the sub-step it replaced).
+        """
+        sol = self.solver
         self._check_features(self._modes, solved.vec, path.pose(t_new))
         values = self._event_values(path, t_new, solved.vec, solved.lu)
         gap = self._contact_gap(path, t_new, solved.vec)[0]
@@ -1022,6 +1045,37 @@ class RodTracker:
             if dt * 0.25 < _H_MIN:
                 raise
             return t, 0.25 * dt
+
+    def _plain_step(self, path: _Path, events):
+        """
+        Take the commonest step's solve in one compiled call, or return None for the general path.
+
+        A pose stream's next pose, within the sub-step bound, the solution predicted by
+        :meth:`_extrapolate`, contacts on spheres, cylinders and planes (no edges): the general
+        path below would compute the tangent and its bound, then solve from the prediction
+        (Newton, chord steps near the solution). :meth:`RodSolver.trusted_step` does both in
+        one kernel call with the same operations (the same solution to the last bit), and the
+        sub-step is concluded as below (:meth:`_conclude`: event values, gap, checks). Returns
+        its (t, h); None where the bound would shorten the step (or the kernel does not apply),
+        and False where the solve failed: nothing has changed, and the general path takes the
+        step from the start (after a failed solve, as after its own: a shorter sub-step).
+        """
+        modes = self._modes
+        if self._edges or not _MAX_MOVE >= path.speed:
+            return None
+        stream = self._extrapolate(path)
+        if stream is None:
+            return None
+        try:
+            taken = self.solver.trusted_step(modes, self._solved, path.rate(path.a), stream,
+                                             path.b, _MAX_CHANGE)
+        except ConvergenceError:
+            return False
+        if taken is None:
+            return None
+        solved, tan, g = taken
+        self._fold_prev = (path, modes, 0.0, g)
+        return self._conclude(path, 0.0, 1.0, 1.0, tan, solved, events)
 
     def _resolve_points(self, full: bool = False) -> bool:
         """

@@ -1,0 +1,148 @@
+"""
+The tracker's commonest step taken in one compiled call (RodSolver.trusted_step).
+
+A pose stream's next pose within the sub-step bound, solved from the stream's extrapolation:
+the tangent, its bound, the Newton and chord steps and the accepted solution's data in one
+kernel, with the same operations as the general path, so the same states to the last bit.
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+from vibrissa_ros.core.arrays import WhiskerArray
+from vibrissa_ros.core.arrays.rat import rat_array
+from vibrissa_ros.core.arrays.tracker import ArrayTracker
+from vibrissa_ros.core.arrays.whisking import CosineWhisk
+from vibrissa_ros.core.errors import ConvergenceError
+from vibrissa_ros.core.rod3d import BasePose, Cylinder, RodSolver, RodTracker, Scene3D, _jit
+from vibrissa_ros.core.rod3d import tracker as tracker_module
+
+pytestmark = pytest.mark.skipif(not _jit.LAPACK, reason="the compiled kernels are off")
+
+#: the right pad's peg of bench/bench_array.py (RB1 touches it, snaps off and touches again)
+PEG = Cylinder((0.03, -0.016, 0.0), (0, 0, 1), 0.0015, "peg")
+HEAD = BasePose((0.0, 0.0, 0.0))
+WHISK = CosineWhisk(8.0, -math.radians(20.0), math.radians(20.0))
+
+
+@pytest.fixture(scope="module")
+def rb1_cycle():
+    """RB1's base poses over two whisk cycles (250 ticks of 1 ms), and its scene and shape."""
+    array = WhiskerArray((rat_array("right")["RB1"],), "RB1")
+    tracker = ArrayTracker(array, Scene3D((PEG,)), HEAD, WHISK.angle(0.0))
+    rod = tracker.tracker("RB1")
+    poses = [tracker.whisker_poses(HEAD, WHISK.angle(k * 1e-3))[0] for k in range(251)]
+    return poses, rod.obstacles, rod.shape
+
+
+def _run(rb1_cycle, steps=None):
+    poses, obstacles, shape = rb1_cycle
+    tracker = RodTracker(obstacles, poses[0], shape=shape)
+    out = []
+    for pose in poses[1:]:
+        result = tracker.step(pose)
+        load = np.concatenate((result.state.force, result.state.moment))
+        out.append((tracker._vec.copy(), load, [(e.kind, e.s) for e in result.events],
+                    tracker.solver.evaluations, tracker.solver.factorizations))
+        if steps is not None:
+            steps.append(tracker._last_step is not None)
+    return out
+
+
+def test_the_compiled_step_gives_the_general_paths_states_to_the_last_bit(rb1_cycle,
+                                                                          monkeypatch):
+    taken = []
+    real = RodSolver.trusted_step
+
+    def counted(self, *args, **kwargs):
+        try:
+            result = real(self, *args, **kwargs)
+        except ConvergenceError:
+            taken.append("failed")
+            raise
+        taken.append("solved" if result is not None else "bounded")
+        return result
+
+    monkeypatch.setattr(RodSolver, "trusted_step", counted)
+    fast = _run(rb1_cycle)
+    monkeypatch.setattr(RodSolver, "trusted_step", lambda self, *a, **k: None)
+    general = _run(rb1_cycle)
+    # most steps in contact went through the kernel (the others: an event's sub-steps), and
+    # one trusted solve failed there (Newton not contracting: the general path's shorter
+    # sub-steps follow, without trying that solve again)
+    assert taken.count("solved") >= 120 and taken.count("failed") >= 1
+    assert len(fast) == len(general)
+    for (vec_a, load_a, events_a, ev_a, lu_a), (vec_b, load_b, events_b, ev_b, lu_b) in zip(
+            fast, general):
+        assert np.array_equal(vec_a, vec_b) and np.array_equal(load_a, load_b)
+        assert events_a == events_b
+        # the same work: a solve that fails in the kernel is not tried again
+        assert (ev_a, lu_a) == (ev_b, lu_b)
+    assert [e[0] for events in (f[2] for f in fast) for e in events][:3] == ["touch", "snap",
+                                                                             "touch"]
+
+
+def _in_contact_with_a_stream(rb1_cycle):
+    """Return a tracker in contact whose next pose its stream predicts, and that pose."""
+    poses, obstacles, shape = rb1_cycle
+    tracker = RodTracker(obstacles, poses[0], shape=shape)
+    for k, pose in enumerate(poses[1:], 1):
+        tracker.step(pose)
+        if tracker._modes and len(tracker._history) >= 7:
+            path = tracker_module._Path(tracker._pose, poses[k + 1])
+            stream = tracker._extrapolate(path)
+            if stream is not None:
+                return tracker, path, stream
+    raise AssertionError("no step in contact with a stream")
+
+
+def test_trusted_step_solves_as_solve_does(rb1_cycle):
+    tracker, path, stream = _in_contact_with_a_stream(rb1_cycle)
+    sol, modes, start = tracker.solver, tracker._modes, tracker._solved
+    rate = path.rate(path.a)
+    before = sol.evaluations, sol.factorizations
+    solved, tan, g = sol.trusted_step(modes, start, rate, stream, path.b, 0.05)
+    spent = sol.evaluations - before[0], sol.factorizations - before[1]
+    kept = sol._accepted_cache[3]
+    sol._accepted_cache = None
+
+    before = sol.evaluations, sol.factorizations
+    reference = sol.solve(modes, path.b, stream, start=start, max_step=0.5, trusted=True,
+                          fail_fast=True)
+    assert (sol.evaluations - before[0], sol.factorizations - before[1]) == spent
+    assert np.array_equal(solved.vec, reference.vec)
+    assert np.array_equal(solved.lu[0], reference.lu[0])
+    assert np.array_equal(solved.lu[1], reference.lu[1])
+    assert solved.lu[1].dtype == reference.lu[1].dtype
+    assert np.array_equal(solved.sens, reference.sens)
+    # the tangent at the start and its fold monitor, as the general path computes them
+    reference_tan = sol.tangent(start, rate)
+    assert np.abs(tan - reference_tan).max() <= 1e-13 * np.abs(reference_tan).max()
+    assert g == pytest.approx(1.0 / float(reference_tan @ reference_tan), rel=1e-13)
+    # the accepted solution's data, computed in the same call, are _accepted's
+    fresh = sol._accepted(modes, reference.vec, path.b)
+    for a, b in zip(kept, fresh):
+        assert np.array_equal(np.asarray(a), np.asarray(b))
+
+
+def test_a_bound_that_shortens_the_step_leaves_it_to_the_general_path(rb1_cycle):
+    tracker, path, stream = _in_contact_with_a_stream(rb1_cycle)
+    sol = tracker.solver
+    before = sol.evaluations
+    # a bound no tangent meets: nothing solved, nothing spent
+    assert sol.trusted_step(tracker._modes, tracker._solved, path.rate(path.a), stream, path.b,
+                            1e-12) is None
+    assert sol.evaluations == before
+
+
+def test_a_failed_trusted_solve_raises_as_solve_does(rb1_cycle):
+    tracker, path, stream = _in_contact_with_a_stream(rb1_cycle)
+    sol, modes, start = tracker.solver, tracker._modes, tracker._solved
+    far = stream.copy()
+    far[:-2] += 0.3  # no Newton step from here is shorter than max_step
+    with pytest.raises(ConvergenceError):
+        sol.trusted_step(modes, start, np.zeros(7), far, path.b, 0.05, max_step=0.01)
+    with pytest.raises(ConvergenceError):
+        sol.solve(modes, path.b, far, start=start, max_step=0.01, trusted=True, fail_fast=True)
