@@ -618,6 +618,7 @@ def test_joint_names_rows_and_whisk_map_to_whiskers():
     ({"head.qw": 2.0}, "quaternion"),
     ({"whisk.protraction": -0.5}, "protraction"),
     ({"rate": 0.0}, "rate = 0.0"),
+    ({"solver.adapt_points": "yes"}, "solver.adapt_points"),
 ])
 def test_a_bad_configuration_is_one_line_naming_the_parameter(change, words):
     from vibrissa_ros.core.errors import ParameterError
@@ -626,6 +627,18 @@ def test_a_bad_configuration_is_one_line_naming_the_parameter(change, words):
     with pytest.raises(ParameterError) as err:
         build_array_config(dict(values, **change))
     assert words in str(err.value) and "\n" not in str(err.value)
+
+
+def test_solver_adapt_points_reaches_every_whiskers_tracker():
+    from vibrissa_ros.node.array import ArrayPipeline
+
+    values = dict(_shipped(), **{"scene.file": str(ROOT / "config" / "scene_peg_array_m.yaml"),
+                                 "array.side": "right"})
+    assert build_array_config(values).values["solver.adapt_points"] is True
+    for flag in (True, False):
+        tracker = ArrayPipeline(build_array_config(
+            dict(values, **{"solver.adapt_points": flag}))).tracker
+        assert {tracker.tracker(name).adapt_points for name in tracker.names} == {flag}
 
 
 def test_the_cloud_layout_round_trips_by_field_name():
