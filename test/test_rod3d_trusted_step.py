@@ -103,7 +103,7 @@ def test_trusted_step_solves_as_solve_does(rb1_cycle):
     sol, modes, start = tracker.solver, tracker._modes, tracker._solved
     rate = path.rate(path.a)
     before = sol.evaluations, sol.factorizations
-    solved, tan, g = sol.trusted_step(modes, start, rate, stream, path.b, 0.05)
+    solved, tan, g, checked = sol.trusted_step(modes, start, rate, stream, path.b, 0.05)
     spent = sol.evaluations - before[0], sol.factorizations - before[1]
     kept = sol._accepted_cache[3]
     sol._accepted_cache = None
@@ -125,6 +125,12 @@ def test_trusted_step_solves_as_solve_does(rb1_cycle):
     fresh = sol._accepted(modes, reference.vec, path.b)
     for a, b in zip(kept, fresh):
         assert np.array_equal(np.asarray(a), np.asarray(b))
+    # the checks pass, as the tracker's own find (they raise otherwise)
+    assert checked
+    tracker._check_tail(modes, reference.vec, path.b)
+    tracker._check_between(modes, reference.vec, path.b)
+    # and they do not where their bound is above the loaded part's distance to the peg
+    assert not sol.trusted_step(modes, start, rate, stream, path.b, 0.05, tail_cut=1.0)[3]
 
 
 def test_a_bound_that_shortens_the_step_leaves_it_to_the_general_path(rb1_cycle):

@@ -1033,10 +1033,26 @@ def _breaks_hold(vec, n, kinds, limit):
 
 
 @_kernel
+def _checks_hold(tail_depth, depth, tail_cut):
+    """
+    Tell whether the tracker's checks on a solution pass, from :func:`accepted`'s distances.
+
+    RodTracker._check_tail and _check_between: the unloaded tail's and the loaded part's least
+    distances to the obstacles they touch, ``tail_depth`` and ``depth``, not below ``tail_cut``.
+    """
+    if tail_depth < tail_cut:
+        return False
+    for j in range(depth.size):
+        if depth[j] < tail_cut:
+            return False
+    return True
+
+
+@_kernel
 def trusted_step(lu0, piv0, sens0, rate, forces, vec0, max_change, guess, qb, p, n, kinds, tau,
                  sp, T, shape, grid, table, nu1, codes, prm, limit, touched, samples, A, tol,
                  trusted_step_size, trusted_chord, chord_tol, max_step, max_iterations, stall,
-                 noise, rounding):
+                 noise, rounding, tail_cut):
     """
     Take a plain continuation step in one call: RodTracker._contact_advance's common case.
 
@@ -1051,11 +1067,11 @@ def trusted_step(lu0, piv0, sens0, rate, forces, vec0, max_change, guess, qb, p,
     bound ``limit``, and the solver's tolerances and bounds.
 
     Returns (status, tangent, g, vec, lu, piv, sens, evaluations, factorizations, points,
-    normals, tip, frame, tail_depth, depth, where): status 0 solved; 1 the bound shortens the
-    step (nothing solved); 2 the solve failed where RodSolver.solve raises ConvergenceError
-    (the caller takes the general path, which meets the same failure). g is
-    1 / |tangent|^2 (RodTracker._fold_limit's), piv 0-based as scipy's, and the counts those
-    spent.
+    normals, tip, frame, tail_depth, depth, where, checked): status 0 solved; 1 the bound
+    shortens the step (nothing solved); 2 the solve failed where RodSolver.solve raises
+    ConvergenceError (the caller takes the general path, which meets the same failure). g is
+    1 / |tangent|^2 (RodTracker._fold_limit's), piv 0-based as scipy's, the counts those
+    spent, and checked :func:`_checks_hold` of the solution (the checks' bound ``tail_cut``).
     """
     size0 = vec0.size
     piv1 = np.empty(size0, np.int32)
@@ -1085,9 +1101,9 @@ def trusted_step(lu0, piv0, sens0, rate, forces, vec0, max_change, guess, qb, p,
     m0 = np.zeros((0, 3))
     f0 = np.zeros((3, 3))
     if not math.isfinite(tt):
-        return 2, tan, g, e1, e2, ei, m0, 0, 0, m0, m0, e1, f0, math.inf, e1, ek
+        return 2, tan, g, e1, e2, ei, m0, 0, 0, m0, m0, e1, f0, math.inf, e1, ek, False
     if big > 0.0 and max_change / big < 1.0:
-        return 1, tan, g, e1, e2, ei, m0, 0, 0, m0, m0, e1, f0, math.inf, e1, ek
+        return 1, tan, g, e1, e2, ei, m0, 0, 0, m0, m0, e1, f0, math.inf, e1, ek, False
     # RodSolver.solve with ``trusted`` and ``fail_fast``: Newton from the guess; where a step
     # is short enough, chord steps on its Jacobian (RodSolver._polish)
     evaluations = 0
@@ -1160,8 +1176,9 @@ def trusted_step(lu0, piv0, sens0, rate, forces, vec0, max_change, guess, qb, p,
                 piv0_new[i] = piv[i] - 1
             points, normals, tip, frame, tail_depth, depth, where = accepted(
                 vec, n, kinds, tau, sp, T, p, codes, prm, touched, samples, A, grid, table)
+            clean = _checks_hold(tail_depth, depth, tail_cut)
             return (0, tan, g, vec, J, piv0_new, sens, evaluations, factorizations, points,
-                    normals, tip, frame, tail_depth, depth, where)
+                    normals, tip, frame, tail_depth, depth, where, clean)
         newton += 1
         if newton >= 3 and step_size > 0.9 * last:
             break  # fail_fast: Newton is not contracting
@@ -1179,12 +1196,13 @@ def trusted_step(lu0, piv0, sens0, rate, forces, vec0, max_change, guess, qb, p,
                     points, normals, tip, frame, tail_depth, depth, where = accepted(
                         at, n, kinds, tau, sp, T, p, codes, prm, touched, samples, A, grid,
                         table)
+                    clean = _checks_hold(tail_depth, depth, tail_cut)
                     return (0, tan, g, at, J, piv0_new, sens, evaluations, factorizations,
-                            points, normals, tip, frame, tail_depth, depth, where)
+                            points, normals, tip, frame, tail_depth, depth, where, clean)
                 break
         last = step_size
     return (2, tan, g, e1, e2, ei, m0, evaluations, factorizations, m0, m0, e1, f0, math.inf,
-            e1, ek)
+            e1, ek, False)
 
 
 @_kernel

@@ -1235,8 +1235,8 @@ class RodSolver:
 
     def trusted_step(self, modes: Sequence[RodContactMode], start: "Solved", rate: np.ndarray,
                      guess: np.ndarray, pose: BasePose, max_change: float,
-                     max_step: float = 0.5
-                     ) -> Optional[Tuple["Solved", np.ndarray, float]]:
+                     max_step: float = 0.5, tail_cut: float = -1e-9
+                     ) -> Optional[Tuple["Solved", np.ndarray, float, bool]]:
         """
         Take a plain continuation step whole in one compiled call, or return None.
 
@@ -1267,13 +1267,19 @@ class RodSolver:
             The sub-step bound on the largest change.
         max_step : float, optional
             Refuse a longer Newton step (as :meth:`solve`).
+        tail_cut : float, optional
+            The depth [L] beyond which the tracker's checks refuse the unloaded tail or the
+            loaded part cutting an obstacle it touches.
 
         Returns
         -------
-        tuple (Solved, numpy.ndarray, float) or None
-            The solution, the tangent at the start and 1 / |tangent|^2 (the tracker's fold
-            monitor); None where the bound would shorten the step (nothing solved), or where
-            the kernel does not apply (other obstacles or shapes, other arrays).
+        tuple (Solved, numpy.ndarray, float, bool) or None
+            The solution, the tangent at the start, 1 / |tangent|^2 (the tracker's fold
+            monitor), and whether the tracker's checks pass on it (its unloaded tail and its
+            loaded part no deeper than ``tail_cut`` in the obstacles they touch, from the
+            data the call computed). None where the bound would shorten the step (nothing
+            solved), or where the kernel does not apply (other obstacles or shapes, other
+            arrays).
 
         Raises
         ------
@@ -1299,14 +1305,14 @@ class RodSolver:
         forces = self._force_indices(modes, start.vec)
         limit = _S_EXTEND if self._sp is None else min(_S_EXTEND, 0.5 * (1.0 + self._sp))
         (status, tan, g, vec, lu, piv, sens, spent, factored, points, normals, tip, frame,
-         tail_depth, depth, where) = _jit.trusted_step(
+         tail_depth, depth, where, checked) = _jit.trusted_step(
             lu0, piv0, start.sens, rate, forces, start.vec, max_change,
             np.ascontiguousarray(guess, dtype=float), pose.q, pose.p, n, config.kinds,
             _operators(n).tau, self._jit_sp, self._template(k, n), self._jit_shape,
             self._jit_grid, self._jit_table, self._nu1, geometry[0], geometry[1], limit,
             config.touched[1], TAIL_SAMPLES, shape.parabola or 0.0, _TOL, _TRUSTED_STEP,
             _TRUSTED_CHORD, _CHORD_TOL, float(max_step), _NEWTON_ITERATIONS, _STALL, _NOISE,
-            _ROUNDING)
+            _ROUNDING, float(tail_cut))
         self.evaluations += spent
         self.factorizations += factored
         if status == 1:
@@ -1315,7 +1321,7 @@ class RodSolver:
             raise ConvergenceError("3D whisker: the trusted Newton solve failed")
         self._accepted_cache = (vec.copy(), pose, tuple(modes), _Accepted(
             points, normals, tip, frame, float(tail_depth), config.touched[0], depth, where))
-        return Solved(vec, (lu, piv), sens), tan, float(g)
+        return Solved(vec, (lu, piv), sens), tan, float(g), bool(checked)
 
     def _force_indices(self, modes, vec) -> np.ndarray:
         """Return the indices of the contacts' forces in an unknown vector of this length."""

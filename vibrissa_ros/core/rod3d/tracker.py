@@ -1068,13 +1068,20 @@ class RodTracker:
             return None
         try:
             taken = self.solver.trusted_step(modes, self._solved, path.rate(path.a), stream,
-                                             path.b, _MAX_CHANGE)
+                                             path.b, _MAX_CHANGE, tail_cut=_TAIL_CUT)
         except ConvergenceError:
             return False
         if taken is None:
             return None
-        solved, tan, g = taken
+        solved, tan, g, checked = taken
         self._fold_prev = (path, modes, 0.0, g)
+        if (checked and not any(v < 0.0 for v in self._event_values(
+                path, 1.0, solved.vec, solved.lu).values())
+                and self._contact_gap(path, 1.0, solved.vec)[0] >= _CUT):
+            # no event crossed, no touch, and the checks pass (as _conclude finds them, from
+            # the same values): accepted
+            self._accept(solved, path.b)
+            return 1.0, 1.0
         return self._conclude(path, 0.0, 1.0, 1.0, tan, solved, events)
 
     def _resolve_points(self, full: bool = False) -> bool:
