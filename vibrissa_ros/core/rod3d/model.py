@@ -1885,7 +1885,6 @@ class RodSolver:
 
         """
         modes = tuple(modes)
-        p = pose.p
         if modes:
             breaks = self.breaks_of(modes, vec)
             fs = self.forces_of(modes, vec)
@@ -1893,7 +1892,7 @@ class RodSolver:
             if post is not None:
                 # (the kernel's: the same operations as below)
                 pts, tip, frame = post.points, post.tip, post.frame
-                forces = np.array([f * n for f, n in zip(fs, post.normals)])
+                forces = post.normals * np.array(fs)[:, None]
             else:
                 if _jit.ENABLED:
                     _, _, r_nodes, R = self._nodes(modes, vec, pose)
@@ -1904,7 +1903,7 @@ class RodSolver:
                     lay = self.layout(modes, vec)
                     Q = vec[:4 * lay.N].reshape(lay.N, 4)
                     R = _rotations(Q[lay.ends])
-                    r_ends = p + lay.G[lay.ends] @ _tangents(Q)
+                    r_ends = pose.p + lay.G[lay.ends] @ _tangents(Q)
                     Q_last = Q[-1]
                 pts = r_ends
                 forces = np.array([f * np.asarray(self.obstacles[m.obstacle].surface(x).normal)
@@ -1942,7 +1941,7 @@ class RodSolver:
             R0 = pose.rotation
             tip_off, tip_frame = self._free_tip()
             frame = R0 @ tip_frame
-            tip = p + R0 @ tip_off
+            tip = pose.p + R0 @ tip_off
             force = np.zeros(3)
             moment = np.zeros(3)
         vec = np.array(vec, dtype=float)
