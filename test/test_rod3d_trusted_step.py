@@ -44,8 +44,10 @@ def _run(rb1_cycle, steps=None):
     for pose in poses[1:]:
         result = tracker.step(pose)
         load = np.concatenate((result.state.force, result.state.moment))
+        fold = tracker._fold_prev  # (path, modes, t, 1 / |tangent|^2) of the last sub-step
         out.append((tracker._vec.copy(), load, [(e.kind, e.s) for e in result.events],
-                    tracker.solver.evaluations, tracker.solver.factorizations))
+                    tracker.solver.evaluations, tracker.solver.factorizations,
+                    None if fold is None else (fold[1], fold[2], fold[3])))
         if steps is not None:
             steps.append(tracker._last_step is not None)
     return out
@@ -74,10 +76,11 @@ def test_the_compiled_step_gives_the_general_paths_states_to_the_last_bit(rb1_cy
     # sub-steps follow, without trying that solve again)
     assert taken.count("solved") >= 120 and taken.count("failed") >= 1
     assert len(fast) == len(general)
-    for (vec_a, load_a, events_a, ev_a, lu_a), (vec_b, load_b, events_b, ev_b, lu_b) in zip(
-            fast, general):
+    for a, b in zip(fast, general):
+        (vec_a, load_a, events_a, ev_a, lu_a, fold_a) = a
+        (vec_b, load_b, events_b, ev_b, lu_b, fold_b) = b
         assert np.array_equal(vec_a, vec_b) and np.array_equal(load_a, load_b)
-        assert events_a == events_b
+        assert events_a == events_b and fold_a == fold_b
         # the same work: a solve that fails in the kernel is not tried again
         assert (ev_a, lu_a) == (ev_b, lu_b)
     assert [e[0] for events in (f[2] for f in fast) for e in events][:3] == ["touch", "snap",
@@ -103,7 +106,7 @@ def test_trusted_step_solves_as_solve_does(rb1_cycle):
     sol, modes, start = tracker.solver, tracker._modes, tracker._solved
     rate = path.rate(path.a)
     before = sol.evaluations, sol.factorizations
-    solved, tan, g, checked = sol.trusted_step(modes, start, rate, stream, path.b, 0.05)
+    solved, tan, checked = sol.trusted_step(modes, start, rate, stream, path.b, 0.05)
     spent = sol.evaluations - before[0], sol.factorizations - before[1]
     kept = sol._accepted_cache[3]
     sol._accepted_cache = None
@@ -117,10 +120,8 @@ def test_trusted_step_solves_as_solve_does(rb1_cycle):
     assert np.array_equal(solved.lu[1], reference.lu[1])
     assert solved.lu[1].dtype == reference.lu[1].dtype
     assert np.array_equal(solved.sens, reference.sens)
-    # the tangent at the start and its fold monitor, as the general path computes them
-    reference_tan = sol.tangent(start, rate)
-    assert np.abs(tan - reference_tan).max() <= 1e-13 * np.abs(reference_tan).max()
-    assert g == pytest.approx(1.0 / float(reference_tan @ reference_tan), rel=1e-13)
+    # the tangent at the start, as the general path computes it
+    assert np.array_equal(tan, sol.tangent(start, rate))
     # the accepted solution's data, computed in the same call, are _accepted's
     fresh = sol._accepted(modes, reference.vec, path.b)
     for a, b in zip(kept, fresh):
@@ -129,8 +130,38 @@ def test_trusted_step_solves_as_solve_does(rb1_cycle):
     assert checked
     tracker._check_tail(modes, reference.vec, path.b)
     tracker._check_between(modes, reference.vec, path.b)
-    # and they do not where their bound is above the loaded part's distance to the peg
-    assert not sol.trusted_step(modes, start, rate, stream, path.b, 0.05, tail_cut=1.0)[3]
+
+
+def test_the_kernels_checks_fail_where_the_trackers_do(rb1_cycle, monkeypatch):
+    from vibrissa_ros.core.errors import ModelAssumptionError
+
+    tracker, path, stream = _in_contact_with_a_stream(rb1_cycle)
+    sol, modes, start = tracker.solver, tracker._modes, tracker._solved
+    rate = path.rate(path.a)
+    solved = sol.trusted_step(modes, start, rate, stream, path.b, 0.05)[0]
+    post = sol._accepted(modes, solved.vec, path.b)
+    tail, loaded = post.tail_depth, float(post.depth.min())
+    # the loaded part touches the peg at its contact (distance 0 to rounding); the tail is
+    # clear of it
+    assert abs(loaded) < 1e-12 and 1e-3 < tail < math.inf
+    # a bound between the two: the loaded part's check refuses, the tail's passes, in the
+    # kernel as in the tracker
+    cut = 0.5 * tail
+    monkeypatch.setattr(tracker_module, "_TAIL_CUT", cut)
+    assert not sol.trusted_step(modes, start, rate, stream, path.b, 0.05, tail_cut=cut)[2]
+    with pytest.raises(ModelAssumptionError):
+        tracker._check_between(modes, solved.vec, path.b)
+    tracker._check_tail(modes, solved.vec, path.b)
+    # above both: both refuse
+    cut = 2.0 * tail
+    monkeypatch.setattr(tracker_module, "_TAIL_CUT", cut)
+    assert not sol.trusted_step(modes, start, rate, stream, path.b, 0.05, tail_cut=cut)[2]
+    with pytest.raises(ModelAssumptionError):
+        tracker._check_tail(modes, solved.vec, path.b)
+    # the tracker's own bound: both pass
+    monkeypatch.undo()
+    assert sol.trusted_step(modes, start, rate, stream, path.b, 0.05,
+                            tail_cut=tracker_module._TAIL_CUT)[2]
 
 
 def test_a_bound_that_shortens_the_step_leaves_it_to_the_general_path(rb1_cycle):
@@ -148,7 +179,26 @@ def test_a_failed_trusted_solve_raises_as_solve_does(rb1_cycle):
     sol, modes, start = tracker.solver, tracker._modes, tracker._solved
     far = stream.copy()
     far[:-2] += 0.3  # no Newton step from here is shorter than max_step
-    with pytest.raises(ConvergenceError):
-        sol.trusted_step(modes, start, np.zeros(7), far, path.b, 0.05, max_step=0.01)
-    with pytest.raises(ConvergenceError):
-        sol.solve(modes, path.b, far, start=start, max_step=0.01, trusted=True, fail_fast=True)
+    spent = []
+    for attempt in (lambda: sol.trusted_step(modes, start, np.zeros(7), far, path.b, 0.05,
+                                             max_step=0.01),
+                    lambda: sol.solve(modes, path.b, far, start=start, max_step=0.01,
+                                      trusted=True, fail_fast=True)):
+        before = sol.evaluations, sol.factorizations
+        with pytest.raises(ConvergenceError):
+            attempt()
+        spent.append((sol.evaluations - before[0], sol.factorizations - before[1]))
+    assert spent[0] == spent[1] == (1, 1)
+
+
+def test_a_tangent_that_is_not_finite_leaves_the_step_to_the_general_path(rb1_cycle):
+    tracker, path, stream = _in_contact_with_a_stream(rb1_cycle)
+    sol, start = tracker.solver, tracker._solved
+    sens = start.sens.copy()
+    sens[0, 0] = math.nan
+    rate = path.rate(path.a)
+    rate[0] = 1.0  # (so that the NaN reaches the tangent)
+    broken = start._replace(sens=sens)
+    before = sol.evaluations
+    assert sol.trusted_step(tracker._modes, broken, rate, stream, path.b, 0.05) is None
+    assert sol.evaluations == before

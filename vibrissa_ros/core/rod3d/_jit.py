@@ -52,7 +52,7 @@ def warm_up() -> None:
             return
         # imported here: model imports this module
         from ..errors import ConvergenceError
-        from .model import RodContactMode, RodSolver, Solved, _lu_factor
+        from .model import RodContactMode, RodSolver, Solved, _lu_factor, _operators
         from .obstacles import Sphere
         from .pose import BasePose
         from .shape import RodShape
@@ -82,7 +82,8 @@ def warm_up() -> None:
             parabola_tail(0.5, np.array([1.0]), 1.0, *RodShape(parabola=1.0)._u_table())
             parabola_tip(0.5, 1.0, *RodShape(parabola=1.0)._u_table())
             det_measure(*_lu_factor(J))
-            solver.points_needed(modes, vec)
+            # (points_needed does not ask for it at n = 8; the operators are read-only)
+            coefficient_tail(_operators(16).Vinv, np.zeros(64), 16, 1, 14)
             table = RodShape(parabola=1.0)._u_table()
             free_minimum(SPHERE, np.array([0.5, 0.2, 0.0, 0.1, 0.0, 0.0, 0.0]), np.eye(3),
                          np.zeros(3), 1.0, table[0], table[1], 0.5, 0.4, 0.6, 12, 1e-13)
@@ -949,7 +950,8 @@ def coefficient_tail(Vinv, vec, n, k, lowest):
 
     Over the k segments and the four components of the quaternions (the first 4 n k values of
     ``vec``, segment by segment, node by node); ``Vinv`` (n, n) maps nodal values to
-    coefficients (model.RodSolver.points_needed's ``above``, from coefficient_magnitudes).
+    coefficients (model.RodSolver.points_needed's ``above``: coefficient_magnitudes' to
+    rounding, summed here in order where numpy's matmul sums by blocks).
     """
     m = n - lowest
     out = np.zeros(m)
@@ -1049,41 +1051,44 @@ def _checks_hold(tail_depth, depth, tail_cut):
 
 
 @_kernel
-def trusted_step(lu0, piv0, sens0, rate, forces, vec0, max_change, guess, qb, p, n, kinds, tau,
+def trusted_step(lu0, piv0, rhs, forces, vec0, max_change, guess, qb, p, n, kinds, tau,
                  sp, T, shape, grid, table, nu1, codes, prm, limit, touched, samples, A, tol,
                  trusted_step_size, trusted_chord, chord_tol, max_step, max_iterations, stall,
                  noise, rounding, tail_cut):
     """
     Take a plain continuation step in one call: RodTracker._contact_advance's common case.
 
-    From the solution ``vec0`` (its factorization ``lu0``, ``piv0`` as scipy's getrf gives them,
-    and pose sensitivities ``sens0``) along a path of pose rate ``rate``, to the pose (``p``,
-    ``qb``) the path ends at, from ``guess`` (the pose stream's extrapolation): the tangent
-    -J^-1 sens rate and its bound's measure (RodTracker._largest_change, the force unknowns at
+    From the solution ``vec0`` (its factorization ``lu0``, ``piv0`` as scipy's getrf gives them)
+    along a path whose pose rate r gives ``rhs`` = sens r (the solution's pose sensitivities
+    times r, numpy's product, as RodSolver.tangent computes it), to the pose (``p``, ``qb``)
+    the path ends at, from ``guess`` (the pose stream's extrapolation): the tangent
+    -J^-1 sens r and its bound's measure (RodTracker._largest_change, the force unknowns at
     the indices ``forces`` relative to 1 + |f|); where the bound does not shorten the step,
     RodSolver.solve with ``trusted`` and ``fail_fast`` (Newton, chord steps on a Jacobian
     within 1e-4, as RodSolver._polish) and, on the solution, :func:`accepted`. The other
     arguments are those of :func:`evaluate` and :func:`accepted`, the contact arc lengths'
     bound ``limit``, and the solver's tolerances and bounds.
 
-    Returns (status, tangent, g, vec, lu, piv, sens, evaluations, factorizations, points,
+    Returns (status, tangent, vec, lu, piv, sens, evaluations, factorizations, points,
     normals, tip, frame, tail_depth, depth, where, checked): status 0 solved; 1 the bound
-    shortens the step (nothing solved); 2 the solve failed where RodSolver.solve raises
-    ConvergenceError (the caller takes the general path, which meets the same failure). g is
-    1 / |tangent|^2 (RodTracker._fold_limit's), piv 0-based as scipy's, the counts those
-    spent, and checked :func:`_checks_hold` of the solution (the checks' bound ``tail_cut``).
+    shortens the step, or the tangent is not finite (nothing solved: the general path takes
+    the step); 2 the solve failed where RodSolver.solve raises ConvergenceError (the same
+    solve from the same guess: the general path goes on as after its own failed trial step).
+    piv is 0-based as scipy's, the counts those spent, and checked :func:`_checks_hold` of
+    the solution (the checks' bound ``tail_cut``).
     """
     size0 = vec0.size
     piv1 = np.empty(size0, np.int32)
     for i in range(size0):
         piv1[i] = piv0[i] + 1
-    # the tangent, -J^-1 (sens rate)
-    tan = np.dot(sens0, rate)
+    # the tangent, -J^-1 (sens rate) (``rhs`` = sens rate, numpy's product as the tangent's)
+    tan = rhs.copy()
     _lu_solve(lu0, piv1, tan, 78)
-    tt = 0.0
+    finite = True
     for i in range(size0):
         tan[i] = -tan[i]
-        tt += tan[i] * tan[i]
+        if not math.isfinite(tan[i]):
+            finite = False
     # RodTracker._largest_change: |tan|, each force's entry relative to 1 + |f|; its max
     weighted = np.abs(tan)
     for j in range(forces.size):
@@ -1093,17 +1098,14 @@ def trusted_step(lu0, piv0, sens0, rate, forces, vec0, max_change, guess, qb, p,
     for i in range(size0):
         if weighted[i] > big:
             big = weighted[i]
-    g = 1.0 / max(tt, 1e-300)
     e2 = np.zeros((0, 0)).T
     e1 = np.zeros(0)
     ei = np.zeros(0, np.int32)
     ek = np.zeros(0, np.int64)
     m0 = np.zeros((0, 3))
     f0 = np.zeros((3, 3))
-    if not math.isfinite(tt):
-        return 2, tan, g, e1, e2, ei, m0, 0, 0, m0, m0, e1, f0, math.inf, e1, ek, False
-    if big > 0.0 and max_change / big < 1.0:
-        return 1, tan, g, e1, e2, ei, m0, 0, 0, m0, m0, e1, f0, math.inf, e1, ek, False
+    if not finite or (big > 0.0 and max_change / big < 1.0):
+        return 1, tan, e1, e2, ei, m0, 0, 0, m0, m0, e1, f0, math.inf, e1, ek, False
     # RodSolver.solve with ``trusted`` and ``fail_fast``: Newton from the guess; where a step
     # is short enough, chord steps on its Jacobian (RodSolver._polish)
     evaluations = 0
@@ -1143,7 +1145,9 @@ def trusted_step(lu0, piv0, sens0, rate, forces, vec0, max_change, guess, qb, p,
         vec = vec - res
         if not _breaks_hold(vec, n, kinds, limit):
             break
-        settled = (step_size <= tol or (last < math.inf and step_size ** 3 / last ** 2 <= tol)
+        settled = (step_size <= tol or (last < math.inf
+                                        and step_size * step_size * step_size / (last * last)
+                                        <= tol)
                    or (last < math.inf and step_size <= noise and step_size > 0.25 * last)
                    or (it == 0 and step_size <= trusted_step_size))
         failed = False
@@ -1177,7 +1181,7 @@ def trusted_step(lu0, piv0, sens0, rate, forces, vec0, max_change, guess, qb, p,
             points, normals, tip, frame, tail_depth, depth, where = accepted(
                 vec, n, kinds, tau, sp, T, p, codes, prm, touched, samples, A, grid, table)
             clean = _checks_hold(tail_depth, depth, tail_cut)
-            return (0, tan, g, vec, J, piv0_new, sens, evaluations, factorizations, points,
+            return (0, tan, vec, J, piv0_new, sens, evaluations, factorizations, points,
                     normals, tip, frame, tail_depth, depth, where, clean)
         newton += 1
         if newton >= 3 and step_size > 0.9 * last:
@@ -1197,11 +1201,11 @@ def trusted_step(lu0, piv0, sens0, rate, forces, vec0, max_change, guess, qb, p,
                         at, n, kinds, tau, sp, T, p, codes, prm, touched, samples, A, grid,
                         table)
                     clean = _checks_hold(tail_depth, depth, tail_cut)
-                    return (0, tan, g, at, J, piv0_new, sens, evaluations, factorizations,
+                    return (0, tan, at, J, piv0_new, sens, evaluations, factorizations,
                             points, normals, tip, frame, tail_depth, depth, where, clean)
                 break
         last = step_size
-    return (2, tan, g, e1, e2, ei, m0, evaluations, factorizations, m0, m0, e1, f0, math.inf,
+    return (2, tan, e1, e2, ei, m0, evaluations, factorizations, m0, m0, e1, f0, math.inf,
             e1, ek, False)
 
 

@@ -126,7 +126,8 @@ def _settled(size: float, last: float) -> bool:
     """
     if last == math.inf:
         return False
-    return size ** 3 / last ** 2 <= _TOL or (size <= _NOISE and size > 0.25 * last)
+    return (size * size * size / (last * last) <= _TOL
+            or (size <= _NOISE and size > 0.25 * last))
 
 
 def _probe_tip(shape: RodShape, n: int) -> np.ndarray:
@@ -1236,7 +1237,7 @@ class RodSolver:
     def trusted_step(self, modes: Sequence[RodContactMode], start: "Solved", rate: np.ndarray,
                      guess: np.ndarray, pose: BasePose, max_change: float,
                      max_step: float = 0.5, tail_cut: float = -1e-9
-                     ) -> Optional[Tuple["Solved", np.ndarray, float, bool]]:
+                     ) -> Optional[Tuple["Solved", np.ndarray, bool]]:
         """
         Take a plain continuation step whole in one compiled call, or return None.
 
@@ -1273,21 +1274,22 @@ class RodSolver:
 
         Returns
         -------
-        tuple (Solved, numpy.ndarray, float, bool) or None
-            The solution, the tangent at the start, 1 / |tangent|^2 (the tracker's fold
-            monitor), and whether the tracker's checks pass on it (its unloaded tail and its
-            loaded part no deeper than ``tail_cut`` in the obstacles they touch, from the
-            data the call computed). None where the bound would shorten the step (nothing
-            solved), or where the kernel does not apply (other obstacles or shapes, other
-            arrays).
+        tuple (Solved, numpy.ndarray, bool) or None
+            The solution, the tangent at the start (as :meth:`tangent` computes it), and
+            whether the tracker's checks pass on it (its unloaded tail and its loaded part no
+            deeper than ``tail_cut`` in the obstacles they touch, from the data the call
+            computed). None where the bound would shorten the step or the tangent is not
+            finite (nothing solved), where the kernels meet an arithmetic error, or where the
+            kernel does not apply (other obstacles or shapes, other arrays): the caller takes
+            its general path.
 
         Raises
         ------
         ConvergenceError
-            Where :meth:`solve` would raise it, from the same guess.
+            Where :meth:`solve` raises it from the same guess (its evaluations are counted).
 
         """
-        if not _jit.LAPACK or not modes:
+        if not (_jit.ENABLED and _jit.LAPACK) or not modes:
             return None
         config = self._config(modes)
         geometry = config.geometry
@@ -1304,15 +1306,20 @@ class RodSolver:
         k = len(modes)
         forces = self._force_indices(modes, start.vec)
         limit = _S_EXTEND if self._sp is None else min(_S_EXTEND, 0.5 * (1.0 + self._sp))
-        (status, tan, g, vec, lu, piv, sens, spent, factored, points, normals, tip, frame,
-         tail_depth, depth, where, checked) = _jit.trusted_step(
-            lu0, piv0, start.sens, rate, forces, start.vec, max_change,
-            np.ascontiguousarray(guess, dtype=float), pose.q, pose.p, n, config.kinds,
-            _operators(n).tau, self._jit_sp, self._template(k, n), self._jit_shape,
-            self._jit_grid, self._jit_table, self._nu1, geometry[0], geometry[1], limit,
-            config.touched[1], TAIL_SAMPLES, shape.parabola or 0.0, _TOL, _TRUSTED_STEP,
-            _TRUSTED_CHORD, _CHORD_TOL, float(max_step), _NEWTON_ITERATIONS, _STALL, _NOISE,
-            _ROUNDING, float(tail_cut))
+        try:
+            (status, tan, vec, lu, piv, sens, spent, factored, points, normals, tip, frame,
+             tail_depth, depth, where, checked) = _jit.trusted_step(
+                lu0, piv0, start.sens @ rate, forces, start.vec, max_change,
+                np.ascontiguousarray(guess, dtype=float), pose.q, pose.p, n, config.kinds,
+                _operators(n).tau, self._jit_sp, self._template(k, n), self._jit_shape,
+                self._jit_grid, self._jit_table, self._nu1, geometry[0], geometry[1], limit,
+                config.touched[1], TAIL_SAMPLES, shape.parabola or 0.0, _TOL, _TRUSTED_STEP,
+                _TRUSTED_CHORD, _CHORD_TOL, float(max_step), _NEWTON_ITERATIONS, _STALL,
+                _NOISE, _ROUNDING, float(tail_cut))
+        except (ValueError, ArithmeticError):
+            # (an arithmetic error in the kernels, e.g. a division by zero: the general path
+            # meets it in solve, counts its evaluations and takes a shorter sub-step)
+            return None
         self.evaluations += spent
         self.factorizations += factored
         if status == 1:
@@ -1321,7 +1328,7 @@ class RodSolver:
             raise ConvergenceError("3D whisker: the trusted Newton solve failed")
         self._accepted_cache = (vec.copy(), pose, tuple(modes), _Accepted(
             points, normals, tip, frame, float(tail_depth), config.touched[0], depth, where))
-        return Solved(vec, (lu, piv), sens), tan, float(g), bool(checked)
+        return Solved(vec, (lu, piv), sens), tan, bool(checked)
 
     def _force_indices(self, modes, vec) -> np.ndarray:
         """Return the indices of the contacts' forces in an unknown vector of this length."""

@@ -970,7 +970,7 @@ class RodTracker:
                 guess = v_f + math.sqrt((t_f - t_new) / (t_f - t)) * (self._vec - v_f)
             try:
                 if tried and stream is not None and t_new == 1.0:
-                    # (the same solve as _plain_step's: it fails the same way)
+                    # (the same solve, from the same guess, failed in _plain_step: not again)
                     tried = False
                     raise ConvergenceError("3D whisker: the trusted Newton solve failed")
                 solved = sol.solve(self._modes, path.pose(t_new), guess, start=self._solved,
@@ -1073,8 +1073,9 @@ class RodTracker:
             return False
         if taken is None:
             return None
-        solved, tan, g, checked = taken
-        self._fold_prev = (path, modes, 0.0, g)
+        solved, tan, checked = taken
+        # (as _fold_limit records it at the step's start)
+        self._fold_prev = (path, modes, 0.0, 1.0 / max(float(tan @ tan), 1e-300))
         if (checked and not any(v < 0.0 for v in self._event_values(
                 path, 1.0, solved.vec, solved.lu).values())
                 and self._contact_gap(path, 1.0, solved.vec)[0] >= _CUT):
