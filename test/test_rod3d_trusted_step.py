@@ -202,3 +202,59 @@ def test_a_tangent_that_is_not_finite_leaves_the_step_to_the_general_path(rb1_cy
     before = sol.evaluations
     assert sol.trusted_step(tracker._modes, broken, rate, stream, path.b, 0.05) is None
     assert sol.evaluations == before
+
+
+@pytest.mark.parametrize("scene", ["wall", "pegs"])
+def test_the_arrays_soak_scenes_give_the_same_ticks_with_and_without_the_kernel(scene,
+                                                                                monkeypatch):
+    # bench/soak_array.py's scenes, the right pad: planes, spheres and tilted cylinders, tip
+    # contacts and their tangential changes, several contacts per whisker, and (the wall) a
+    # whisker's steps refused by the loaded part's check, tick after tick
+    from vibrissa_ros.core.rod3d import Plane, Sphere
+
+    scenes = {
+        "wall": (Scene3D((Plane((0.032, 0.0, 0.0), (-1.0, -0.3, 0.2), "wall"),
+                          Sphere((-0.03, 0.0, 0.01), 0.008, "ball_left"),
+                          Cylinder((0.0, 0.035, 0.0), (1.0, 0.0, 0.3), 0.0015, "bar"))),
+                 CosineWhisk(8.0, math.radians(-25.0), math.radians(20.0))),
+        "pegs": (Scene3D((Cylinder((0.025, -0.012, 0.0), (0, 0.2, 1), 0.002, "peg_right"),
+                          Sphere((0.0, 0.045, -0.005), 0.006, "ball"))),
+                 CosineWhisk(7.0, math.radians(-30.0), math.radians(25.0))),
+    }
+    obstacles, whisk = scenes[scene]
+    array = rat_array("right")
+
+    def run():
+        tracker = ArrayTracker(array, obstacles, HEAD, whisk.angle(0.0))
+        ticks = []
+        for k in range(1, 121 if scene == "wall" else 201):
+            step = tracker.step(HEAD, whisk.angle(k * 1e-3))
+            ticks.append((step.force_base.copy(), step.moment_base.copy(), step.contacts.copy(),
+                          [(e.whisker, e.kind) for e in step.events],
+                          [(e.whisker, e.message) for e in step.errors]))
+        work = [(tracker.tracker(n).solver.evaluations, tracker.tracker(n).solver.factorizations)
+                for n in tracker.names]
+        return ticks, work
+
+    solved = []
+    real = RodSolver.trusted_step
+
+    def counted(self, *args, **kwargs):
+        result = real(self, *args, **kwargs)
+        solved.append(result is not None)
+        return result
+
+    monkeypatch.setattr(RodSolver, "trusted_step", counted)
+    fast = run()
+    assert sum(solved) >= 100  # the kernel took most steps in contact
+    monkeypatch.setattr(RodSolver, "trusted_step", lambda self, *a, **k: None)
+    general = run()
+    assert fast[1] == general[1]
+    kinds = set()
+    for a, b in zip(fast[0], general[0]):
+        assert all(np.array_equal(u, v) for u, v in zip(a[:3], b[:3]))
+        assert a[3:] == b[3:]
+        kinds |= {kind for _, kind in a[3]} | ({"refused"} if a[4] else set())
+    assert {"touch", "tip"} <= kinds
+    if scene == "wall":
+        assert "refused" in kinds
