@@ -18,12 +18,17 @@ stepper is there to avoid. For the reference simulator, WHISKiT Physics needs ab
 per whisker per 1-ms sample on this kind of machine (the figure of the reference sheet on the rat
 array; one side: about 0.45 s per tick).
 
+With ``--breakdown`` it also prints what the ticks nearest the median are made of: each
+whisker's step timed and sorted into plain steps (in contact, no event) with one Jacobian
+factorization or more, steps with an event and free steps, per tick, and the time outside
+them.
+
 With ``--plain [WHISKER ...]`` it prints instead what a plain step of one whisker in contact
 costs (its own tracker fed its poses alone, the steps in contact without events: what a median
 tick is made of), and its evaluations and factorizations per step.
 
 Run: OPENBLAS_NUM_THREADS=1 python bench/bench_array.py [--cycles 2] [--side right|both]
-     [--baseline-ticks 250] [--plain [RB1 RC1 RD0] [--repeats 5]]
+     [--baseline-ticks 250] [--breakdown] [--plain [RB1 RC1 RD0] [--repeats 5]]
 """
 
 from __future__ import annotations
@@ -77,7 +82,55 @@ def _pct(values, q):
     return float(np.percentile(values, q)) * 1e3
 
 
-def run(side: str, cycles: float, baseline_ticks: int, dt: float = 1e-3) -> None:
+def _time_steps(tracker, steps):
+    """
+    Time every whisker's tracker step, appending (kind, seconds) to ``steps``.
+
+    Kinds: ``event`` (the step crossed an event), ``plain, 1 LU`` and ``plain, 2+ LU`` (in
+    contact before and after, no event, by Jacobian factorizations), ``free`` (no contact).
+    The wrappers are the trackers' own attributes: the array calls them as it calls step.
+    """
+    for name in tracker.names:
+        rod = tracker.tracker(name)
+
+        def timed(pose, rod=rod, step=rod.step):
+            was, lus = bool(rod.state.contacts), rod.solver.factorizations
+            t0 = time.perf_counter()
+            result = step(pose)
+            elapsed = time.perf_counter() - t0
+            if result.events:
+                kind = "event"
+            elif was and result.state.contacts:
+                kind = "plain, 1 LU" if rod.solver.factorizations - lus <= 1 else "plain, 2+ LU"
+            else:
+                kind = "free"
+            steps.append((kind, elapsed))
+            return result
+
+        rod.step = timed
+
+
+def _breakdown(times, per_tick) -> None:
+    """Print what the ticks nearest the median are made of (the 20% nearest it)."""
+    med = float(np.median(times))
+    near = np.argsort(np.abs(times - med))[:max(1, len(times) // 5)]
+    print(f"   the {near.size} ticks nearest the median ({med * 1e3:.3f} ms), by whisker step:")
+    total = {}
+    for i in near:
+        for kind, seconds in per_tick[i]:
+            total.setdefault(kind, []).append(seconds)
+    for kind in ("plain, 1 LU", "plain, 2+ LU", "event", "free"):
+        if kind in total:
+            s = np.array(total[kind])
+            print(f"     {kind:13s} {s.size / near.size:5.2f} a tick, median "
+                  f"{np.median(s) * 1e6:5.0f} us, {s.sum() / near.size * 1e6:5.0f} us a tick")
+    outside = [times[i] - sum(x for _, x in per_tick[i]) for i in near]
+    print("     outside the whiskers' steps (frames, clearance, poses, rows): "
+          f"{np.mean(outside) * 1e6:.0f} us a tick")
+
+
+def run(side: str, cycles: float, baseline_ticks: int, dt: float = 1e-3,
+        breakdown: bool = False) -> None:
     _jit.warm_up()  # as array_node does when it starts: no tick loads the compiled kernels
     array, scene, whisk = _setup(side)
     t0 = time.perf_counter()
@@ -85,11 +138,16 @@ def run(side: str, cycles: float, baseline_ticks: int, dt: float = 1e-3) -> None
     setup = time.perf_counter() - t0
     ticks = int(round(cycles / whisk.frequency / dt))
     times, contacts, solved, errors, work, kinds, factorized = [], [], [], 0, [], [], []
+    steps, per_tick = [], []
+    if breakdown:
+        _time_steps(tracker, steps)
     for k in range(1, ticks + 1):
         before, lus = _evaluations(tracker), _factorizations(tracker)
+        steps.clear()
         t0 = time.perf_counter()
         step = tracker.step(HEAD, whisk.angle(k * dt))
         times.append(time.perf_counter() - t0)
+        per_tick.append(list(steps))
         work.append(_evaluations(tracker) - before)
         factorized.append(_factorizations(tracker) - lus)
         kinds.append({e.kind for e in step.events})
@@ -126,6 +184,8 @@ def run(side: str, cycles: float, baseline_ticks: int, dt: float = 1e-3) -> None
             print(f"   ticks with a {kind}: {m.sum():3d}, {work[m].sum():,} evaluations "
                   f"({work[m].sum() / work.sum():.0%}), {times[m].sum():.2f} s "
                   f"({times[m].sum() / times.sum():.0%} of the time)")
+    if breakdown:
+        _breakdown(times, per_tick)
     whiskit = WHISKIT_PER_WHISKER * len(array)
     print(f"   WHISKiT Physics (15 ms CPU per whisker per sample): {whiskit * 1e3:.0f} ms per "
           f"tick, {whiskit / med:,.0f}x this median")
@@ -201,12 +261,15 @@ def main(argv=None) -> int:
                         help="instead: the plain steps of these right-pad whiskers in contact, "
                              "each replayed alone (default RB1 RC1 RD0)")
     parser.add_argument("--repeats", type=int, default=5, help="runs of --plain (default 5)")
+    parser.add_argument("--breakdown", action="store_true",
+                        help="also print what the ticks nearest the median are made of (each "
+                             "whisker's step timed: a little slower)")
     args = parser.parse_args(argv)
     if args.plain is not None:
         plain_steps(args.plain or ["RB1", "RC1", "RD0"], args.cycles, args.repeats)
         return 0
     for side in ((args.side,) if args.side else ("right", "both")):
-        run(side, args.cycles, args.baseline_ticks)
+        run(side, args.cycles, args.baseline_ticks, breakdown=args.breakdown)
     return 0
 
 

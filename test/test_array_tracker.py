@@ -212,6 +212,30 @@ def test_the_compiled_rows_of_a_tick_equal_the_numpy_code():
     assert np.array_equal(got[1][7], R[7]) and not got[3].any()
 
 
+def test_the_poses_kernel_gives_each_whiskers_base_pose_to_the_last_bit():
+    from vibrissa_ros.core.arrays import _jit as arrays_jit
+
+    if not arrays_jit.ENABLED:
+        pytest.skip("the compiled kernels are off")
+    tracker = ArrayTracker(RIGHT, None, HEAD)
+    rng = np.random.default_rng(5)
+    # head poses and protractions all round, and frames where each of the quaternion's four
+    # candidates is the largest (a turn of nearly 180 deg about each axis, and none)
+    frames = []
+    for q in list(rng.normal(size=(40, 4))) + [(0, 1, 0, 0), (0, 0, 1, 0), (0, 0, 0, 1),
+                                               (1, 0, 0, 0)]:
+        head = BasePose(tuple(rng.normal(size=3) * 0.01), tuple(q / np.linalg.norm(q)))
+        frames.append(tracker._frames(head, tracker._protraction(rng.uniform(-1.5, 1.5, 30))))
+    which = [0, 3, 4, 17, 29]
+    for R, p in frames:
+        poses = tracker._poses(R, p, which)
+        assert sorted(poses) == which
+        for i in which:
+            want = tracker._pose(R, p, i)
+            assert poses[i].position == want.position and poses[i].quaternion == want.quaternion
+    assert tracker._poses(R, p, []) == {}
+
+
 def test_free_whiskers_are_skipped_and_unloaded():
     far = Sphere((1.0, 1.0, 1.0), 0.01, "far")
     tracker = ArrayTracker(RIGHT, Scene3D((far,)), HEAD)

@@ -31,7 +31,7 @@ there.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import List, Optional, Tuple
+from typing import Dict, List, Optional, Tuple
 
 import numpy as np
 
@@ -409,6 +409,17 @@ class ArrayTracker:
         return BasePose._of_floats((p[i] / self._length[i]).tolist(),
                                    quat_from_matrix(R[i]).tolist())
 
+    def _poses(self, R, p, which) -> Dict[int, BasePose]:
+        """Return the base poses of the whiskers ``which`` ({index: pose}), as :meth:`_pose`."""
+        if not which:
+            return {}
+        if not _arrays_jit.ENABLED:
+            return {i: self._pose(R, p, i) for i in which}
+        # one compiled call for the positions and quaternions (the same operations)
+        pos, quat = _arrays_jit.poses(R, p, self._length, np.array(which, dtype=np.int64))
+        return {i: BasePose._of_floats(x, q)
+                for i, x, q in zip(which, pos.tolist(), quat.tolist())}
+
     def whisker_poses(self, head: BasePose, protraction=0.0) -> Tuple[BasePose, ...]:
         """
         Return every whisker's base pose in its own units, as its tracker receives it.
@@ -515,8 +526,11 @@ class ArrayTracker:
         events: List[WhiskerEvent] = []
         errors: List[WhiskerError] = []
         solved = np.zeros(len(self._rods), bool)
+        stepped = [i for i, tracker in enumerate(self._trackers)
+                   if not clear[i] or tracker.state.contacts]
+        poses = self._poses(R, p, stepped)
         for i, tracker in enumerate(self._trackers):
-            if clear[i] and not tracker.state.contacts:
+            if i not in poses:
                 self._stale[i] = True
                 continue
             solved[i] = True
@@ -526,7 +540,7 @@ class ArrayTracker:
                     # clearance test, so placed without the tracker's own (exact) check
                     tracker._place(self._pose(self._R, self._p, i))
                     self._stale[i] = False
-                result = tracker.step(self._pose(R, p, i))
+                result = tracker.step(poses[i])
             except VibrissaError as exc:
                 errors.append(WhiskerError(self.names[i], str(exc)))
                 continue
