@@ -5,15 +5,13 @@ Each configuration is solved on as few Chebyshev points as its solution needs
 (RodSolver.points_needed), never more than points_for's count.
 """
 
-import math
-
 import numpy as np
 import pytest
+from rat_pad import HEAD, PEG, WHISK, rb1_whisk
 
 from vibrissa_ros.core.arrays import WhiskerArray
 from vibrissa_ros.core.arrays.rat import rat_array
 from vibrissa_ros.core.arrays.tracker import ArrayTracker
-from vibrissa_ros.core.arrays.whisking import CosineWhisk
 from vibrissa_ros.core.errors import ParameterError
 from vibrissa_ros.core.rod3d import (
     BasePose, Cylinder, RodContactMode, RodShape, RodSolver, RodTracker, Scene3D, Sphere,
@@ -21,21 +19,11 @@ from vibrissa_ros.core.rod3d import (
 from vibrissa_ros.core.rod3d.model import POINTS_COARSEN
 from vibrissa_ros.core.rod3d.pose import quat_about
 
-#: the right pad's peg of bench/bench_array.py; RB1 touches it at s ~ 0.74 as it whisks, and
-#: its contact slides out to ~ 0.82 as the load grows
-PEG = Cylinder((0.03, -0.016, 0.0), (0, 0, 1), 0.0015, "peg")
-HEAD = BasePose((0.0, 0.0, 0.0))
-WHISK = CosineWhisk(8.0, -math.radians(20.0), math.radians(20.0))
-
 
 @pytest.fixture(scope="module")
 def rb1_cycle():
     """RB1's base poses over one whisk cycle (125 ticks of 1 ms), and its scene and shape."""
-    array = WhiskerArray((rat_array("right")["RB1"],), "RB1")
-    tracker = ArrayTracker(array, Scene3D((PEG,)), HEAD, WHISK.angle(0.0))
-    rod = tracker.tracker("RB1")
-    poses = [tracker.whisker_poses(HEAD, WHISK.angle(k * 1e-3))[0] for k in range(126)]
-    return poses, rod.obstacles, rod.shape
+    return rb1_whisk(125)
 
 
 def _run(rb1_cycle, adapt):

@@ -10,31 +10,22 @@ import math
 
 import numpy as np
 import pytest
+from rat_pad import HEAD, rb1_whisk
 
-from vibrissa_ros.core.arrays import WhiskerArray
 from vibrissa_ros.core.arrays.rat import rat_array
 from vibrissa_ros.core.arrays.tracker import ArrayTracker
 from vibrissa_ros.core.arrays.whisking import CosineWhisk
 from vibrissa_ros.core.errors import ConvergenceError
-from vibrissa_ros.core.rod3d import BasePose, Cylinder, RodSolver, RodTracker, Scene3D, _jit
+from vibrissa_ros.core.rod3d import Cylinder, RodSolver, RodTracker, Scene3D, _jit
 from vibrissa_ros.core.rod3d import tracker as tracker_module
 
 pytestmark = pytest.mark.skipif(not _jit.LAPACK, reason="the compiled kernels are off")
-
-#: the right pad's peg of bench/bench_array.py (RB1 touches it, snaps off and touches again)
-PEG = Cylinder((0.03, -0.016, 0.0), (0, 0, 1), 0.0015, "peg")
-HEAD = BasePose((0.0, 0.0, 0.0))
-WHISK = CosineWhisk(8.0, -math.radians(20.0), math.radians(20.0))
 
 
 @pytest.fixture(scope="module")
 def rb1_cycle():
     """RB1's base poses over two whisk cycles (250 ticks of 1 ms), and its scene and shape."""
-    array = WhiskerArray((rat_array("right")["RB1"],), "RB1")
-    tracker = ArrayTracker(array, Scene3D((PEG,)), HEAD, WHISK.angle(0.0))
-    rod = tracker.tracker("RB1")
-    poses = [tracker.whisker_poses(HEAD, WHISK.angle(k * 1e-3))[0] for k in range(251)]
-    return poses, rod.obstacles, rod.shape
+    return rb1_whisk(250)
 
 
 def _run(rb1_cycle, steps=None):
