@@ -342,6 +342,27 @@ def test_a_pose_given_with_the_other_quaternion_sign_is_the_same_pose():
     assert in_contact >= 10
 
 
+def test_a_pose_along_a_path_is_slerp_and_linear_interpolation_to_the_last_bit():
+    # BasePose.at computes in floats what slerp and (1 - t) p_a + t p_b compute with numpy: the
+    # tracker's sub-steps and event locations depend on these poses to the last bit
+    from vibrissa_ros.core.rod3d.pose import slerp
+
+    rng = np.random.default_rng(11)
+    for i in range(2000):
+        qa = rng.normal(size=4)
+        qb = qa + rng.normal(size=4) * 10.0 ** rng.uniform(-9.0, 0.5)
+        if i % 3 == 0:
+            qb = -qb  # the other sign: the shorter arc
+        a = BasePose(tuple(rng.normal(size=3)), tuple(qa / np.linalg.norm(qa)))
+        b = BasePose(tuple(rng.normal(size=3)), tuple(qb / np.linalg.norm(qb)))
+        if i % 17 == 0:
+            b = BasePose(b.position, a.quaternion)  # no turn
+        t = float(rng.choice([rng.uniform(), 0.5, 1e-10, 1.0 - 1e-10]))
+        got = a.at(b, t)
+        want = BasePose(tuple((1.0 - t) * a.p + t * b.p), tuple(slerp(a.q, b.q, t)))
+        assert got.position == want.position and got.quaternion == want.quaternion
+
+
 # -- event location: the rules found by the array soaks (doc/mechanics/rod3d.md, "Snaps") --------
 
 def _pressed_sphere_tracker():

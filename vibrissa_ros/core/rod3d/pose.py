@@ -343,5 +343,29 @@ class BasePose:
             p linear in t, q along the shorter arc (slerp).
 
         """
-        p = (1.0 - t) * self.p + t * other.p
-        return BasePose(tuple(p), tuple(slerp(self.q, other.q, t)))
+        # slerp(self.q, other.q, t) and (1 - t) p_a + t p_b in floats: the same operations (the
+        # same floats, numpy's norm included), without a numpy call per operation; the
+        # tracker makes a pose per sub-step and per trial of an event's location
+        u = 1.0 - t
+        (ax_, ay_, az_), (bx_, by_, bz_) = self.position, other.position
+        p = (u * ax_ + t * bx_, u * ay_ + t * by_, u * az_ + t * bz_)
+        aw, ax, ay, az = self.quaternion
+        bw, bx, by, bz = other.quaternion
+        cx, cy, cz = -ax, -ay, -az  # conj(q_a) * q_b, as quat_multiply
+        rw = aw * bw - cx * bx - cy * by - cz * bz
+        rx = aw * bx + cx * bw + cy * bz - cz * by
+        ry = aw * by - cx * bz + cy * bw + cz * bx
+        rz = aw * bz + cx * by - cy * bx + cz * bw
+        if rw < 0.0:
+            rw, rx, ry, rz = -rw, -rx, -ry, -rz
+        v = np.array((rx, ry, rz))
+        sin_half = math.sqrt(float(v.dot(v)))  # (np.linalg.norm's operations)
+        if sin_half == 0.0:
+            return BasePose._of_floats(p, (aw, ax, ay, az))
+        half = math.atan2(sin_half, rw)
+        c, s = math.cos(t * half), math.sin(t * half)
+        sw, sx, sy, sz = c, s * rx / sin_half, s * ry / sin_half, s * rz / sin_half
+        return BasePose._of_floats(p, (aw * sw - ax * sx - ay * sy - az * sz,
+                                       aw * sx + ax * sw + ay * sz - az * sy,
+                                       aw * sy - ax * sz + ay * sw + az * sx,
+                                       aw * sz + ax * sy - ay * sx + az * sw))
