@@ -15,7 +15,7 @@ from vibrissa_ros.core.arrays.whisking import (
 )
 from vibrissa_ros.core.errors import ConvergenceError, InvalidPoseError, ParameterError
 from vibrissa_ros.core.rod3d import BasePose, Cylinder, RodTracker, Scene3D, Sphere
-from vibrissa_ros.core.rod3d.pose import quat_about, quat_from_matrix
+from vibrissa_ros.core.rod3d.pose import quat_about, quat_from_matrix, quat_matrix
 
 RIGHT = rat_array("right")
 #: a vertical peg that the right pad's whiskers of columns 0-2 hit while whisking
@@ -199,7 +199,9 @@ def test_the_compiled_rows_of_a_tick_equal_the_numpy_code():
     length, fs, ms = rng.uniform(0.01, 0.05, (3, k))
     moved = np.array([2, 3, 7, 20], dtype=np.int64)
     loaded = np.array([3, 20], dtype=np.int64)
-    mrows = np.concatenate((R[[5, 6, 8, 9]].reshape(4, 9), rng.normal(size=(4, 6))), axis=1)
+    quats = rng.normal(size=(4, 4))
+    quats /= np.linalg.norm(quats, axis=1)[:, None]
+    mrows = np.concatenate((quats, rng.normal(size=(4, 6))), axis=1)
     lrows = rng.normal(size=(2, 11))
     for none in (False, True):
         args = (moved[:0], mrows[:0], loaded[:0], lrows[:0]) if none else (moved, mrows,
@@ -210,6 +212,10 @@ def test_the_compiled_rows_of_a_tick_equal_the_numpy_code():
             assert a.shape == b.shape
             assert np.abs(a - b).max() <= 4e-16 * max(1.0, np.abs(b).max())
     assert np.array_equal(got[1][7], R[7]) and not got[3].any()
+    # a moved whisker's frame is its quaternion's rotation matrix, as its pose's, to the bit
+    got = arrays_jit.collect(R, p, free_tip, length, fs, ms, moved, mrows, loaded, lrows)
+    for j, i in enumerate(moved):
+        assert np.array_equal(got[1][i], quat_matrix(quats[j]))
 
 
 def test_the_poses_kernel_gives_each_whiskers_base_pose_to_the_last_bit():

@@ -168,9 +168,11 @@ def collect(R, p, free_tip, length, force_scale, moment_scale, moved, mrows, loa
     Return the tick's rows in SI units, as :meth:`.tracker.ArrayTracker._collect` makes them.
 
     ``R`` (k, 3, 3), ``p`` (k, 3): the base frames and points of the tick; ``free_tip`` (k, 3)
-    the unloaded tips in the base frames [m]. ``mrows`` (m, 15) for the whiskers ``moved``
-    (stepped, or failed and kept their state): the base frame (9, row-major), base point and
-    tip [L] of their states; ``lrows`` (l, 11) for the whiskers ``loaded`` (in contact): force,
+    the unloaded tips in the base frames [m]. ``mrows`` (m, 10) for the whiskers ``moved``
+    (stepped, or failed and kept their state): the base quaternion (w, x, y, z), base point
+    and tip [L] of their states; their base frames are the quaternions' rotation matrices,
+    with :func:`..rod3d.pose.quat_matrix`'s operations (the same floats as their poses'
+    ``rotation``). ``lrows`` (l, 11) for the whiskers ``loaded`` (in contact): force,
     moment, first contact point [L], its s and f. Returns (p, R, tip, force, moment, point,
     arc, normal, force in the base frame, moment in the base frame).
     """
@@ -185,11 +187,19 @@ def collect(R, p, free_tip, length, force_scale, moment_scale, moved, mrows, loa
     for j in range(moved.size):
         i = moved[j]
         L = length[i]
+        w, x, y, z = mrows[j, 0], mrows[j, 1], mrows[j, 2], mrows[j, 3]
+        Rb[i, 0, 0] = w * w + x * x - y * y - z * z
+        Rb[i, 0, 1] = 2 * (x * y - w * z)
+        Rb[i, 0, 2] = 2 * (x * z + w * y)
+        Rb[i, 1, 0] = 2 * (x * y + w * z)
+        Rb[i, 1, 1] = w * w - x * x + y * y - z * z
+        Rb[i, 1, 2] = 2 * (y * z - w * x)
+        Rb[i, 2, 0] = 2 * (x * z - w * y)
+        Rb[i, 2, 1] = 2 * (y * z + w * x)
+        Rb[i, 2, 2] = w * w - x * x - y * y + z * z
         for a in range(3):
-            for b in range(3):
-                Rb[i, a, b] = mrows[j, 3 * a + b]
-            p_out[i, a] = mrows[j, 9 + a] * L
-            tip[i, a] = mrows[j, 12 + a] * L
+            p_out[i, a] = mrows[j, 4 + a] * L
+            tip[i, a] = mrows[j, 7 + a] * L
     force = np.zeros((k, 3))
     moment = np.zeros((k, 3))
     point = np.zeros((k, 3))

@@ -38,7 +38,7 @@ import numpy as np
 from ..errors import InvalidPoseError, ParameterError, VibrissaError
 from ..rod3d import _jit
 from ..rod3d.model import kernel_obstacles
-from ..rod3d.pose import BasePose, quat_from_matrix
+from ..rod3d.pose import BasePose, quat_from_matrix, quat_matrix
 from ..rod3d.scene import Scene3D
 from ..rod3d.tracker import RodStepResult, RodTracker
 from ..units import convert_lengths
@@ -525,15 +525,14 @@ class ArrayTracker:
         clear = self._clear(R, p)
         events: List[WhiskerEvent] = []
         errors: List[WhiskerError] = []
-        solved = np.zeros(len(self._rods), bool)
-        stepped = [i for i, tracker in enumerate(self._trackers)
-                   if not clear[i] or tracker.state.contacts]
+        trackers = self._trackers
+        stepped = [i for i, free in enumerate(clear.tolist())
+                   if not free or trackers[i].state.contacts]
         poses = self._poses(R, p, stepped)
-        for i, tracker in enumerate(self._trackers):
-            if i not in poses:
-                self._stale[i] = True
-                continue
-            solved[i] = True
+        solved = np.zeros(len(self._rods), bool)
+        solved[stepped] = True
+        for i in stepped:
+            tracker = trackers[i]
             try:
                 if self._stale[i]:
                     # skipped at the previous tick: unloaded there, and certified clear by the
@@ -545,6 +544,7 @@ class ArrayTracker:
                 errors.append(WhiskerError(self.names[i], str(exc)))
                 continue
             self._events(i, result, events)
+        self._stale[~solved] = True  # (certified free and unloaded: not stepped)
         self._R, self._p = R, p
         self._state = self._collect(head, theta, R, p, solved, tuple(events), tuple(errors))
         return self._state
@@ -569,7 +569,9 @@ class ArrayTracker:
             state = self._trackers[i].state
             if solved[i] and state.pose is not None:  # stepped, or failed and kept its state
                 moved.append(i)
-                mrows += state.pose.rotation.ravel().tolist()
+                # (the base frame is made from the quaternion in the kernel, as the pose's
+                # ``rotation`` is: one numpy matrix per whisker less)
+                mrows += state.pose.quaternion
                 mrows += state.pose.position
                 mrows += state.tip
             if not state.contacts:
@@ -584,7 +586,7 @@ class ArrayTracker:
             contacts[i] = len(state.contacts)
             kind[i] = c.kind
             obstacle[i] = c.name
-        rows = (np.array(moved, dtype=np.int64), np.array(mrows, dtype=float).reshape(-1, 15),
+        rows = (np.array(moved, dtype=np.int64), np.array(mrows, dtype=float).reshape(-1, 10),
                 np.array(loaded, dtype=np.int64), np.array(lrows, dtype=float).reshape(-1, 11))
         scaled = (_arrays_jit.collect if _arrays_jit.ENABLED else _collect_numpy)(
             R, p, self._free_tip, self._length, self._force_scale, self._moment_scale, *rows)
@@ -692,9 +694,9 @@ def _collect_numpy(R, p, free_tip, length, force_scale, moment_scale, moved, mro
     Rb = R.copy()
     if moved.size:
         L = length[moved, None]
-        Rb[moved] = mrows[:, :9].reshape(-1, 3, 3)
-        p[moved] = mrows[:, 9:12] * L
-        tip[moved] = mrows[:, 12:15] * L
+        Rb[moved] = quat_matrix(mrows[:, :4])
+        p[moved] = mrows[:, 4:7] * L
+        tip[moved] = mrows[:, 7:10] * L
     force = np.zeros((k, 3))
     moment = np.zeros((k, 3))
     point = np.zeros((k, 3))
