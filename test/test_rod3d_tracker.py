@@ -499,6 +499,47 @@ def _push(tracker, wall, ys):
     return events
 
 
+def test_a_sub_step_newton_would_carry_across_a_fold_reports_the_snap():
+    # bench/soak_array.py's pegs at 9.5 Hz: RA2 touches peg_right with its tip at tick 3652,
+    # and at tick 3655 that branch folds. A sub-step's Newton, taken in full, wandered for ten
+    # iterations and converged on the equilibrium past the fold, the whisker swung out of its
+    # plane (its tip 0.08 L away), with no event; a sub-step's solve now gives up as soon as
+    # Newton stops contracting, the sub-steps close in on the fold, and the snap is reported
+    from vibrissa_ros.core.arrays import WhiskerArray
+    from vibrissa_ros.core.arrays.rat import rat_array
+    from vibrissa_ros.core.arrays.tracker import ArrayTracker
+    from vibrissa_ros.core.arrays.whisking import CosineWhisk
+
+    def head(t):
+        turn = 0.05 * math.sin(t)
+        return BasePose((0.004 * math.sin(2 * math.pi * 0.7 * t),
+                         0.003 * math.sin(2 * math.pi * 0.4 * t),
+                         0.002 * math.sin(2 * math.pi * 0.9 * t)),
+                        (math.cos(turn), 0.0, 0.0, math.sin(turn)))
+
+    scene = Scene3D((Cylinder((0.025, -0.012, 0.0), (0, 0.2, 1), 0.002, "peg_right"),
+                     Cylinder((-0.028, -0.018, 0.0), (0.1, 0, 1), 0.001, "peg_left"),
+                     Sphere((0.0, 0.045, -0.005), 0.006, "ball")))
+    whisk = CosineWhisk(9.5, math.radians(-30.0), math.radians(25.0))
+    array = WhiskerArray((rat_array("right")["RA2"],), "RA2")
+    start = 3645  # free there: placed unloaded
+    array_tracker = ArrayTracker(array, scene, head(start * 1e-3), whisk.angle(start * 1e-3))
+    rod = array_tracker.tracker("RA2")
+    assert not rod.state.contacts
+    events, tips = {}, {}
+    for k in range(start + 1, 3659):
+        pose = array_tracker.whisker_poses(head(k * 1e-3), whisk.angle(k * 1e-3))[0]
+        tip = np.array(rod.state.tip)
+        result = rod.step(pose)
+        events[k] = [(e.kind, e.reason) for e in result.events]
+        tips[k] = float(np.linalg.norm(np.array(result.state.tip) - tip))
+    assert [kind for kind, _ in events[3652]] == ["touch"]
+    assert [kind for kind, _ in events[3655]] == ["snap"]
+    assert events[3655][0][1].startswith("the equilibrium branch folds")
+    assert tips[3655] > 0.05  # a jump: the whisker swings out of its plane
+    assert all(not events[k] for k in events if k not in (3652, 3655, 3658))
+
+
 def test_a_whisker_curved_into_a_wall_lays_its_side_on_it_behind_its_pressed_tip():
     # the tip touches first; before it turns tangent the whisker touches the wall a second
     # time 0.006 L behind it (a regular touch, at zero force); pulled back, that contact is

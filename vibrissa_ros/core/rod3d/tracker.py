@@ -950,6 +950,11 @@ class RodTracker:
         curve = (self._second_order(path, t, tan) if stream is None and left is None
                  else None)
         whole = solved is not None
+        # a sub-step's solve gives up as soon as Newton stops contracting (fail_fast: from its
+        # third step on, no step shorter than 0.9 times the one before): a shorter sub-step is
+        # the remedy, and past a fold Newton would wander for ten iterations or more; only the
+        # solve before a fold is called, at the shortest sub-step, is taken in full
+        in_full = False
         for _ in range(0 if whole else 64):
             self._check_budget()
             t_new = min(1.0, t + dt)
@@ -975,12 +980,12 @@ class RodTracker:
                     raise ConvergenceError("3D whisker: the trusted Newton solve failed")
                 solved = sol.solve(self._modes, path.pose(t_new), guess, start=self._solved,
                                    max_step=0.5, trusted=stream is not None and t_new == 1.0,
-                                   fail_fast=near_fold or (stream is not None and t_new == 1.0))
+                                   fail_fast=not in_full)
                 break
             except ConvergenceError:
                 fold = None  # the sub-steps go on toward it as before
-                if near_fold and dt * 0.25 < _H_MIN:
-                    near_fold = False  # before it is called a fold: one solve in full
+                if not in_full and dt * 0.25 < _H_MIN:
+                    in_full = True  # before it is called a fold: one solve in full
                     continue
                 dt *= 0.25
                 if dt < _H_MIN:
