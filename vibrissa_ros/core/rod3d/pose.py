@@ -163,16 +163,38 @@ def slerp(q_a: np.ndarray, q_b: np.ndarray, t: float) -> np.ndarray:
         The unit quaternion (4,), q_a at t = 0 and +-q_b at t = 1.
 
     """
-    rel = quat_multiply(quat_conjugate(q_a), q_b)
-    if rel[0] < 0.0:
-        rel = -rel
-    v = rel[1:]
-    sin_half = float(np.linalg.norm(v))
+    qa = tuple(np.asarray(q_a, dtype=float).tolist())
+    return np.array(_slerp(qa, tuple(np.asarray(q_b, dtype=float).tolist()), float(t)))
+
+
+def _slerp(qa, qb, t: float):
+    """
+    :func:`slerp` in floats, on tuples: q_a * (cos(t h), sin(t h) v / |v|).
+
+    (cos h, v) = conj(q_a) * q_b on the shorter arc (the products of :func:`quat_multiply`).
+    |v| is numpy's dot of an array (3,) (as ``np.linalg.norm`` computes it), so that the path's
+    poses do not depend on how the arithmetic is written: :meth:`BasePose.at` calls this.
+    """
+    aw, ax, ay, az = qa
+    bw, bx, by, bz = qb
+    cx, cy, cz = -ax, -ay, -az  # conj(q_a) * q_b
+    rw = aw * bw - cx * bx - cy * by - cz * bz
+    rx = aw * bx + cx * bw + cy * bz - cz * by
+    ry = aw * by - cx * bz + cy * bw + cz * bx
+    rz = aw * bz + cx * by - cy * bx + cz * bw
+    if rw < 0.0:
+        rw, rx, ry, rz = -rw, -rx, -ry, -rz
+    v = np.array((rx, ry, rz))
+    sin_half = math.sqrt(float(v.dot(v)))
     if sin_half == 0.0:
-        return np.array(q_a, dtype=float)
-    half = math.atan2(sin_half, float(rel[0]))
-    step = np.concatenate(([math.cos(t * half)], math.sin(t * half) * v / sin_half))
-    return quat_multiply(q_a, step)
+        return (aw, ax, ay, az)
+    half = math.atan2(sin_half, rw)
+    c, s = math.cos(t * half), math.sin(t * half)
+    sw, sx, sy, sz = c, s * rx / sin_half, s * ry / sin_half, s * rz / sin_half
+    return (aw * sw - ax * sx - ay * sy - az * sz,
+            aw * sx + ax * sw + ay * sz - az * sy,
+            aw * sy - ax * sz + ay * sw + az * sx,
+            aw * sz + ax * sy - ay * sx + az * sw)
 
 
 def quat_conjugate(q) -> np.ndarray:
@@ -343,29 +365,10 @@ class BasePose:
             p linear in t, q along the shorter arc (slerp).
 
         """
-        # slerp(self.q, other.q, t) and (1 - t) p_a + t p_b in floats: the same operations (the
-        # same floats, numpy's norm included), without a numpy call per operation; the
-        # tracker makes a pose per sub-step and per trial of an event's location
+        # (1 - t) p_a + t p_b and slerp in floats (the same operations as numpy's), without a
+        # numpy call per operation: the tracker makes a pose per sub-step and per trial of an
+        # event's location
         u = 1.0 - t
-        (ax_, ay_, az_), (bx_, by_, bz_) = self.position, other.position
-        p = (u * ax_ + t * bx_, u * ay_ + t * by_, u * az_ + t * bz_)
-        aw, ax, ay, az = self.quaternion
-        bw, bx, by, bz = other.quaternion
-        cx, cy, cz = -ax, -ay, -az  # conj(q_a) * q_b, as quat_multiply
-        rw = aw * bw - cx * bx - cy * by - cz * bz
-        rx = aw * bx + cx * bw + cy * bz - cz * by
-        ry = aw * by - cx * bz + cy * bw + cz * bx
-        rz = aw * bz + cx * by - cy * bx + cz * bw
-        if rw < 0.0:
-            rw, rx, ry, rz = -rw, -rx, -ry, -rz
-        v = np.array((rx, ry, rz))
-        sin_half = math.sqrt(float(v.dot(v)))  # (np.linalg.norm's operations)
-        if sin_half == 0.0:
-            return BasePose._of_floats(p, (aw, ax, ay, az))
-        half = math.atan2(sin_half, rw)
-        c, s = math.cos(t * half), math.sin(t * half)
-        sw, sx, sy, sz = c, s * rx / sin_half, s * ry / sin_half, s * rz / sin_half
-        return BasePose._of_floats(p, (aw * sw - ax * sx - ay * sy - az * sz,
-                                       aw * sx + ax * sw + ay * sz - az * sy,
-                                       aw * sy - ax * sz + ay * sw + az * sx,
-                                       aw * sz + ax * sy - ay * sx + az * sw))
+        (ax, ay, az), (bx, by, bz) = self.position, other.position
+        return BasePose._of_floats((u * ax + t * bx, u * ay + t * by, u * az + t * bz),
+                                   _slerp(self.quaternion, other.quaternion, t))
