@@ -512,12 +512,20 @@ def _push(tracker, wall, ys):
     return events
 
 
-def test_a_sub_step_newton_would_carry_across_a_fold_reports_the_snap():
-    # bench/soak_array.py's pegs at 9.5 Hz: RA2 touches peg_right with its tip at tick 3652,
-    # and at tick 3655 that branch folds. A sub-step's Newton, taken in full, wandered for ten
-    # iterations and converged on the equilibrium past the fold, the whisker swung out of its
-    # plane (its tip 0.08 L away), with no event; a sub-step's solve now gives up as soon as
-    # Newton stops contracting, the sub-steps close in on the fold, and the snap is reported
+@pytest.mark.parametrize("name, start, touch, snap", [
+    # a sub-step's Newton, taken in full, wandered for ten iterations and converged on the
+    # equilibrium past the fold (a sub-step's solve now gives up once Newton stops contracting)
+    ("RA2", 3645, 3652, 3655),
+    # a sub-step's Newton converged at once on the equilibrium past the fold, 2.8 times as far
+    # from its prediction as the prediction went (_off_branch: such a trial step now fails)
+    ("RE2", 1775, 1776, 1781),
+])
+def test_a_trial_step_that_newton_carries_across_a_fold_reports_the_snap(
+        name, start, touch, snap):
+    # bench/soak_array.py's pegs at 9.5 Hz: the whisker, free at tick ``start``, touches a peg
+    # at ``touch``, and at ``snap`` its branch folds. Its tip jumps (0.08 L and 0.11 L in one
+    # step); before, it did so with no event. The sub-steps now close in on the fold, and the
+    # snap is reported. Each replay starts where the whisker is free: it has no history.
     from vibrissa_ros.core.arrays import WhiskerArray
     from vibrissa_ros.core.arrays.rat import rat_array
     from vibrissa_ros.core.arrays.tracker import ArrayTracker
@@ -534,23 +542,22 @@ def test_a_sub_step_newton_would_carry_across_a_fold_reports_the_snap():
                      Cylinder((-0.028, -0.018, 0.0), (0.1, 0, 1), 0.001, "peg_left"),
                      Sphere((0.0, 0.045, -0.005), 0.006, "ball")))
     whisk = CosineWhisk(9.5, math.radians(-30.0), math.radians(25.0))
-    array = WhiskerArray((rat_array("right")["RA2"],), "RA2")
-    start = 3645  # free there: placed unloaded
+    array = WhiskerArray((rat_array("right")[name],), name)
     array_tracker = ArrayTracker(array, scene, head(start * 1e-3), whisk.angle(start * 1e-3))
-    rod = array_tracker.tracker("RA2")
+    rod = array_tracker.tracker(name)
     assert not rod.state.contacts
-    events, tips = {}, {}
-    for k in range(start + 1, 3659):
+    events, jumps = {}, {}
+    for k in range(start + 1, snap + 1):
         pose = array_tracker.whisker_poses(head(k * 1e-3), whisk.angle(k * 1e-3))[0]
         tip = np.array(rod.state.tip)
         result = rod.step(pose)
         events[k] = [(e.kind, e.reason) for e in result.events]
-        tips[k] = float(np.linalg.norm(np.array(result.state.tip) - tip))
-    assert [kind for kind, _ in events[3652]] == ["touch"]
-    assert [kind for kind, _ in events[3655]] == ["snap"]
-    assert events[3655][0][1].startswith("the equilibrium branch folds")
-    assert tips[3655] > 0.05  # a jump: the whisker swings out of its plane
-    assert all(not events[k] for k in events if k not in (3652, 3655, 3658))
+        jumps[k] = float(np.linalg.norm(np.array(result.state.tip) - tip))
+    assert [kind for kind, _ in events[touch]] == ["touch"]
+    assert [kind for kind, _ in events[snap]] == ["snap"]
+    assert events[snap][0][1].startswith("the equilibrium branch folds")
+    assert jumps[snap] > 0.05
+    assert all(not events[k] for k in events if k not in (touch, snap))
 
 
 def test_a_whisker_curved_into_a_wall_lays_its_side_on_it_behind_its_pressed_tip():
