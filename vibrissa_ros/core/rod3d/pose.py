@@ -368,6 +368,7 @@ class BasePose:
         # (1 - t) p_a + t p_b and slerp in floats (the same operations as numpy's), without a
         # numpy call per operation: the tracker makes a pose per sub-step and per trial of an
         # event's location
+        t = float(t)
         u = 1.0 - t
         (ax, ay, az), (bx, by, bz) = self.position, other.position
         return BasePose._of_floats((u * ax + t * bx, u * ay + t * by, u * az + t * bz),

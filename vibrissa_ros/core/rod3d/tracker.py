@@ -69,8 +69,9 @@ _MAX_MOVE = 0.05
 #: smallest free sub-step motion [L] (the finest sampling of the free whisker's path)
 _MIN_FREE_MOVE = 2e-3
 _H_MIN = 1e-12
-#: a trial step's solution farther than this from its prediction, and more than twice as far as
-#: the prediction is from the start, is taken to lie on another branch (:func:`_off_branch`)
+#: a trial step's solution farther than this from the tangent's prediction, and more than twice
+#: as far as that prediction is from the start, is taken to lie on another branch
+#: (:func:`_off_branch`)
 _OFF_BRANCH = 1e-3
 #: a solution is moved to other points per segment only where every event value exceeds this
 _RESOLVE_MARGIN = 1e-6
@@ -313,24 +314,24 @@ class _Unlocated(ConvergenceError):
     """No event could be located between two sub-steps (nothing changed yet) (internal)."""
 
 
-def _off_branch(vec: np.ndarray, guess: np.ndarray, start: np.ndarray) -> bool:
+def _off_branch(vec: np.ndarray, line: np.ndarray, start: np.ndarray) -> bool:
     """
     Tell whether a trial step's solution lies on another branch than its start's.
 
-    Along a branch the correction Newton makes to a sub-step's prediction is of second order
-    in the step, the prediction's own change of first order. A correction more than twice the
-    change predicted (and above _OFF_BRANCH, beyond the rounding of a step that barely moves)
-    is taken for Newton converging past a fold on the branch beyond, where the whisker would
-    jump with no event. Such a trial step fails, and a shorter one follows (down to the fold,
-    where the snap is found). It is a safety net, not a proof: the soak at 9.5 Hz had one such
-    jump, RE2 at tick 1781 (its tip 0.11 L in one step, a correction 2.8 times the
-    prediction), and a release on the rat's pad a correction 1.6 times it along its branch.
+    ``line`` is the tangent's prediction at the step's end (start + h dv/dt, whatever guess
+    Newton started from). Along a branch its error is of second order in the step, its change
+    of first order. An error more than twice the predicted change (and above _OFF_BRANCH,
+    beyond the rounding of a step that barely moves) is taken for Newton converging past a
+    fold on the branch beyond, where the whisker would jump with no event. Such a trial step
+    fails, and a shorter one follows (down to the fold, where the snap is found). It is a
+    safety net, not a proof: the soak at 9.5 Hz had one such jump, RE2 at tick 1781 (its tip
+    0.11 L in one step, an error 2.8 times the prediction); a release on the rat's pad,
+    followed along its branch, had an error 1.6 times it.
     """
-    if guess.shape != vec.shape or start.shape != vec.shape:
+    if line.shape != vec.shape or start.shape != vec.shape:
         return False
-    correction = float(np.max(np.abs(vec - guess)))
-    return (correction > _OFF_BRANCH
-            and correction > 2.0 * float(np.max(np.abs(guess - start))))
+    error = float(np.max(np.abs(vec - line)))
+    return error > _OFF_BRANCH and error > 2.0 * float(np.max(np.abs(line - start)))
 
 
 class _Path:
@@ -976,7 +977,10 @@ class RodTracker:
         # a sub-step's solve gives up as soon as Newton stops contracting (fail_fast: from its
         # third step on, no step shorter than 0.9 times the one before): a shorter sub-step is
         # the remedy, and past a fold Newton would wander for ten iterations or more; only the
-        # solve before a fold is called, at the shortest sub-step, is taken in full
+        # solve before a fold is called, at the shortest sub-step, is taken in full (fail_fast
+        # also refuses an ill-conditioned solution whose steps level off at rounding, which
+        # the stall rule takes only after five of them: sub-steps are shortened for nothing
+        # there, down to that solve in full)
         in_full = False
         for _ in range(0 if whole else 64):
             self._check_budget()
@@ -1004,7 +1008,8 @@ class RodTracker:
                 solved = sol.solve(self._modes, path.pose(t_new), guess, start=self._solved,
                                    max_step=0.5, trusted=stream is not None and t_new == 1.0,
                                    fail_fast=not in_full)
-                if _off_branch(solved.vec, guess, self._vec):
+                # (measured against the tangent's prediction, whatever the guess was)
+                if _off_branch(solved.vec, self._vec + (t_new - t) * tan, self._vec):
                     raise ConvergenceError("3D whisker: the trial step landed on another branch")
                 break
             except ConvergenceError:
@@ -1104,7 +1109,7 @@ class RodTracker:
         if taken is None:
             return None
         solved, tan, checked = taken
-        if _off_branch(solved.vec, stream, self._vec):
+        if _off_branch(solved.vec, self._vec + tan, self._vec):
             return False  # (as a failed solve: the general path takes shorter sub-steps)
         # (as _fold_limit records it at the step's start)
         self._fold_prev = (path, modes, 0.0, 1.0 / max(float(tan @ tan), 1e-300))
