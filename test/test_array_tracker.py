@@ -17,6 +17,8 @@ from vibrissa_ros.core.errors import ConvergenceError, InvalidPoseError, Paramet
 from vibrissa_ros.core.rod3d import BasePose, Cylinder, RodTracker, Scene3D, Sphere
 from vibrissa_ros.core.rod3d.pose import quat_about, quat_from_matrix, quat_matrix
 
+from rat_pad import SOAK_PEGS, soak_head
+
 RIGHT = rat_array("right")
 #: a vertical peg that the right pad's whiskers of columns 0-2 hit while whisking
 PEG = Cylinder((0.03, -0.016, 0.0), (0, 0, 1), 0.0015, "peg")
@@ -600,18 +602,8 @@ def _tilted_scene_run(name, first, last, frequency=7.0):
     from vibrissa_ros.scan.array_file import load_array
 
     array = load_array(Path(__file__).resolve().parents[1] / "config" / "rat_array.yaml")
-    scene = Scene3D((Cylinder((0.025, -0.012, 0.0), (0, 0.2, 1), 0.002, "peg_right"),
-                     Cylinder((-0.028, -0.018, 0.0), (0.1, 0, 1), 0.001, "peg_left"),
-                     Sphere((0.0, 0.045, -0.005), 0.006, "ball")))
+    scene, head = SOAK_PEGS, soak_head
     whisk = CosineWhisk(frequency, -math.radians(30.0), math.radians(25.0))
-
-    def head(t):
-        turn = 0.05 * math.sin(t)
-        return BasePose((0.004 * math.sin(2 * math.pi * 0.7 * t),
-                         0.003 * math.sin(2 * math.pi * 0.4 * t),
-                         0.002 * math.sin(2 * math.pi * 0.9 * t)),
-                        (math.cos(turn), 0.0, 0.0, math.sin(turn)))
-
     tracker = ArrayTracker(_subset(array, (name,)), scene, head(first / 1000.0),
                            whisk.angle(first / 1000.0))
     events, errors = [], []

@@ -27,6 +27,8 @@ from vibrissa_ros.core.scenes.scene import obstacle_from_dict
 from vibrissa_ros.core.scenes.tracker import SceneTracker
 from vibrissa_ros.scan.scene_file import load_scene
 
+from rat_pad import SOAK_PEGS, soak_head
+
 HERE = os.path.dirname(os.path.abspath(__file__))
 DATA = os.path.join(HERE, "data")
 #: where the paper's parabola scan's planar equilibrium loses stability out of its plane
@@ -541,17 +543,7 @@ def test_a_trial_step_that_newton_carries_across_a_fold_reports_the_snap(
 
     if not check:
         monkeypatch.setattr(tracker_module, "_off_branch", lambda vec, line, start: False)
-
-    def head(t):
-        turn = 0.05 * math.sin(t)
-        return BasePose((0.004 * math.sin(2 * math.pi * 0.7 * t),
-                         0.003 * math.sin(2 * math.pi * 0.4 * t),
-                         0.002 * math.sin(2 * math.pi * 0.9 * t)),
-                        (math.cos(turn), 0.0, 0.0, math.sin(turn)))
-
-    scene = Scene3D((Cylinder((0.025, -0.012, 0.0), (0, 0.2, 1), 0.002, "peg_right"),
-                     Cylinder((-0.028, -0.018, 0.0), (0.1, 0, 1), 0.001, "peg_left"),
-                     Sphere((0.0, 0.045, -0.005), 0.006, "ball")))
+    head, scene = soak_head, SOAK_PEGS
     whisk = CosineWhisk(9.5, math.radians(-30.0), math.radians(25.0))
     array = WhiskerArray((rat_array("right")[name],), name)
     array_tracker = ArrayTracker(array, scene, head(start * 1e-3), whisk.angle(start * 1e-3))
