@@ -97,7 +97,8 @@ def test_trusted_step_solves_as_solve_does(rb1_cycle):
     sol, modes, start = tracker.solver, tracker._modes, tracker._solved
     rate = path.rate(path.a)
     before = sol.evaluations, sol.factorizations
-    solved, tan, checked = sol.trusted_step(modes, start, rate, stream, path.b, 0.05)
+    taken = sol.trusted_step(modes, start, rate, stream, path.b, 0.05)
+    solved, tan, checked = taken.solved, taken.tangent, taken.checked
     spent = sol.evaluations - before[0], sol.factorizations - before[1]
     kept = sol._accepted_cache[3]
     sol._accepted_cache = None
@@ -121,6 +122,14 @@ def test_trusted_step_solves_as_solve_does(rb1_cycle):
     assert checked
     tracker._check_tail(modes, reference.vec, path.b)
     tracker._check_between(modes, reference.vec, path.b)
+    # what the tracker decides the step by, as its own Python computes it
+    line = start.vec + tan
+    assert taken.branch_error == float(np.max(np.abs(reference.vec - line)))
+    assert taken.branch_change == float(np.max(np.abs(line - start.vec)))
+    values = tracker._event_values(path, 1.0, reference.vec, reference.lu)
+    assert taken.det == tracker._sign * values[("stable", -1)]
+    assert taken.least == min(v for key, v in values.items() if key[0] in ("release", "tip"))
+    assert ("tip", len(modes) - 1) in values  # (1 - s of the side contact is among them)
 
 
 def test_the_kernels_checks_fail_where_the_trackers_do(rb1_cycle, monkeypatch):
@@ -129,7 +138,7 @@ def test_the_kernels_checks_fail_where_the_trackers_do(rb1_cycle, monkeypatch):
     tracker, path, stream = _in_contact_with_a_stream(rb1_cycle)
     sol, modes, start = tracker.solver, tracker._modes, tracker._solved
     rate = path.rate(path.a)
-    solved = sol.trusted_step(modes, start, rate, stream, path.b, 0.05)[0]
+    solved = sol.trusted_step(modes, start, rate, stream, path.b, 0.05).solved
     post = sol._accepted(modes, solved.vec, path.b)
     tail, loaded = post.tail_depth, float(post.depth.min())
     # the loaded part touches the peg at its contact (distance 0 to rounding); the tail is
@@ -139,20 +148,20 @@ def test_the_kernels_checks_fail_where_the_trackers_do(rb1_cycle, monkeypatch):
     # kernel as in the tracker
     cut = 0.5 * tail
     monkeypatch.setattr(tracker_module, "_TAIL_CUT", cut)
-    assert not sol.trusted_step(modes, start, rate, stream, path.b, 0.05, tail_cut=cut)[2]
+    assert not sol.trusted_step(modes, start, rate, stream, path.b, 0.05, tail_cut=cut).checked
     with pytest.raises(ModelAssumptionError):
         tracker._check_between(modes, solved.vec, path.b)
     tracker._check_tail(modes, solved.vec, path.b)
     # above both: both refuse
     cut = 2.0 * tail
     monkeypatch.setattr(tracker_module, "_TAIL_CUT", cut)
-    assert not sol.trusted_step(modes, start, rate, stream, path.b, 0.05, tail_cut=cut)[2]
+    assert not sol.trusted_step(modes, start, rate, stream, path.b, 0.05, tail_cut=cut).checked
     with pytest.raises(ModelAssumptionError):
         tracker._check_tail(modes, solved.vec, path.b)
     # the tracker's own bound: both pass
     monkeypatch.undo()
     assert sol.trusted_step(modes, start, rate, stream, path.b, 0.05,
-                            tail_cut=tracker_module._TAIL_CUT)[2]
+                            tail_cut=tracker_module._TAIL_CUT).checked
 
 
 def test_a_bound_that_shortens_the_step_leaves_it_to_the_general_path(rb1_cycle):

@@ -1053,10 +1053,39 @@ def _checks_hold(tail_depth, depth, tail_cut):
 
 
 @_kernel
+def _solution_measures(vec, vec0, tan, forces, last_break, lu, piv):
+    """
+    Return what the tracker decides a plain step's solution by, from :func:`trusted_step`.
+
+    (error, change, least, det): max |vec - (vec0 + tan)| and max |(vec0 + tan) - vec0| (as
+    RodTracker._off_branch computes them: the same rounding), the least of the forces
+    vec[forces] and of 1 - vec[last_break] (where last_break >= 0), and
+    :func:`det_measure` (lu, piv).
+    """
+    error = 0.0
+    change = 0.0
+    for i in range(vec.size):
+        line = vec0[i] + tan[i]
+        a = abs(vec[i] - line)
+        if a > error:
+            error = a
+        b = abs(line - vec0[i])
+        if b > change:
+            change = b
+    least = math.inf
+    for j in range(forces.size):
+        if vec[forces[j]] < least:
+            least = vec[forces[j]]
+    if last_break >= 0 and 1.0 - vec[last_break] < least:
+        least = 1.0 - vec[last_break]
+    return error, change, least, det_measure(lu, piv)
+
+
+@_kernel
 def trusted_step(lu0, piv0, rhs, forces, vec0, max_change, guess, qb, p, n, kinds, tau,
                  sp, T, shape, grid, table, nu1, codes, prm, limit, touched, samples, A, tol,
                  trusted_step_size, trusted_chord, chord_tol, max_step, max_iterations, stall,
-                 noise, rounding, tail_cut):
+                 noise, rounding, tail_cut, last_break):
     """
     Take a plain continuation step in one call: RodTracker._contact_advance's common case.
 
@@ -1072,12 +1101,16 @@ def trusted_step(lu0, piv0, rhs, forces, vec0, max_change, guess, qb, p, n, kind
     bound ``limit``, and the solver's tolerances and bounds.
 
     Returns (status, tangent, vec, lu, piv, sens, evaluations, factorizations, points,
-    normals, tip, frame, tail_depth, depth, where, checked): status 0 solved; 1 the bound
-    shortens the step, or the tangent is not finite (nothing solved: the general path takes
-    the step); 2 the solve failed where RodSolver.solve raises ConvergenceError (the same
-    solve from the same guess: the general path goes on as after its own failed trial step).
-    piv is 0-based as scipy's, the counts those spent, and checked :func:`_checks_hold` of
-    the solution (the checks' bound ``tail_cut``).
+    normals, tip, frame, tail_depth, depth, where, checked, branch_error, branch_change,
+    least, det): status 0 solved; 1 the bound shortens the step, or the tangent is not
+    finite (nothing solved: the general path takes the step); 2 the solve failed where
+    RodSolver.solve raises ConvergenceError (the same solve from the same guess: the general
+    path goes on as after its own failed trial step). piv is 0-based as scipy's, the counts
+    those spent, and checked :func:`_checks_hold` of the solution (the checks' bound
+    ``tail_cut``). Of a solution also: how far it lies from the tangent's prediction
+    vec0 + tan and how far that is from vec0 (max norms, as RodTracker._off_branch measures
+    them), the least of its forces and of 1 - s at ``last_break`` (the arc length of a side
+    contact nearest the tip, or -1), and :func:`det_measure` of its factorization.
     """
     size0 = vec0.size
     piv1 = np.empty(size0, np.int32)
@@ -1107,7 +1140,8 @@ def trusted_step(lu0, piv0, rhs, forces, vec0, max_change, guess, qb, p, n, kind
     m0 = np.zeros((0, 3))
     f0 = np.zeros((3, 3))
     if not finite or (big > 0.0 and max_change / big < 1.0):
-        return 1, tan, e1, e2, ei, m0, 0, 0, m0, m0, e1, f0, math.inf, e1, ek, False
+        return (1, tan, e1, e2, ei, m0, 0, 0, m0, m0, e1, f0, math.inf, e1, ek, False, 0.0,
+                0.0, 0.0, 0.0)
     # RodSolver.solve with ``trusted`` and ``fail_fast``: Newton from the guess; where a step
     # is short enough, chord steps on its Jacobian (RodSolver._polish)
     evaluations = 0
@@ -1183,8 +1217,11 @@ def trusted_step(lu0, piv0, rhs, forces, vec0, max_change, guess, qb, p, n, kind
             points, normals, tip, frame, tail_depth, depth, where = accepted(
                 vec, n, kinds, tau, sp, T, p, codes, prm, touched, samples, A, grid, table)
             clean = _checks_hold(tail_depth, depth, tail_cut)
+            error, change, least, det = _solution_measures(vec, vec0, tan, forces, last_break,
+                                                           J, piv0_new)
             return (0, tan, vec, J, piv0_new, sens, evaluations, factorizations, points,
-                    normals, tip, frame, tail_depth, depth, where, clean)
+                    normals, tip, frame, tail_depth, depth, where, clean, error, change, least,
+                    det)
         newton += 1
         if newton >= 3 and step_size > 0.9 * last:
             break  # fail_fast: Newton is not contracting
@@ -1203,12 +1240,15 @@ def trusted_step(lu0, piv0, rhs, forces, vec0, max_change, guess, qb, p, n, kind
                         at, n, kinds, tau, sp, T, p, codes, prm, touched, samples, A, grid,
                         table)
                     clean = _checks_hold(tail_depth, depth, tail_cut)
+                    error, change, least, det = _solution_measures(at, vec0, tan, forces,
+                                                                   last_break, J, piv0_new)
                     return (0, tan, at, J, piv0_new, sens, evaluations, factorizations,
-                            points, normals, tip, frame, tail_depth, depth, where, clean)
+                            points, normals, tip, frame, tail_depth, depth, where, clean,
+                            error, change, least, det)
                 break
         last = step_size
     return (2, tan, e1, e2, ei, m0, evaluations, factorizations, m0, m0, e1, f0, math.inf,
-            e1, ek, False)
+            e1, ek, False, 0.0, 0.0, 0.0, 0.0)
 
 
 @_kernel

@@ -248,10 +248,11 @@ def _resampler(n_old: int, n: int) -> np.ndarray:
 class _Config:
     """A configuration's contacts as the solver's kernels take them (internal, cached)."""
 
-    __slots__ = ("kinds", "extra", "geometry", "touched")
+    __slots__ = ("kinds", "extra", "geometry", "touched", "tips")
 
     def __init__(self, solver: "RodSolver", modes: Tuple["RodContactMode", ...]):
         self.kinds = np.array([m.kind == "side" for m in modes], dtype=np.int64)
+        self.tips = any(m.kind == "tip" for m in modes)
         self.extra = sum(m.size for m in modes)
         # (none for contacts on no obstacle: the probe load of points_for)
         self.geometry = (kernel_obstacles([solver.obstacles[m.obstacle] for m in modes])
@@ -286,6 +287,40 @@ class Solved(NamedTuple):
     vec: np.ndarray
     lu: Tuple[np.ndarray, np.ndarray]
     sens: np.ndarray
+
+
+class TrustedStep(NamedTuple):
+    """
+    A plain continuation step taken whole (:meth:`RodSolver.trusted_step`).
+
+    Parameters
+    ----------
+    solved : Solved
+        The solution at the path's end.
+    tangent : numpy.ndarray
+        The tangent dv/dt at the path's start.
+    checked : bool
+        Whether the tracker's checks pass on the solution (its unloaded tail and its loaded
+        part no deeper than ``tail_cut`` in the obstacles they touch).
+    branch_error : float
+        max |v - (v0 + tangent)|: how far the solution lies from the tangent's prediction.
+    branch_change : float
+        max |(v0 + tangent) - v0|: the change the tangent predicts (the same rounding as
+        RodTracker's branch check).
+    least : float
+        The least of the contacts' forces and of 1 - s of a side contact nearest the tip.
+    det : float
+        sign(det J) times the geometric mean of |U_ii| (the stability monitor's value).
+
+    """
+
+    solved: "Solved"
+    tangent: np.ndarray
+    checked: bool
+    branch_error: float
+    branch_change: float
+    least: float
+    det: float
 
 
 class _Accepted(NamedTuple):
@@ -1237,7 +1272,7 @@ class RodSolver:
     def trusted_step(self, modes: Sequence[RodContactMode], start: "Solved", rate: np.ndarray,
                      guess: np.ndarray, pose: BasePose, max_change: float,
                      max_step: float = 0.5, tail_cut: float = -1e-9
-                     ) -> Optional[Tuple["Solved", np.ndarray, bool]]:
+                     ) -> Optional[TrustedStep]:
         """
         Take a plain continuation step whole in one compiled call, or return None.
 
@@ -1274,11 +1309,12 @@ class RodSolver:
 
         Returns
         -------
-        tuple (Solved, numpy.ndarray, bool) or None
-            The solution, the tangent at the start (as :meth:`tangent` computes it), and
-            whether the tracker's checks pass on it (its unloaded tail and its loaded part no
-            deeper than ``tail_cut`` in the obstacles they touch, from the data the call
-            computed). None where the bound would shorten the step or the tangent is not
+        TrustedStep or None
+            The solution, the tangent at the start (as :meth:`tangent` computes it), whether
+            the tracker's checks pass on it (its unloaded tail and its loaded part no deeper
+            than ``tail_cut`` in the obstacles they touch, from the data the call computed),
+            and what the tracker decides the step by (its distance from the tangent's
+            prediction, its least force, its stability value). None where the bound would shorten the step or the tangent is not
             finite (nothing solved), where the kernels meet an arithmetic error, or where the
             kernel does not apply (other obstacles or shapes, other arrays): the caller takes
             its general path.
@@ -1308,14 +1344,15 @@ class RodSolver:
         limit = _S_EXTEND if self._sp is None else min(_S_EXTEND, 0.5 * (1.0 + self._sp))
         try:
             (status, tan, vec, lu, piv, sens, spent, factored, points, normals, tip, frame,
-             tail_depth, depth, where, checked) = _jit.trusted_step(
+             tail_depth, depth, where, checked, error, change, least, det) = _jit.trusted_step(
                 lu0, piv0, start.sens @ rate, forces, start.vec, max_change,
                 np.ascontiguousarray(guess, dtype=float), pose.q, pose.p, n, config.kinds,
                 _operators(n).tau, self._jit_sp, self._template(k, n), self._jit_shape,
                 self._jit_grid, self._jit_table, self._nu1, geometry[0], geometry[1], limit,
                 config.touched[1], TAIL_SAMPLES, shape.parabola or 0.0, _TOL, _TRUSTED_STEP,
                 _TRUSTED_CHORD, _CHORD_TOL, float(max_step), _NEWTON_ITERATIONS, _STALL,
-                _NOISE, _ROUNDING, float(tail_cut))
+                _NOISE, _ROUNDING, float(tail_cut),
+                forces[-1] - 1 if modes[-1].kind == "side" else -1)
         except (ValueError, ArithmeticError):
             # (an arithmetic error in the kernels, e.g. a division by zero: the general path
             # meets it in solve, counts its evaluations and takes a shorter sub-step)
@@ -1328,7 +1365,8 @@ class RodSolver:
             raise ConvergenceError("3D whisker: the trusted Newton solve failed")
         self._accepted_cache = (vec.copy(), pose, tuple(modes), _Accepted(
             points, normals, tip, frame, float(tail_depth), config.touched[0], depth, where))
-        return Solved(vec, (lu, piv), sens), tan, bool(checked)
+        return TrustedStep(Solved(vec, (lu, piv), sens), tan, bool(checked), error, change,
+                           least, det)
 
     def _force_indices(self, modes, vec) -> np.ndarray:
         """Return the indices of the contacts' forces in an unknown vector of this length."""

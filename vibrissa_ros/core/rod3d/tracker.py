@@ -1108,13 +1108,20 @@ class RodTracker:
             return False
         if taken is None:
             return None
-        solved, tan, checked = taken
-        if _off_branch(solved.vec, self._vec + tan, self._vec):
+        solved, tan = taken.solved, taken.tangent
+        # _off_branch(solved.vec, self._vec + tan, self._vec), from the kernel's measures
+        if taken.branch_error > _OFF_BRANCH and taken.branch_error > 2.0 * taken.branch_change:
             return False  # (as a failed solve: the general path takes shorter sub-steps)
         # (as _fold_limit records it at the step's start)
         self._fold_prev = (path, modes, 0.0, 1.0 / max(float(tan @ tan), 1e-300))
-        if (checked and not any(v < 0.0 for v in self._event_values(
+        if self.solver._config(modes).tips:
+            # (a tip contact's tangential value is computed here)
+            crossed = any(v < 0.0 for v in self._event_values(
                 path, 1.0, solved.vec, solved.lu).values())
+        else:
+            # _event_values' (release, tip, stable) from the kernel's values
+            crossed = taken.least < 0.0 or self._sign * taken.det < 0.0
+        if (taken.checked and not crossed
                 and self._contact_gap(path, 1.0, solved.vec)[0] >= _CUT):
             # no event crossed, no touch, and the checks pass (as _conclude finds them, from
             # the same values): accepted
