@@ -855,8 +855,8 @@ def accepted(vec, n, kinds, tau, sp, T, p, codes, prm, touched, samples, A, grid
     outward normals there (k, 3), the tip (3,), the body frame at the tip (3, 3), the least
     distance of the tail samples to the last contact's obstacle (inf without a side contact
     short of the tip), the least distance of the nodes to each obstacle touched (m,) and the
-    node where (m,)): RodSolver.equilibrium's points, normals, tip and frame,
-    RodTracker._check_tail's and _touched_depth's distances.
+    node where (m,)), and :func:`contact_loads`: RodSolver.equilibrium's points, normals, tip,
+    frame and loads, RodTracker._check_tail's and _touched_depth's distances.
     """
     b, w, r, frames = nodes(vec, n, kinds, tau, sp, T, p)
     k = kinds.size
@@ -919,7 +919,46 @@ def accepted(vec, n, kinds, tau, sp, T, p, codes, prm, touched, samples, A, grid
             if d < depth[j]:
                 depth[j] = d
                 where[j] = i
-    return points, normals, tip, frame, tail_depth, depth, where
+    s_c, f_c, forces, force, moment = contact_loads(vec, n, kinds, points, normals, p)
+    return (points, normals, tip, frame, tail_depth, depth, where, s_c, f_c, forces, force,
+            moment)
+
+
+@_kernel
+def contact_loads(vec, n, kinds, points, normals, p):
+    """
+    Return the contacts' (s (k,), f (k,), forces (k, 3)) and their total force and moment.
+
+    RodSolver.breaks_of and forces_of (s = 1 at a tip contact), the forces f n on the whisker
+    at the contact ``points`` with the outward ``normals``, their sum (row by row, as numpy's
+    sum over the first axis) and their moment about the base point ``p``: RodSolver.equilibrium's
+    operations, in the same order.
+    """
+    k = kinds.size
+    s_c = np.empty(k)
+    f_c = np.empty(k)
+    forces = np.empty((k, 3))
+    force = np.zeros(3)
+    moment = np.zeros(3)
+    o = 4 * n * k
+    for c in range(k):
+        size = 2 if kinds[c] == 1 else 1
+        s_c[c] = vec[o] if kinds[c] == 1 else 1.0
+        f = vec[o + size - 1]
+        f_c[c] = f
+        o += size
+        for i in range(3):
+            forces[c, i] = normals[c, i] * f
+        ax, ay, az = points[c, 0] - p[0], points[c, 1] - p[1], points[c, 2] - p[2]
+        fx, fy, fz = forces[c, 0], forces[c, 1], forces[c, 2]
+        mx, my, mz = ay * fz - az * fy, az * fx - ax * fz, ax * fy - ay * fx
+        if c == 0:
+            force[0], force[1], force[2] = fx, fy, fz
+            moment[0], moment[1], moment[2] = mx, my, mz
+        else:
+            force[0], force[1], force[2] = force[0] + fx, force[1] + fy, force[2] + fz
+            moment[0], moment[1], moment[2] = moment[0] + mx, moment[1] + my, moment[2] + mz
+    return s_c, f_c, forces, force, moment
 
 
 @_kernel
@@ -1102,7 +1141,7 @@ def trusted_step(lu0, piv0, rhs, forces, vec0, max_change, guess, qb, p, n, kind
 
     Returns (status, tangent, vec, lu, piv, sens, evaluations, factorizations, points,
     normals, tip, frame, tail_depth, depth, where, checked, branch_error, branch_change,
-    least, det): status 0 solved; 1 the bound shortens the step, or the tangent is not
+    least, det, s, f, forces, force, moment): status 0 solved; 1 the bound shortens the step, or the tangent is not
     finite (nothing solved: the general path takes the step); 2 the solve failed where
     RodSolver.solve raises ConvergenceError (the same solve from the same guess: the general
     path goes on as after its own failed trial step). piv is 0-based as scipy's, the counts
@@ -1110,7 +1149,8 @@ def trusted_step(lu0, piv0, rhs, forces, vec0, max_change, guess, qb, p, n, kind
     ``tail_cut``). Of a solution also: how far it lies from the tangent's prediction
     vec0 + tan and how far that is from vec0 (max norms, as RodTracker._off_branch measures
     them), the least of its forces and of 1 - s at ``last_break`` (the arc length of a side
-    contact nearest the tip, or -1), and :func:`det_measure` of its factorization.
+    contact nearest the tip, or -1), :func:`det_measure` of its factorization, and its
+    :func:`contact_loads`.
     """
     size0 = vec0.size
     piv1 = np.empty(size0, np.int32)
@@ -1141,7 +1181,7 @@ def trusted_step(lu0, piv0, rhs, forces, vec0, max_change, guess, qb, p, n, kind
     f0 = np.zeros((3, 3))
     if not finite or (big > 0.0 and max_change / big < 1.0):
         return (1, tan, e1, e2, ei, m0, 0, 0, m0, m0, e1, f0, math.inf, e1, ek, False, 0.0,
-                0.0, 0.0, 0.0)
+                0.0, 0.0, 0.0, e1, e1, m0, e1, e1)
     # RodSolver.solve with ``trusted`` and ``fail_fast``: Newton from the guess; where a step
     # is short enough, chord steps on its Jacobian (RodSolver._polish)
     evaluations = 0
@@ -1214,14 +1254,15 @@ def trusted_step(lu0, piv0, rhs, forces, vec0, max_change, guess, qb, p, n, kind
             piv0_new = np.empty(size, np.int32)
             for i in range(size):
                 piv0_new[i] = piv[i] - 1
-            points, normals, tip, frame, tail_depth, depth, where = accepted(
-                vec, n, kinds, tau, sp, T, p, codes, prm, touched, samples, A, grid, table)
+            (points, normals, tip, frame, tail_depth, depth, where, s_c, f_c, loads, total,
+             moment) = accepted(vec, n, kinds, tau, sp, T, p, codes, prm, touched, samples, A,
+                                grid, table)
             clean = _checks_hold(tail_depth, depth, tail_cut)
             error, change, least, det = _solution_measures(vec, vec0, tan, forces, last_break,
                                                            J, piv0_new)
             return (0, tan, vec, J, piv0_new, sens, evaluations, factorizations, points,
                     normals, tip, frame, tail_depth, depth, where, clean, error, change, least,
-                    det)
+                    det, s_c, f_c, loads, total, moment)
         newton += 1
         if newton >= 3 and step_size > 0.9 * last:
             break  # fail_fast: Newton is not contracting
@@ -1236,19 +1277,19 @@ def trusted_step(lu0, piv0, rhs, forces, vec0, max_change, guess, qb, p, n, kind
                     piv0_new = np.empty(size, np.int32)
                     for i in range(size):
                         piv0_new[i] = piv[i] - 1
-                    points, normals, tip, frame, tail_depth, depth, where = accepted(
-                        at, n, kinds, tau, sp, T, p, codes, prm, touched, samples, A, grid,
-                        table)
+                    (points, normals, tip, frame, tail_depth, depth, where, s_c, f_c, loads,
+                     total, moment) = accepted(at, n, kinds, tau, sp, T, p, codes, prm,
+                                               touched, samples, A, grid, table)
                     clean = _checks_hold(tail_depth, depth, tail_cut)
                     error, change, least, det = _solution_measures(at, vec0, tan, forces,
                                                                    last_break, J, piv0_new)
                     return (0, tan, at, J, piv0_new, sens, evaluations, factorizations,
                             points, normals, tip, frame, tail_depth, depth, where, clean,
-                            error, change, least, det)
+                            error, change, least, det, s_c, f_c, loads, total, moment)
                 break
         last = step_size
     return (2, tan, e1, e2, ei, m0, evaluations, factorizations, m0, m0, e1, f0, math.inf,
-            e1, ek, False, 0.0, 0.0, 0.0, 0.0)
+            e1, ek, False, 0.0, 0.0, 0.0, 0.0, e1, e1, m0, e1, e1)
 
 
 @_kernel

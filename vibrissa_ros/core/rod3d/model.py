@@ -334,6 +334,11 @@ class _Accepted(NamedTuple):
     touched: Tuple[int, ...]  # the obstacles touched, sorted
     depth: np.ndarray       # least distance of the nodes to each (m,)
     where: np.ndarray       # at which node (m,)
+    s: Tuple[float, ...]    # the contacts' arc lengths (1 at a tip contact)
+    f: Tuple[float, ...]    # their normal forces
+    forces: np.ndarray      # the contact forces on the whisker (k, 3)
+    force: np.ndarray       # their sum (3,)
+    moment: np.ndarray      # their moment about the base point (3,)
 
 
 @dataclass(frozen=True)
@@ -1344,7 +1349,8 @@ class RodSolver:
         limit = _S_EXTEND if self._sp is None else min(_S_EXTEND, 0.5 * (1.0 + self._sp))
         try:
             (status, tan, vec, lu, piv, sens, spent, factored, points, normals, tip, frame,
-             tail_depth, depth, where, checked, error, change, least, det) = _jit.trusted_step(
+             tail_depth, depth, where, checked, error, change, least, det, s_c, f_c, loads,
+             total, moment) = _jit.trusted_step(
                 lu0, piv0, start.sens @ rate, forces, start.vec, max_change,
                 np.ascontiguousarray(guess, dtype=float), pose.q, pose.p, n, config.kinds,
                 _operators(n).tau, self._jit_sp, self._template(k, n), self._jit_shape,
@@ -1364,7 +1370,8 @@ class RodSolver:
         if status != 0:
             raise ConvergenceError("3D whisker: the trusted Newton solve failed")
         self._accepted_cache = (vec.copy(), pose, tuple(modes), _Accepted(
-            points, normals, tip, frame, float(tail_depth), config.touched[0], depth, where))
+            points, normals, tip, frame, float(tail_depth), config.touched[0], depth, where,
+            tuple(s_c.tolist()), tuple(f_c.tolist()), loads, total, moment))
         return TrustedStep(Solved(vec, (lu, piv), sens), tan, bool(checked), error, change,
                            least, det)
 
@@ -1900,12 +1907,14 @@ class RodSolver:
             _jit.warm_up()
         n = self.points_of(modes, vec)
         touched = self._config(modes).touched
-        points, normals, tip, frame, tail_depth, depth, where = _jit.accepted(
+        (points, normals, tip, frame, tail_depth, depth, where, s_c, f_c, forces, force,
+         moment) = _jit.accepted(
             vec, n, self._kinds_of(modes), _operators(n).tau, self._jit_sp,
             self._template(len(modes), n), pose.p, geometry[0], geometry[1], touched[1],
             TAIL_SAMPLES,
             shape.parabola or 0.0, self._jit_grid, self._jit_table)
-        out = _Accepted(points, normals, tip, frame, float(tail_depth), touched[0], depth, where)
+        out = _Accepted(points, normals, tip, frame, float(tail_depth), touched[0], depth, where,
+                        tuple(s_c.tolist()), tuple(f_c.tolist()), forces, force, moment)
         self._accepted_cache = (vec.copy(), pose, modes, out)
         return out
 
@@ -1930,46 +1939,45 @@ class RodSolver:
 
         """
         modes = tuple(modes)
-        if modes:
+        post = self._accepted(modes, vec, pose) if modes else None
+        if post is not None:
+            # (the kernel's: the same operations as below)
+            breaks, fs, pts, tip, frame = post.s, post.f, post.points, post.tip, post.frame
+            forces, force, moment = post.forces, post.force, post.moment
+        elif modes:
             breaks = self.breaks_of(modes, vec)
             fs = self.forces_of(modes, vec)
-            post = self._accepted(modes, vec, pose)
-            if post is not None:
-                # (the kernel's: the same operations as below)
-                pts, tip, frame = post.points, post.tip, post.frame
-                forces = post.normals * np.array(fs)[:, None]
+            if _jit.ENABLED:
+                _, _, r_nodes, R = self._nodes(modes, vec, pose)
+                n = self.points_of(modes, vec)
+                r_ends = r_nodes[n - 1::n]
+                Q_last = vec[4 * n * len(modes) - 4:4 * n * len(modes)]
             else:
-                if _jit.ENABLED:
-                    _, _, r_nodes, R = self._nodes(modes, vec, pose)
-                    n = self.points_of(modes, vec)
-                    r_ends = r_nodes[n - 1::n]
-                    Q_last = vec[4 * n * len(modes) - 4:4 * n * len(modes)]
+                lay = self.layout(modes, vec)
+                Q = vec[:4 * lay.N].reshape(lay.N, 4)
+                R = _rotations(Q[lay.ends])
+                r_ends = pose.p + lay.G[lay.ends] @ _tangents(Q)
+                Q_last = Q[-1]
+            pts = r_ends
+            forces = np.array([f * np.asarray(self.obstacles[m.obstacle].surface(x).normal)
+                               for m, f, x in zip(modes, fs, pts)])
+            end = breaks[-1]
+            frame = R[-1] / float(Q_last @ Q_last)
+            tip = r_ends[-1]
+            if end < 1.0:
+                if _jit.ENABLED and self.shape.parabola is not None:
+                    # (the kernel of the centerline's tail: the same tip as centerline(1))
+                    *off, phi = _jit.parabola_tip(end, self.shape.parabola, self._jit_grid,
+                                                  self._jit_table)
                 else:
-                    lay = self.layout(modes, vec)
-                    Q = vec[:4 * lay.N].reshape(lay.N, 4)
-                    R = _rotations(Q[lay.ends])
-                    r_ends = pose.p + lay.G[lay.ends] @ _tangents(Q)
-                    Q_last = Q[-1]
-                pts = r_ends
-                forces = np.array([f * np.asarray(self.obstacles[m.obstacle].surface(x).normal)
-                                   for m, f, x in zip(modes, fs, pts)])
-                end = breaks[-1]
-                frame = R[-1] / float(Q_last @ Q_last)
-                tip = r_ends[-1]
-                if end < 1.0:
-                    if _jit.ENABLED and self.shape.parabola is not None:
-                        # (the kernel of the centerline's tail: the same tip as centerline(1))
-                        *off, phi = _jit.parabola_tip(end, self.shape.parabola, self._jit_grid,
-                                                      self._jit_table)
-                    else:
-                        off, phi = self.shape.tail(end)
-                    tip = tip + off[0] * frame[:, 0] + off[1] * frame[:, 1]
-                    c, sn = math.cos(phi), math.sin(phi)
-                    turned = np.empty((3, 3))
-                    turned[:, 0] = c * frame[:, 0] + sn * frame[:, 1]
-                    turned[:, 1] = -sn * frame[:, 0] + c * frame[:, 1]
-                    turned[:, 2] = frame[:, 2]
-                    frame = turned
+                    off, phi = self.shape.tail(end)
+                tip = tip + off[0] * frame[:, 0] + off[1] * frame[:, 1]
+                c, sn = math.cos(phi), math.sin(phi)
+                turned = np.empty((3, 3))
+                turned[:, 0] = c * frame[:, 0] + sn * frame[:, 1]
+                turned[:, 1] = -sn * frame[:, 0] + c * frame[:, 1]
+                turned[:, 2] = frame[:, 2]
+                frame = turned
             force = forces.sum(axis=0)
             # sum_c (x_c - p) x F_c, in floats (as _cross(pts - p, forces).sum(axis=0))
             px, py, pz = pose.position
