@@ -248,7 +248,7 @@ def _resampler(n_old: int, n: int) -> np.ndarray:
 class _Config:
     """A configuration's contacts as the solver's kernels take them (internal, cached)."""
 
-    __slots__ = ("kinds", "extra", "geometry", "touched", "tips")
+    __slots__ = ("kinds", "extra", "geometry", "touched", "tips", "plain")
 
     def __init__(self, solver: "RodSolver", modes: Tuple["RodContactMode", ...]):
         self.kinds = np.array([m.kind == "side" for m in modes], dtype=np.int64)
@@ -263,6 +263,8 @@ class _Config:
             first.setdefault(m.obstacle, c)
         self.touched = (tuple(sorted(first)),
                         np.array([first[k] for k in sorted(first)], dtype=np.int64))
+        #: per points per segment, the plain step's constant arguments (RodSolver.trusted_step)
+        self.plain = {}
 
 
 class Solved(NamedTuple):
@@ -1339,26 +1341,30 @@ class RodSolver:
             return None
         if not _jit.WARM:
             _jit.warm_up()
-        n = self.points_of(modes, guess)
         lu0, piv0 = start.lu
-        if (n != self.points_of(modes, start.vec) or not lu0.flags.f_contiguous
+        if (len(guess) != len(start.vec) or not lu0.flags.f_contiguous
                 or piv0.dtype != np.int32 or not start.sens.flags.c_contiguous):
             return None  # (the kernels' own arrays only: one compiled version, no copies)
-        k = len(modes)
-        forces = self._force_indices(modes, start.vec)
-        limit = _S_EXTEND if self._sp is None else min(_S_EXTEND, 0.5 * (1.0 + self._sp))
+        n = self.points_of(modes, start.vec)
+        plain = config.plain.get(n)
+        if plain is None:
+            forces = self._force_indices(modes, start.vec)
+            plain = config.plain[n] = (
+                forces, forces[-1] - 1 if modes[-1].kind == "side" else -1, _operators(n).tau,
+                self._template(len(modes), n),
+                _S_EXTEND if self._sp is None else min(_S_EXTEND, 0.5 * (1.0 + self._sp)))
+        forces, last_break, tau, T, limit = plain
         try:
             (status, tan, vec, lu, piv, sens, spent, factored, points, normals, tip, frame,
              tail_depth, depth, where, checked, error, change, least, det, s_c, f_c, loads,
              total, moment) = _jit.trusted_step(
                 lu0, piv0, start.sens @ rate, forces, start.vec, max_change,
                 np.ascontiguousarray(guess, dtype=float), pose.q, pose.p, n, config.kinds,
-                _operators(n).tau, self._jit_sp, self._template(k, n), self._jit_shape,
-                self._jit_grid, self._jit_table, self._nu1, geometry[0], geometry[1], limit,
-                config.touched[1], TAIL_SAMPLES, shape.parabola or 0.0, _TOL, _TRUSTED_STEP,
-                _TRUSTED_CHORD, _CHORD_TOL, float(max_step), _NEWTON_ITERATIONS, _STALL,
-                _NOISE, _ROUNDING, float(tail_cut),
-                forces[-1] - 1 if modes[-1].kind == "side" else -1)
+                tau, self._jit_sp, T, self._jit_shape, self._jit_grid, self._jit_table,
+                self._nu1, geometry[0], geometry[1], limit, config.touched[1], TAIL_SAMPLES,
+                shape.parabola or 0.0, _TOL, _TRUSTED_STEP, _TRUSTED_CHORD, _CHORD_TOL,
+                float(max_step), _NEWTON_ITERATIONS, _STALL, _NOISE, _ROUNDING, float(tail_cut),
+                last_break)
         except (ValueError, ArithmeticError):
             # (an arithmetic error in the kernels, e.g. a division by zero: the general path
             # meets it in solve, counts its evaluations and takes a shorter sub-step)
