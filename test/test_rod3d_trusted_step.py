@@ -116,8 +116,15 @@ def test_trusted_step_solves_as_solve_does(rb1_cycle):
     assert np.array_equal(tan, sol.tangent(start, rate))
     # the accepted solution's data, computed in the same call, are _accepted's
     fresh = sol._accepted(modes, reference.vec, path.b)
-    for a, b in zip(kept, fresh):
+    assert fresh.above is None
+    for a, b in zip(kept[:-1], fresh[:-1]):
         assert np.array_equal(np.asarray(a), np.asarray(b))
+    # and the coefficient tail points_needed reads from it, as its own kernel call computes it
+    from vibrissa_ros.core.rod3d.model import _POINTS_LADDER, _operators
+
+    n = sol.points_of(modes, reference.vec)
+    assert np.array_equal(kept.above, _jit.coefficient_tail(
+        _operators(n).Vinv, reference.vec, n, len(modes), _POINTS_LADDER[0] - 2))
     # the checks pass, as the tracker's own find (they raise otherwise)
     assert checked
     tracker._check_tail(modes, reference.vec, path.b)

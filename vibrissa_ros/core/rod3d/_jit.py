@@ -1124,7 +1124,7 @@ def _solution_measures(vec, vec0, tan, forces, last_break, lu, piv):
 def trusted_step(lu0, piv0, rhs, forces, vec0, max_change, guess, qb, p, n, kinds, tau,
                  sp, T, shape, grid, table, nu1, codes, prm, limit, touched, samples, A, tol,
                  trusted_step_size, trusted_chord, chord_tol, max_step, max_iterations, stall,
-                 noise, rounding, tail_cut, last_break):
+                 noise, rounding, tail_cut, last_break, Vinv, lowest):
     """
     Take a plain continuation step in one call: RodTracker._contact_advance's common case.
 
@@ -1141,7 +1141,7 @@ def trusted_step(lu0, piv0, rhs, forces, vec0, max_change, guess, qb, p, n, kind
 
     Returns (status, tangent, vec, lu, piv, sens, evaluations, factorizations, points,
     normals, tip, frame, tail_depth, depth, where, checked, branch_error, branch_change,
-    least, det, s, f, forces, force, moment): status 0 solved; 1 the bound shortens the step, or the tangent is not
+    least, det, s, f, forces, force, moment, above): status 0 solved; 1 the bound shortens the step, or the tangent is not
     finite (nothing solved: the general path takes the step); 2 the solve failed where
     RodSolver.solve raises ConvergenceError (the same solve from the same guess: the general
     path goes on as after its own failed trial step). piv is 0-based as scipy's, the counts
@@ -1149,8 +1149,9 @@ def trusted_step(lu0, piv0, rhs, forces, vec0, max_change, guess, qb, p, n, kind
     ``tail_cut``). Of a solution also: how far it lies from the tangent's prediction
     vec0 + tan and how far that is from vec0 (max norms, as RodTracker._off_branch measures
     them), the least of its forces and of 1 - s at ``last_break`` (the arc length of a side
-    contact nearest the tip, or -1), :func:`det_measure` of its factorization, and its
-    :func:`contact_loads`.
+    contact nearest the tip, or -1), :func:`det_measure` of its factorization, its
+    :func:`contact_loads`, and its :func:`coefficient_tail` from degree ``lowest`` (``Vinv``
+    (n, n); empty where n <= lowest).
     """
     size0 = vec0.size
     piv1 = np.empty(size0, np.int32)
@@ -1181,7 +1182,7 @@ def trusted_step(lu0, piv0, rhs, forces, vec0, max_change, guess, qb, p, n, kind
     f0 = np.zeros((3, 3))
     if not finite or (big > 0.0 and max_change / big < 1.0):
         return (1, tan, e1, e2, ei, m0, 0, 0, m0, m0, e1, f0, math.inf, e1, ek, False, 0.0,
-                0.0, 0.0, 0.0, e1, e1, m0, e1, e1)
+                0.0, 0.0, 0.0, e1, e1, m0, e1, e1, e1)
     # RodSolver.solve with ``trusted`` and ``fail_fast``: Newton from the guess; where a step
     # is short enough, chord steps on its Jacobian (RodSolver._polish)
     evaluations = 0
@@ -1260,9 +1261,11 @@ def trusted_step(lu0, piv0, rhs, forces, vec0, max_change, guess, qb, p, n, kind
             clean = _checks_hold(tail_depth, depth, tail_cut)
             error, change, least, det = _solution_measures(vec, vec0, tan, forces, last_break,
                                                            J, piv0_new)
+            above = (coefficient_tail(Vinv, vec, n, kinds.size, lowest) if n > lowest
+                     else np.zeros(0))
             return (0, tan, vec, J, piv0_new, sens, evaluations, factorizations, points,
                     normals, tip, frame, tail_depth, depth, where, clean, error, change, least,
-                    det, s_c, f_c, loads, total, moment)
+                    det, s_c, f_c, loads, total, moment, above)
         newton += 1
         if newton >= 3 and step_size > 0.9 * last:
             break  # fail_fast: Newton is not contracting
@@ -1283,13 +1286,15 @@ def trusted_step(lu0, piv0, rhs, forces, vec0, max_change, guess, qb, p, n, kind
                     clean = _checks_hold(tail_depth, depth, tail_cut)
                     error, change, least, det = _solution_measures(at, vec0, tan, forces,
                                                                    last_break, J, piv0_new)
+                    above = (coefficient_tail(Vinv, at, n, kinds.size, lowest) if n > lowest
+                             else np.zeros(0))
                     return (0, tan, at, J, piv0_new, sens, evaluations, factorizations,
                             points, normals, tip, frame, tail_depth, depth, where, clean,
-                            error, change, least, det, s_c, f_c, loads, total, moment)
+                            error, change, least, det, s_c, f_c, loads, total, moment, above)
                 break
         last = step_size
     return (2, tan, e1, e2, ei, m0, evaluations, factorizations, m0, m0, e1, f0, math.inf,
-            e1, ek, False, 0.0, 0.0, 0.0, 0.0, e1, e1, m0, e1, e1)
+            e1, ek, False, 0.0, 0.0, 0.0, 0.0, e1, e1, m0, e1, e1, e1)
 
 
 @_kernel

@@ -341,6 +341,7 @@ class _Accepted(NamedTuple):
     forces: np.ndarray      # the contact forces on the whisker (k, 3)
     force: np.ndarray       # their sum (3,)
     moment: np.ndarray      # their moment about the base point (3,)
+    above: Optional[np.ndarray] = None  # points_needed's coefficient tail, where computed
 
 
 @dataclass(frozen=True)
@@ -1352,19 +1353,20 @@ class RodSolver:
             plain = config.plain[n] = (
                 forces, forces[-1] - 1 if modes[-1].kind == "side" else -1, _operators(n).tau,
                 self._template(len(modes), n),
-                _S_EXTEND if self._sp is None else min(_S_EXTEND, 0.5 * (1.0 + self._sp)))
-        forces, last_break, tau, T, limit = plain
+                _S_EXTEND if self._sp is None else min(_S_EXTEND, 0.5 * (1.0 + self._sp)),
+                _operators(n).Vinv)
+        forces, last_break, tau, T, limit, Vinv = plain
         try:
             (status, tan, vec, lu, piv, sens, spent, factored, points, normals, tip, frame,
              tail_depth, depth, where, checked, error, change, least, det, s_c, f_c, loads,
-             total, moment) = _jit.trusted_step(
+             total, moment, above) = _jit.trusted_step(
                 lu0, piv0, start.sens @ rate, forces, start.vec, max_change,
                 np.ascontiguousarray(guess, dtype=float), pose.q, pose.p, n, config.kinds,
                 tau, self._jit_sp, T, self._jit_shape, self._jit_grid, self._jit_table,
                 self._nu1, geometry[0], geometry[1], limit, config.touched[1], TAIL_SAMPLES,
                 shape.parabola or 0.0, _TOL, _TRUSTED_STEP, _TRUSTED_CHORD, _CHORD_TOL,
                 float(max_step), _NEWTON_ITERATIONS, _STALL, _NOISE, _ROUNDING, float(tail_cut),
-                last_break)
+                last_break, Vinv, _POINTS_LADDER[0] - 2)
         except (ValueError, ArithmeticError):
             # (an arithmetic error in the kernels, e.g. a division by zero: the general path
             # meets it in solve, counts its evaluations and takes a shorter sub-step)
@@ -1377,7 +1379,8 @@ class RodSolver:
             raise ConvergenceError("3D whisker: the trusted Newton solve failed")
         self._accepted_cache = (vec.copy(), pose, tuple(modes), _Accepted(
             points, normals, tip, frame, float(tail_depth), config.touched[0], depth, where,
-            tuple(s_c.tolist()), tuple(f_c.tolist()), loads, total, moment))
+            tuple(s_c.tolist()), tuple(f_c.tolist()), loads, total, moment,
+            above if above.size else None))
         return TrustedStep(Solved(vec, (lu, piv), sens), tan, bool(checked), error, change,
                            least, det)
 
@@ -1589,7 +1592,11 @@ class RodSolver:
             # of fewer than the solver's goes to the solver's
             return max(n, self.n)
         # above[j - lo]: the largest coefficient of degree j or more
-        if _jit.ENABLED:
+        last = self._accepted_cache
+        if (last is not None and last[3].above is not None
+                and (last[2] is modes or last[2] == tuple(modes)) and _same(last[0], vec)):
+            above = last[3].above  # (computed with the solution, in the plain step's kernel)
+        elif _jit.ENABLED:
             if not _jit.WARM:
                 _jit.warm_up()
             above = _jit.coefficient_tail(_operators(n).Vinv, np.ascontiguousarray(vec, float),
