@@ -544,7 +544,8 @@ def test_a_trial_step_that_newton_carries_across_a_fold_reports_the_snap(
     from vibrissa_ros.core.rod3d import tracker as tracker_module
 
     if not check:
-        monkeypatch.setattr(tracker_module, "_off_branch", lambda vec, line, start: False)
+        # (no trial step is ever judged off its branch, in the general path or the plain step)
+        monkeypatch.setattr(tracker_module, "_OFF_BRANCH", math.inf)
     head, scene = soak_head, SOAK_PEGS
     whisk = CosineWhisk(9.5, math.radians(-30.0), math.radians(25.0))
     array = WhiskerArray((rat_array("right")[name],), name)
