@@ -1139,17 +1139,17 @@ def trusted_step(lu0, piv0, rhs, forces, vec0, max_change, guess, qb, p, n, kind
     arguments are those of :func:`evaluate` and :func:`accepted`, the contact arc lengths'
     bound ``limit``, and the solver's tolerances and bounds.
 
-    Returns (status, tangent, vec, lu, piv, sens, evaluations, factorizations, points,
-    normals, tip, frame, tail_depth, depth, where, checked, branch_error, branch_change,
-    least, det, s, f, forces, force, moment, above): status 0 solved; 1 the bound shortens the step, or the tangent is not
-    finite (nothing solved: the general path takes the step); 2 the solve failed where
-    RodSolver.solve raises ConvergenceError (the same solve from the same guess: the general
-    path goes on as after its own failed trial step). piv is 0-based as scipy's, the counts
-    those spent, and checked :func:`_checks_hold` of the solution (the checks' bound
-    ``tail_cut``). Of a solution also: how far it lies from the tangent's prediction
-    vec0 + tan and how far that is from vec0 (max norms, as RodTracker._off_branch measures
-    them), the least of its forces and of 1 - s at ``last_break`` (the arc length of a side
-    contact nearest the tip, or -1), :func:`det_measure` of its factorization, its
+    Returns (status, tangent, vec, lu, piv, sens, evaluations, factorizations, points, normals,
+    tip, frame, tail_depth, depth, where, checked, branch_error, branch_change, least, det, s,
+    f, forces, force, moment, above): status 0 solved; 1 the bound shortens the step, or the
+    tangent is not finite (nothing solved: the general path takes the step); 2 the solve failed
+    where RodSolver.solve raises ConvergenceError (the same solve from the same guess: the
+    general path goes on as after its own failed trial step). piv is 0-based as scipy's, the
+    counts those spent, and checked :func:`_checks_hold` of the solution (the checks' bound
+    ``tail_cut``). Of a solution also: how far it lies from the tangent's prediction vec0 + tan
+    and how far that is from vec0 (max norms, as RodTracker._off_branch measures them), the
+    least of its forces and of 1 - s at ``last_break`` (the arc length of a side contact
+    nearest the tip, or -1), :func:`det_measure` of its factorization, its
     :func:`contact_loads`, and its :func:`coefficient_tail` from degree ``lowest`` (``Vinv``
     (n, n); empty where n <= lowest).
     """
