@@ -265,3 +265,97 @@ def test_the_arrays_soak_scenes_give_the_same_ticks_with_and_without_the_kernel(
     assert {"touch", "tip"} <= kinds
     if scene == "wall":
         assert "refused" in kinds
+
+
+def test_the_contact_loads_are_equilibriums_numpy_formulas_to_the_last_bit():
+    # the forces f n, their sum over the contacts (numpy's, from +0.0: a -0.0 component sums
+    # to +0.0) and their moment about the base point (a loop in floats from the first contact's),
+    # as RodSolver.equilibrium computed them in numpy before the kernel did; compared as bytes,
+    # so that the sign of a zero counts
+    rng = np.random.default_rng(7)
+    n = 4
+    for k in (1, 2, 3):
+        for trial in range(40):
+            kinds = rng.integers(0, 2, k).astype(np.int64)
+            vec = rng.normal(size=4 * n * k + int(kinds.sum()) + k)
+            points = rng.normal(size=(k, 3))
+            normals = rng.normal(size=(k, 3))
+            p = rng.normal(size=3)
+            if trial % 2:
+                # zeros of both signs, in the normals, the forces and the lever arms
+                normals[rng.random((k, 3)) < 0.5] = -0.0
+                points[:, 1] = p[1]
+            o, fs, ss = 4 * n * k, [], []
+            for c in range(k):
+                size = 2 if kinds[c] == 1 else 1
+                if trial % 4 == 1:
+                    vec[o + size - 1] = -0.0
+                ss.append(float(vec[o]) if kinds[c] == 1 else 1.0)
+                fs.append(float(vec[o + size - 1]))
+                o += size
+            s_c, f_c, forces, force, moment = _jit.contact_loads(vec, n, kinds, points, normals, p)
+            old_forces = normals * np.array(fs)[:, None]
+            old_moment = None
+            px, py, pz = p.tolist()
+            for (x, y, z), (fx, fy, fz) in zip(points.tolist(), old_forces.tolist()):
+                ax, ay, az = x - px, y - py, z - pz
+                mc = (ay * fz - az * fy, az * fx - ax * fz, ax * fy - ay * fx)
+                old_moment = mc if old_moment is None else tuple(
+                    u + v for u, v in zip(old_moment, mc))
+            assert s_c.tolist() == ss and f_c.tobytes() == np.array(fs).tobytes()
+            assert forces.tobytes() == old_forces.tobytes()
+            assert force.tobytes() == old_forces.sum(axis=0).tobytes()
+            assert moment.tobytes() == np.array(old_moment).tobytes()
+
+
+def test_the_kernels_measures_of_a_solution():
+    # _solution_measures on made-up values: the branch check's two max norms (as _off_branch
+    # computes them), the least of the forces and of 1 - s at the last side contact, and the
+    # determinant measure
+    vec0 = np.array([0.0, 1.0, 2.0, 0.5, 0.25])
+    tan = np.array([0.1, -0.2, 0.0, 0.05, 0.0])
+    vec = np.array([0.1, 0.75, 2.0, 0.5, 0.3])
+    forces = np.array([4], dtype=np.int64)
+    lu, piv = np.asfortranarray(np.diag([2.0, -3.0, 4.0, 1.0, 5.0])), np.arange(5, dtype=np.int32)
+    error, change, least, det = _jit._solution_measures(vec, vec0, tan, forces, -1, lu, piv)
+    line = vec0 + tan
+    assert error == float(np.max(np.abs(vec - line)))
+    assert change == float(np.max(np.abs(line - vec0)))
+    assert least == 0.3
+    assert det == pytest.approx(-(120.0 ** 0.2), rel=1e-15)  # one negative pivot, no swap
+    # the last contact's arc length past the tip: 1 - s is the least value
+    vec[3] = 1.5
+    assert _jit._solution_measures(vec, vec0, tan, forces, 3, lu, piv)[2] == -0.5
+    vec[4] = -0.25  # a force below zero, and lower
+    assert _jit._solution_measures(vec, vec0, tan, forces, 3, lu, piv)[2] == -0.5
+    vec[4] = -0.75
+    assert _jit._solution_measures(vec, vec0, tan, forces, 3, lu, piv)[2] == -0.75
+
+
+@pytest.mark.parametrize("change, concluded, taken_whole", [
+    ({}, False, True),                       # nothing crossed: accepted as it is
+    ({"least": -1e-3}, True, False),         # a force (or 1 - s) below zero: an event
+    ("unstable", True, False),               # the stability value's sign changed: an event
+    ({"branch_error": 0.5, "branch_change": 0.01}, False, False),  # off the branch: refused
+])
+def test_the_plain_step_decides_by_the_kernels_values(rb1_cycle, monkeypatch, change, concluded,
+                                                      taken_whole):
+    tracker, path, stream = _in_contact_with_a_stream(rb1_cycle)
+    assert not tracker.solver._config(tracker._modes).tips
+    real = RodSolver.trusted_step
+
+    def altered(self, *args, **kwargs):
+        taken = real(self, *args, **kwargs)
+        if change == "unstable":
+            return taken._replace(det=-tracker._sign * abs(taken.det))
+        return taken._replace(**change)
+
+    conclusions = []
+    monkeypatch.setattr(RodSolver, "trusted_step", altered)
+    monkeypatch.setattr(RodTracker, "_conclude",
+                        lambda self, *args, **kwargs: conclusions.append(args) or (0.5, 0.5))
+    result = tracker._plain_step(path, [])
+    assert bool(conclusions) == concluded
+    assert (result == (1.0, 1.0)) == taken_whole
+    if change and not concluded:
+        assert result is False  # (the general path takes shorter sub-steps from the start)

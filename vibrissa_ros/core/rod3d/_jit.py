@@ -930,9 +930,10 @@ def contact_loads(vec, n, kinds, points, normals, p):
     Return the contacts' (s (k,), f (k,), forces (k, 3)) and their total force and moment.
 
     RodSolver.breaks_of and forces_of (s = 1 at a tip contact), the forces f n on the whisker
-    at the contact ``points`` with the outward ``normals``, their sum (row by row, as numpy's
-    sum over the first axis) and their moment about the base point ``p``: RodSolver.equilibrium's
-    operations, in the same order.
+    at the contact ``points`` with the outward ``normals``, their sum (from +0.0, row by row, as
+    numpy's sum over the first axis: -0.0 components sum to +0.0) and their moment about the
+    base point ``p`` (from the first contact's, as RodSolver.equilibrium's loop in floats): the
+    same operations in the same order.
     """
     k = kinds.size
     s_c = np.empty(k)
@@ -952,11 +953,10 @@ def contact_loads(vec, n, kinds, points, normals, p):
         ax, ay, az = points[c, 0] - p[0], points[c, 1] - p[1], points[c, 2] - p[2]
         fx, fy, fz = forces[c, 0], forces[c, 1], forces[c, 2]
         mx, my, mz = ay * fz - az * fy, az * fx - ax * fz, ax * fy - ay * fx
+        force[0], force[1], force[2] = force[0] + fx, force[1] + fy, force[2] + fz
         if c == 0:
-            force[0], force[1], force[2] = fx, fy, fz
             moment[0], moment[1], moment[2] = mx, my, mz
         else:
-            force[0], force[1], force[2] = force[0] + fx, force[1] + fy, force[2] + fz
             moment[0], moment[1], moment[2] = moment[0] + mx, moment[1] + my, moment[2] + mz
     return s_c, f_c, forces, force, moment
 
@@ -1097,9 +1097,9 @@ def _solution_measures(vec, vec0, tan, forces, last_break, lu, piv):
     Return what the tracker decides a plain step's solution by, from :func:`trusted_step`.
 
     (error, change, least, det): max |vec - (vec0 + tan)| and max |(vec0 + tan) - vec0| (as
-    RodTracker._off_branch computes them: the same rounding), the least of the forces
-    vec[forces] and of 1 - vec[last_break] (where last_break >= 0), and
-    :func:`det_measure` (lu, piv).
+    tracker._off_branch computes them: the same rounding), the least of the forces
+    vec[forces] and of 1 - vec[last_break] (where last_break >= 0: the arc length of the last
+    contact, where it is a side contact), and :func:`det_measure` (lu, piv).
     """
     error = 0.0
     change = 0.0
@@ -1147,9 +1147,9 @@ def trusted_step(lu0, piv0, rhs, forces, vec0, max_change, guess, qb, p, n, kind
     general path goes on as after its own failed trial step). piv is 0-based as scipy's, the
     counts those spent, and checked :func:`_checks_hold` of the solution (the checks' bound
     ``tail_cut``). Of a solution also: how far it lies from the tangent's prediction vec0 + tan
-    and how far that is from vec0 (max norms, as RodTracker._off_branch measures them), the
-    least of its forces and of 1 - s at ``last_break`` (the arc length of a side contact
-    nearest the tip, or -1), :func:`det_measure` of its factorization, its
+    and how far that is from vec0 (max norms, as tracker._off_branch measures them), the
+    least of its forces and of 1 - s at ``last_break`` (the arc length of the last contact
+    where it is a side contact, or -1), :func:`det_measure` of its factorization, its
     :func:`contact_loads`, and its :func:`coefficient_tail` from degree ``lowest`` (``Vinv``
     (n, n); empty where n <= lowest).
     """

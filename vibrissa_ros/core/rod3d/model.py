@@ -307,12 +307,15 @@ class TrustedStep(NamedTuple):
     branch_error : float
         max |v - (v0 + tangent)|: how far the solution lies from the tangent's prediction.
     branch_change : float
-        max |(v0 + tangent) - v0|: the change the tangent predicts (the same rounding as
-        RodTracker's branch check).
+        max |(v0 + tangent) - v0|: the change the tangent predicts (the same rounding as the
+        tracker's branch check).
     least : float
-        The least of the contacts' forces and of 1 - s of a side contact nearest the tip.
+        The least of the contacts' forces and of 1 - s of the last contact where it is a side
+        contact: the tracker's event values but a tip contact's tangential one, and the
+        stability value (so not all of them where a contact is at the tip).
     det : float
-        sign(det J) times the geometric mean of |U_ii| (the stability monitor's value).
+        sign(det J) times the geometric mean of |U_ii|; the stability monitor's event value is
+        this times the branch's sign.
 
     """
 
@@ -1322,7 +1325,8 @@ class RodSolver:
             the tracker's checks pass on it (its unloaded tail and its loaded part no deeper
             than ``tail_cut`` in the obstacles they touch, from the data the call computed),
             and what the tracker decides the step by (its distance from the tangent's
-            prediction, its least force, its stability value). None where the bound would
+            prediction and the predicted change, its least force or 1 - s, its stability
+            value). None where the bound would
             shorten the step or the tangent is not finite (nothing solved), where the kernels
             meet an arithmetic error, or where the kernel does not apply (other obstacles or
             shapes, other arrays): the caller takes its general path.
@@ -1343,7 +1347,10 @@ class RodSolver:
         if not _jit.WARM:
             _jit.warm_up()
         lu0, piv0 = start.lu
-        if (len(guess) != len(start.vec) or not lu0.flags.f_contiguous
+        if len(guess) != len(start.vec):
+            self.points_of(modes, guess)  # (a length that fits no n is refused here)
+            return None
+        if (not lu0.flags.f_contiguous
                 or piv0.dtype != np.int32 or not start.sens.flags.c_contiguous):
             return None  # (the kernels' own arrays only: one compiled version, no copies)
         n = self.points_of(modes, start.vec)
@@ -1377,6 +1384,8 @@ class RodSolver:
             return None
         if status != 0:
             raise ConvergenceError("3D whisker: the trusted Newton solve failed")
+        for arr in (loads, total, moment):
+            arr.flags.writeable = False  # (shared by every equilibrium made from this entry)
         self._accepted_cache = (vec.copy(), pose, tuple(modes), _Accepted(
             points, normals, tip, frame, float(tail_depth), config.touched[0], depth, where,
             tuple(s_c.tolist()), tuple(f_c.tolist()), loads, total, moment,
@@ -1585,6 +1594,7 @@ class RodSolver:
             The points per segment to solve it with (the current count where it may stay).
 
         """
+        vec = np.ascontiguousarray(vec, dtype=float)
         n = self.points_of(modes, vec)
         lo = _POINTS_LADDER[0] - 2
         if n < _POINTS_LADDER[0] or (n == _POINTS_LADDER[0] and n >= self.n):
@@ -1599,8 +1609,7 @@ class RodSolver:
         elif _jit.ENABLED:
             if not _jit.WARM:
                 _jit.warm_up()
-            above = _jit.coefficient_tail(_operators(n).Vinv, np.ascontiguousarray(vec, float),
-                                          n, len(modes), lo)
+            above = _jit.coefficient_tail(_operators(n).Vinv, vec, n, len(modes), lo)
         else:
             above = np.maximum.accumulate(
                 self.coefficient_magnitudes(modes, vec, lo)[::-1])[::-1]
@@ -1926,6 +1935,8 @@ class RodSolver:
             self._template(len(modes), n), pose.p, geometry[0], geometry[1], touched[1],
             TAIL_SAMPLES,
             shape.parabola or 0.0, self._jit_grid, self._jit_table)
+        for arr in (forces, force, moment):
+            arr.flags.writeable = False  # (shared by every equilibrium made from this entry)
         out = _Accepted(points, normals, tip, frame, float(tail_depth), touched[0], depth, where,
                         tuple(s_c.tolist()), tuple(f_c.tolist()), forces, force, moment)
         self._accepted_cache = (vec.copy(), pose, modes, out)

@@ -330,8 +330,13 @@ def _off_branch(vec: np.ndarray, line: np.ndarray, start: np.ndarray) -> bool:
     """
     if line.shape != vec.shape or start.shape != vec.shape:
         return False
-    error = float(np.max(np.abs(vec - line)))
-    return error > _OFF_BRANCH and error > 2.0 * float(np.max(np.abs(line - start)))
+    return _beyond_branch(float(np.max(np.abs(vec - line))),
+                          float(np.max(np.abs(line - start))))
+
+
+def _beyond_branch(error: float, change: float) -> bool:
+    """Apply :func:`_off_branch`'s rule to the error and the predicted change (max norms)."""
+    return error > _OFF_BRANCH and error > 2.0 * change
 
 
 class _Path:
@@ -1110,24 +1115,31 @@ class RodTracker:
             return None
         solved, tan = taken.solved, taken.tangent
         # _off_branch(solved.vec, self._vec + tan, self._vec), from the kernel's measures
-        if taken.branch_error > _OFF_BRANCH and taken.branch_error > 2.0 * taken.branch_change:
+        if _beyond_branch(taken.branch_error, taken.branch_change):
             return False  # (as a failed solve: the general path takes shorter sub-steps)
         # (as _fold_limit records it at the step's start)
         self._fold_prev = (path, modes, 0.0, 1.0 / max(float(tan @ tan), 1e-300))
-        if self.solver._config(modes).tips:
-            # (a tip contact's tangential value is computed here)
-            crossed = any(v < 0.0 for v in self._event_values(
-                path, 1.0, solved.vec, solved.lu).values())
-        else:
-            # _event_values' (release, tip, stable) from the kernel's values
-            crossed = taken.least < 0.0 or self._sign * taken.det < 0.0
-        if (taken.checked and not crossed
+        if (taken.checked and not self._crossed(path, taken)
                 and self._contact_gap(path, 1.0, solved.vec)[0] >= _CUT):
             # no event crossed, no touch, and the checks pass (as _conclude finds them, from
             # the same values): accepted
             self._accept(solved, path.b)
             return 1.0, 1.0
         return self._conclude(path, 0.0, 1.0, 1.0, tan, solved, events)
+
+    def _crossed(self, path: _Path, taken) -> bool:
+        """
+        Tell whether a plain step's solution crossed an event value (as :meth:`_event_values`).
+
+        Without a tip contact, from the kernel's values (``TrustedStep``: the least force
+        and 1 - s, the stability value times the branch's sign); with one, its tangential value
+        too, from :meth:`_event_values`.
+        """
+        if self.solver._config(self._modes).tips:
+            solved = taken.solved
+            return any(v < 0.0 for v in self._event_values(
+                path, 1.0, solved.vec, solved.lu).values())
+        return taken.least < 0.0 or self._sign * taken.det < 0.0
 
     def _resolve_points(self, full: bool = False) -> bool:
         """
