@@ -1133,7 +1133,8 @@ class RodTracker:
 
         Without a tip contact, from the kernel's values (``TrustedStep``: the least force
         and 1 - s, the stability value times the branch's sign); with one, its tangential value
-        too, from :meth:`_event_values`.
+        too, from :meth:`_event_values`. An event value added there must be added here too
+        (test_rod3d_trusted_step.py alters the kernel's values and checks the decision).
         """
         if self.solver._config(self._modes).tips:
             solved = taken.solved
