@@ -1121,6 +1121,31 @@ def _solution_measures(vec, vec0, tan, forces, last_break, lu, piv):
 
 
 @_kernel
+def _trusted_solution(vec, tan, J, piv, sens, evaluations, factorizations, vec0, forces,
+                      last_break, n, kinds, tau, sp, T, p, codes, prm, touched, samples, A,
+                      grid, table, tail_cut, Vinv, lowest):
+    """
+    Return :func:`trusted_step`'s answer for the solution ``vec`` (status 0).
+
+    Its pivots 0-based (``piv``: LAPACK's), :func:`accepted`'s data, :func:`_checks_hold`,
+    :func:`_solution_measures` and the :func:`coefficient_tail` from degree ``lowest``.
+    """
+    size = vec.size
+    piv0 = np.empty(size, np.int32)
+    for i in range(size):
+        piv0[i] = piv[i] - 1
+    (points, normals, tip, frame, tail_depth, depth, where, s_c, f_c, loads, total,
+     moment) = accepted(vec, n, kinds, tau, sp, T, p, codes, prm, touched, samples, A, grid,
+                        table)
+    clean = _checks_hold(tail_depth, depth, tail_cut)
+    error, change, least, det = _solution_measures(vec, vec0, tan, forces, last_break, J, piv0)
+    above = coefficient_tail(Vinv, vec, n, kinds.size, lowest) if n > lowest else np.zeros(0)
+    return (0, tan, vec, J, piv0, sens, evaluations, factorizations, points, normals, tip,
+            frame, tail_depth, depth, where, clean, error, change, least, det, s_c, f_c, loads,
+            total, moment, above)
+
+
+@_kernel
 def trusted_step(lu0, piv0, rhs, forces, vec0, max_change, guess, qb, p, n, kinds, tau,
                  sp, T, shape, grid, table, nu1, codes, prm, limit, touched, samples, A, tol,
                  trusted_step_size, trusted_chord, chord_tol, max_step, max_iterations, stall,
@@ -1252,20 +1277,9 @@ def trusted_step(lu0, piv0, rhs, forces, vec0, max_change, guess, qb, p, n, kind
         if failed:
             break
         if settled:
-            piv0_new = np.empty(size, np.int32)
-            for i in range(size):
-                piv0_new[i] = piv[i] - 1
-            (points, normals, tip, frame, tail_depth, depth, where, s_c, f_c, loads, total,
-             moment) = accepted(vec, n, kinds, tau, sp, T, p, codes, prm, touched, samples, A,
-                                grid, table)
-            clean = _checks_hold(tail_depth, depth, tail_cut)
-            error, change, least, det = _solution_measures(vec, vec0, tan, forces, last_break,
-                                                           J, piv0_new)
-            above = (coefficient_tail(Vinv, vec, n, kinds.size, lowest) if n > lowest
-                     else np.zeros(0))
-            return (0, tan, vec, J, piv0_new, sens, evaluations, factorizations, points,
-                    normals, tip, frame, tail_depth, depth, where, clean, error, change, least,
-                    det, s_c, f_c, loads, total, moment, above)
+            return _trusted_solution(vec, tan, J, piv, sens, evaluations, factorizations, vec0,
+                                     forces, last_break, n, kinds, tau, sp, T, p, codes, prm,
+                                     touched, samples, A, grid, table, tail_cut, Vinv, lowest)
         newton += 1
         if newton >= 3 and step_size > 0.9 * last:
             break  # fail_fast: Newton is not contracting
@@ -1277,20 +1291,10 @@ def trusted_step(lu0, piv0, rhs, forces, vec0, max_change, guess, qb, p, n, kind
             if since >= stall and newton >= 2 * stall and step_size > noise:
                 if rmax <= rounding:
                     # the equations hold to rounding where the steps level off
-                    piv0_new = np.empty(size, np.int32)
-                    for i in range(size):
-                        piv0_new[i] = piv[i] - 1
-                    (points, normals, tip, frame, tail_depth, depth, where, s_c, f_c, loads,
-                     total, moment) = accepted(at, n, kinds, tau, sp, T, p, codes, prm,
-                                               touched, samples, A, grid, table)
-                    clean = _checks_hold(tail_depth, depth, tail_cut)
-                    error, change, least, det = _solution_measures(at, vec0, tan, forces,
-                                                                   last_break, J, piv0_new)
-                    above = (coefficient_tail(Vinv, at, n, kinds.size, lowest) if n > lowest
-                             else np.zeros(0))
-                    return (0, tan, at, J, piv0_new, sens, evaluations, factorizations,
-                            points, normals, tip, frame, tail_depth, depth, where, clean,
-                            error, change, least, det, s_c, f_c, loads, total, moment, above)
+                    return _trusted_solution(at, tan, J, piv, sens, evaluations,
+                                             factorizations, vec0, forces, last_break, n,
+                                             kinds, tau, sp, T, p, codes, prm, touched,
+                                             samples, A, grid, table, tail_cut, Vinv, lowest)
                 break
         last = step_size
     return (2, tan, e1, e2, ei, m0, evaluations, factorizations, m0, m0, e1, f0, math.inf,

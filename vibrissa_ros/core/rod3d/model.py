@@ -1326,10 +1326,10 @@ class RodSolver:
             than ``tail_cut`` in the obstacles they touch, from the data the call computed),
             and what the tracker decides the step by (its distance from the tangent's
             prediction and the predicted change, its least force or 1 - s, its stability
-            value). None where the bound would
-            shorten the step or the tangent is not finite (nothing solved), where the kernels
-            meet an arithmetic error, or where the kernel does not apply (other obstacles or
-            shapes, other arrays): the caller takes its general path.
+            value). None where the bound would shorten the step or the tangent is not finite
+            (nothing solved), where the kernels meet an arithmetic error, or where the kernel
+            does not apply (other obstacles or shapes, other arrays): the caller takes its
+            general path.
 
         Raises
         ------

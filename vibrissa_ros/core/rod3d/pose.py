@@ -167,6 +167,23 @@ def slerp(q_a: np.ndarray, q_b: np.ndarray, t: float) -> np.ndarray:
     return np.array(_slerp(qa, tuple(np.asarray(q_b, dtype=float).tolist()), float(t)))
 
 
+def _relative(qa, qb):
+    """
+    Return conj(q_a) * q_b on the shorter arc (w >= 0), in floats, from tuples (w, x, y, z).
+
+    :func:`quat_multiply`'s products (conj(q_a)'s signs folded into them: the same floats).
+    """
+    aw, ax, ay, az = qa
+    bw, bx, by, bz = qb
+    rw = aw * bw + ax * bx + ay * by + az * bz
+    rx = aw * bx - ax * bw - ay * bz + az * by
+    ry = aw * by + ax * bz - ay * bw - az * bx
+    rz = aw * bz - ax * by + ay * bx - az * bw
+    if rw < 0.0:
+        return -rw, -rx, -ry, -rz
+    return rw, rx, ry, rz
+
+
 def _slerp(qa, qb, t: float):
     """
     :func:`slerp` in floats, on tuples: q_a * (cos(t h), sin(t h) v / |v|).
@@ -176,14 +193,7 @@ def _slerp(qa, qb, t: float):
     poses do not depend on how the arithmetic is written: :meth:`BasePose.at` calls this.
     """
     aw, ax, ay, az = qa
-    bw, bx, by, bz = qb
-    cx, cy, cz = -ax, -ay, -az  # conj(q_a) * q_b
-    rw = aw * bw - cx * bx - cy * by - cz * bz
-    rx = aw * bx + cx * bw + cy * bz - cz * by
-    ry = aw * by - cx * bz + cy * bw + cz * bx
-    rz = aw * bz + cx * by - cy * bx + cz * bw
-    if rw < 0.0:
-        rw, rx, ry, rz = -rw, -rx, -ry, -rz
+    rw, rx, ry, rz = _relative(qa, qb)
     v = np.array((rx, ry, rz))
     sin_half = math.sqrt(float(v.dot(v)))
     if sin_half == 0.0:

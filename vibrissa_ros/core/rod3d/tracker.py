@@ -59,7 +59,7 @@ from .model import (
     TAIL_SAMPLES, RodContactMode, RodSolver, _lu_factor, _lu_solve, _settled, kernel_geometry,
     kernel_obstacles,
 )
-from .pose import BasePose, quat_matrix, quat_multiply
+from .pose import BasePose, _relative, quat_matrix, quat_multiply
 from .shape import RodShape
 
 #: largest change of the unknowns in one sub-step
@@ -349,14 +349,7 @@ class _Path:
         self.dp = np.array((dx, dy, dz))
         # the relative rotation conj(q_a) * q_b, on the shorter arc (in floats: a path is made
         # per step and per event, and numpy's calls cost more than the arithmetic here)
-        aw, ax, ay, az = a.quaternion
-        bw, bx, by, bz = b.quaternion
-        rw = aw * bw + ax * bx + ay * by + az * bz
-        rx = aw * bx - ax * bw - ay * bz + az * by
-        ry = aw * by + ax * bz - ay * bw - az * bx
-        rz = aw * bz - ax * by + ay * bx - az * bw
-        if rw < 0.0:
-            rw, rx, ry, rz = -rw, -rx, -ry, -rz
+        rw, rx, ry, rz = _relative(a.quaternion, b.quaternion)
         sin_half = math.sqrt(rx * rx + ry * ry + rz * rz)
         self.angle = 2.0 * math.atan2(sin_half, rw)
         self._turn = ((0.5 * self.angle / sin_half) * rx, (0.5 * self.angle / sin_half) * ry,
