@@ -117,8 +117,11 @@ def test_trusted_step_solves_as_solve_does(rb1_cycle):
     # the accepted solution's data, computed in the same call, are _accepted's
     fresh = sol._accepted(modes, reference.vec, path.b)
     assert fresh.above is None
-    for a, b in zip(kept[:-1], fresh[:-1]):
-        assert np.array_equal(np.asarray(a), np.asarray(b))
+    for name in kept._fields:
+        if name != "above":
+            assert np.array_equal(np.asarray(getattr(kept, name)),
+                                  np.asarray(getattr(fresh, name))), name
+    assert kept.clear == taken.clear
     # and the coefficient tail points_needed reads from it, as its own kernel call computes it
     from vibrissa_ros.core.rod3d.model import _POINTS_LADDER, _operators
 
@@ -359,3 +362,120 @@ def test_the_plain_step_decides_by_the_kernels_values(rb1_cycle, monkeypatch, ch
     assert (result == (1.0, 1.0)) == taken_whole
     if change and not concluded:
         assert result is False  # (the general path takes shorter sub-steps from the start)
+
+
+def _states_in_contact(tracker, poses, every=1):
+    """Step ``tracker`` along ``poses``; return (modes, vec, pose) where it is in contact."""
+    out = []
+    for k, pose in enumerate(poses):
+        tracker.step(pose)
+        if tracker._modes and k % every == 0:
+            out.append((tracker._modes, tracker._vec.copy(), tracker._pose))
+    return out
+
+
+def _bounded_cases(rb1_cycle):
+    """Solutions in contact (side contacts on a parabolic whisker; a tip on a straight one)."""
+    from vibrissa_ros.core.rod3d import BasePose, Plane
+
+    poses, obstacles, shape = rb1_cycle
+    cases = [(shape, obstacles, state)
+             for state in _states_in_contact(RodTracker(obstacles, poses[0], shape=shape),
+                                             poses[1:], every=10)]
+    floor = Plane((0.0, 0.0, -0.3), (0.0, 0.0, 1.0), "floor")
+    pole = Cylinder((0.5, 0.0, 0.0), (0.0, 1.0, 0.3), 0.05, "pole")
+    q = (math.cos(0.175), 0.0, math.sin(0.175), 0.0)
+    walk = [BasePose((-0.2, 0.0, float(z)), q) for z in np.linspace(0.1, -0.1, 41)]
+    straight = RodTracker([floor, pole], walk[0])
+    cases += [(straight.shape, straight.obstacles, state)
+              for state in _states_in_contact(straight, walk[1:], every=4)]
+    return cases
+
+
+def test_the_kernels_bound_of_the_distance_to_the_obstacles_not_touched(rb1_cycle):
+    # _jit.clear_of: below the least distance of the whole centerline (sampled densely) to the
+    # obstacles no contact is on, within the nodes' spacing of it, and below 0 where one of
+    # them cuts the whisker: what lets the plain step skip _contact_gap's sampling
+    from vibrissa_ros.core.rod3d import Plane, Sphere
+
+    s = np.linspace(0.0, 1.0, 4001)
+    seen = set()
+    far = []
+    for shape, obstacles, (modes, vec, pose) in _bounded_cases(rb1_cycle):
+        seen.add(tuple(m.kind for m in modes))
+        pts = RodSolver(shape, obstacles).centerline(modes, vec, pose, s)
+        mid, tip = pts[2000], pts[-1]
+        others = [Sphere(tuple(mid + (0.0, 0.0, 0.08)), 0.05, "near ball"),
+                  Plane(tuple(tip + (0.0, 0.0, -0.2)), (0.0, 0.0, 1.0), "under"),
+                  Cylinder(tuple(mid + (0.3, 0.3, 0.0)), (0.0, 0.0, 1.0), 0.1, "post"),
+                  Sphere(tuple(pts[3700]), 0.01, "cutting")]
+        for extra in (others[1:3], others[:1], others[3:], others):
+            sol = RodSolver(shape, tuple(obstacles) + tuple(extra))
+            clear = sol._accepted(modes, vec, pose).clear
+            untouched = [ob for k, ob in enumerate(sol.obstacles)
+                         if k not in {m.obstacle for m in modes}]
+            least = min(float(ob.signed_distance(pts).min()) for ob in untouched)
+            assert least - 0.1 <= clear <= least
+            if least > 0.1:
+                assert clear > 0.0
+                far.append(least)
+            if others[3] in extra:
+                assert clear < 0.0
+        # no other obstacle: nothing to bound (inf); one the kernels do not know: -inf
+        if len(obstacles) == 1:
+            assert RodSolver(shape, obstacles)._accepted(modes, vec, pose).clear == math.inf
+
+        class Ball(Sphere):
+            pass
+
+        unknown = RodSolver(shape, tuple(obstacles) + (Ball((5.0, 0.0, 0.0), 0.1),))
+        assert unknown._accepted(modes, vec, pose).clear == -math.inf
+    assert ("side",) in seen and any("tip" in kinds for kinds in seen)
+    assert len(far) >= 5
+
+
+@pytest.mark.parametrize("scene", ["wall", "pegs"])
+def test_the_kernels_bound_spares_the_touch_search_without_changing_a_tick(scene, monkeypatch):
+    # the soak scenes (two and three obstacles): every tick the same, to the last bit, with the
+    # touch test sampling the centerline at every step, and it samples far less often
+    from vibrissa_ros.core.rod3d import Plane, Sphere
+
+    scenes = {
+        "wall": Scene3D((Plane((0.032, 0.0, 0.0), (-1.0, -0.3, 0.2), "wall"),
+                         Sphere((-0.03, 0.0, 0.01), 0.008, "ball_left"),
+                         Cylinder((0.0, 0.035, 0.0), (1.0, 0.0, 0.3), 0.0015, "bar"))),
+        "pegs": Scene3D((Cylinder((0.025, -0.012, 0.0), (0, 0.2, 1), 0.002, "peg_right"),
+                         Sphere((0.0, 0.045, -0.005), 0.006, "ball"))),
+    }
+    whisk = CosineWhisk(8.0, math.radians(-25.0), math.radians(20.0))
+    array = rat_array("right")
+    sampled = []
+    real = RodTracker._contact_gap
+
+    def counted(self, *args, **kwargs):
+        sampled.append(1)
+        return real(self, *args, **kwargs)
+
+    def run():
+        sampled.clear()
+        tracker = ArrayTracker(array, scenes[scene], HEAD, whisk.angle(0.0))
+        ticks = [tracker.step(HEAD, whisk.angle(k * 1e-3)) for k in range(1, 121)]
+        work = [(tracker.tracker(n).solver.evaluations, tracker.tracker(n).solver.factorizations)
+                for n in tracker.names]
+        return [(t.force_base, t.moment_base, t.contacts, [(e.whisker, e.kind, e.s)
+                                                          for e in t.events],
+                 [(e.whisker, e.message) for e in t.errors]) for t in ticks], work, len(sampled)
+
+    monkeypatch.setattr(RodTracker, "_contact_gap", counted)
+    bounded = run()
+    monkeypatch.setattr(RodTracker, "_touches", lambda self, path, t, vec, clear=None:
+                        self._contact_gap(path, t, vec)[0] < tracker_module._CUT)
+    sampling = run()
+    assert bounded[1] == sampling[1]
+    events = set()
+    for a, b in zip(bounded[0], sampling[0]):
+        assert all(np.array_equal(u, v) for u, v in zip(a[:3], b[:3]))
+        assert a[3:] == b[3:]
+        events |= {kind for _, kind, _ in a[3]}
+    assert "touch" in events
+    assert bounded[2] < 0.5 * sampling[2]

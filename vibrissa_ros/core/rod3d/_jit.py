@@ -844,7 +844,8 @@ def least_distance(codes, prm, points):
 
 
 @_kernel
-def accepted(vec, n, kinds, tau, sp, T, p, codes, prm, touched, samples, A, grid, table):
+def accepted(vec, n, kinds, tau, sp, T, p, codes, prm, touched, samples, A, grid, table,
+             other_codes, other_prm):
     """
     Return what the tracker checks and reports of a solution, from one placement of its nodes.
 
@@ -855,8 +856,10 @@ def accepted(vec, n, kinds, tau, sp, T, p, codes, prm, touched, samples, A, grid
     outward normals there (k, 3), the tip (3,), the body frame at the tip (3, 3), the least
     distance of the tail samples to the last contact's obstacle (inf without a side contact
     short of the tip), the least distance of the nodes to each obstacle touched (m,) and the
-    node where (m,)), and :func:`contact_loads`: RodSolver.equilibrium's points, normals, tip,
-    frame and loads, RodTracker._check_tail's and _touched_depth's distances.
+    node where (m,)), :func:`contact_loads` and :func:`clear_of`'s bound of the whole whisker's
+    distance to the obstacles ``other_codes``, ``other_prm`` (those it does not touch; inf
+    without any): RodSolver.equilibrium's points, normals, tip, frame and loads,
+    RodTracker._check_tail's and _touched_depth's distances, and what spares _contact_gap.
     """
     b, w, r, frames = nodes(vec, n, kinds, tau, sp, T, p)
     k = kinds.size
@@ -920,8 +923,70 @@ def accepted(vec, n, kinds, tau, sp, T, p, codes, prm, touched, samples, A, grid
                 depth[j] = d
                 where[j] = i
     s_c, f_c, forces, force, moment = contact_loads(vec, n, kinds, points, normals, p)
+    clear = math.inf
+    if other_codes.size:
+        clear = clear_of(vec, n, kinds, tau, sp, r, last, samples, A, grid, table, other_codes,
+                         other_prm)
     return (points, normals, tip, frame, tail_depth, depth, where, s_c, f_c, forces, force,
-            moment)
+            moment, clear)
+
+
+#: the bound of :func:`clear_of` takes the centerline's speed |dr/ds| as at most this (it is
+#: |q|^2 = 1 + O(1e-12) at the nodes, and the interpolant between them is as close to it)
+_SPEED = 1.5
+
+
+@_kernel
+def clear_of(vec, n, kinds, tau, sp, r, last, samples, A, grid, table, codes, prm):
+    """
+    Return a lower bound of the whole centerline's signed distance to the obstacles given.
+
+    The signed distance to a sphere, cylinder or plane changes by at most the distance moved
+    (it is 1-Lipschitz), and the centerline moves by at most _SPEED ds, so between two of its
+    points at arc lengths s_a <= s_b the distance is at least (d_a + d_b - _SPEED (s_b - s_a)) / 2
+    (the larger of d_a - _SPEED u and d_b - _SPEED (s_b - s_a - u) at any u). The points: the
+    nodes (r (N, 3) at their arc lengths, the segments' ends among them) and, beyond a last side
+    contact at s_k < 1, the unloaded tail (its plane curve in the frame ``last`` at s_k, the
+    centerline's own, RodSolver.centerline) at the fractions ``samples`` of 1 - s_k. A bound
+    above 0 means no point of the whisker is on or inside one of them: what
+    RodTracker._contact_gap would find only by sampling the centerline and minimizing.
+    """
+    k = kinds.size
+    N = n * k
+    b, s, w, Ls = _weights(vec, n, kinds, tau, sp)
+    end = b[k - 1]
+    m = samples.size if (end < 1.0 and kinds[k - 1] == 1) else 0
+    arc = np.empty(N + m)
+    pts = np.empty((N + m, 3))
+    for i in range(N):
+        arc[i] = s[i]
+        pts[i, 0], pts[i, 1], pts[i, 2] = r[i, 0], r[i, 1], r[i, 2]
+    if m:
+        e = N - 1
+        at = end + (1.0 - end) * samples
+        if A != 0.0:
+            off = parabola_tail(end, at, A, grid, table)
+        else:
+            off = np.zeros((m, 2))
+            for j in range(m):
+                off[j, 0] = at[j] - end
+        for j in range(m):
+            arc[N + j] = at[j]
+            for i in range(3):
+                pts[N + j, i] = r[e, i] + off[j, 0] * last[i, 0] + off[j, 1] * last[i, 1]
+    least = math.inf
+    for o in range(codes.size):
+        before = distance(codes[o], prm[o], pts[0, 0], pts[0, 1], pts[0, 2])
+        if before < least:
+            least = before
+        for i in range(1, N + m):
+            d = distance(codes[o], prm[o], pts[i, 0], pts[i, 1], pts[i, 2])
+            # (arc lengths ascend; a segment's end and the next one's start coincide)
+            bound = 0.5 * (before + d - _SPEED * abs(arc[i] - arc[i - 1]))
+            if bound < least:
+                least = bound
+            before = d
+    return least
 
 
 @_kernel
@@ -1123,11 +1188,12 @@ def _solution_measures(vec, vec0, tan, forces, last_break, lu, piv):
 @_kernel
 def _trusted_solution(vec, tan, J, piv, sens, evaluations, factorizations, vec0, forces,
                       last_break, n, kinds, tau, sp, T, p, codes, prm, touched, samples, A,
-                      grid, table, tail_cut, Vinv, lowest):
+                      grid, table, tail_cut, Vinv, lowest, other_codes, other_prm):
     """
     Return :func:`trusted_step`'s answer for the solution ``vec`` (status 0).
 
-    Its pivots 0-based (``piv``: LAPACK's), :func:`accepted`'s data, :func:`_checks_hold`,
+    Its pivots 0-based (``piv``: LAPACK's), :func:`accepted`'s data (the bound of its distance
+    to the obstacles ``other_codes``, ``other_prm`` among them), :func:`_checks_hold`,
     :func:`_solution_measures` and the :func:`coefficient_tail` from degree ``lowest``.
     """
     size = vec.size
@@ -1135,21 +1201,22 @@ def _trusted_solution(vec, tan, J, piv, sens, evaluations, factorizations, vec0,
     for i in range(size):
         piv0[i] = piv[i] - 1
     (points, normals, tip, frame, tail_depth, depth, where, s_c, f_c, loads, total,
-     moment) = accepted(vec, n, kinds, tau, sp, T, p, codes, prm, touched, samples, A, grid,
-                        table)
+     moment, clear) = accepted(vec, n, kinds, tau, sp, T, p, codes, prm, touched, samples, A,
+                               grid, table, other_codes, other_prm)
     clean = _checks_hold(tail_depth, depth, tail_cut)
     error, change, least, det = _solution_measures(vec, vec0, tan, forces, last_break, J, piv0)
     above = coefficient_tail(Vinv, vec, n, kinds.size, lowest) if n > lowest else np.zeros(0)
     return (0, tan, vec, J, piv0, sens, evaluations, factorizations, points, normals, tip,
             frame, tail_depth, depth, where, clean, error, change, least, det, s_c, f_c, loads,
-            total, moment, above)
+            total, moment, above, clear)
 
 
 @_kernel
 def trusted_step(lu0, piv0, rhs, forces, vec0, max_change, guess, qb, p, n, kinds, tau,
                  sp, T, shape, grid, table, nu1, codes, prm, limit, touched, samples, A, tol,
                  trusted_step_size, trusted_chord, chord_tol, max_step, max_iterations, stall,
-                 noise, rounding, tail_cut, last_break, Vinv, lowest):
+                 noise, rounding, tail_cut, last_break, Vinv, lowest, other_codes,
+                 other_prm):
     """
     Take a plain continuation step in one call: RodTracker._contact_advance's common case.
 
@@ -1166,7 +1233,7 @@ def trusted_step(lu0, piv0, rhs, forces, vec0, max_change, guess, qb, p, n, kind
 
     Returns (status, tangent, vec, lu, piv, sens, evaluations, factorizations, points, normals,
     tip, frame, tail_depth, depth, where, checked, branch_error, branch_change, least, det, s,
-    f, forces, force, moment, above): status 0 solved; 1 the bound shortens the step, or the
+    f, forces, force, moment, above, clear): status 0 solved; 1 the bound shortens the step, or the
     tangent is not finite (nothing solved: the general path takes the step); 2 the solve failed
     where RodSolver.solve raises ConvergenceError (the same solve from the same guess: the
     general path goes on as after its own failed trial step). piv is 0-based as scipy's, the
@@ -1175,8 +1242,9 @@ def trusted_step(lu0, piv0, rhs, forces, vec0, max_change, guess, qb, p, n, kind
     and how far that is from vec0 (max norms, as tracker._off_branch measures them), the
     least of its forces and of 1 - s at ``last_break`` (the arc length of the last contact
     where it is a side contact, or -1), :func:`det_measure` of its factorization, its
-    :func:`contact_loads`, and its :func:`coefficient_tail` from degree ``lowest`` (``Vinv``
-    (n, n); empty where n <= lowest).
+    :func:`contact_loads`, its :func:`coefficient_tail` from degree ``lowest`` (``Vinv``
+    (n, n); empty where n <= lowest) and :func:`clear_of`'s bound of its distance to the
+    obstacles ``other_codes``, ``other_prm`` (-inf where nothing was solved).
     """
     size0 = vec0.size
     piv1 = np.empty(size0, np.int32)
@@ -1207,7 +1275,7 @@ def trusted_step(lu0, piv0, rhs, forces, vec0, max_change, guess, qb, p, n, kind
     f0 = np.zeros((3, 3))
     if not finite or (big > 0.0 and max_change / big < 1.0):
         return (1, tan, e1, e2, ei, m0, 0, 0, m0, m0, e1, f0, math.inf, e1, ek, False, 0.0,
-                0.0, 0.0, 0.0, e1, e1, m0, e1, e1, e1)
+                0.0, 0.0, 0.0, e1, e1, m0, e1, e1, e1, -math.inf)
     # RodSolver.solve with ``trusted`` and ``fail_fast``: Newton from the guess; where a step
     # is short enough, chord steps on its Jacobian (RodSolver._polish)
     evaluations = 0
@@ -1279,7 +1347,8 @@ def trusted_step(lu0, piv0, rhs, forces, vec0, max_change, guess, qb, p, n, kind
         if settled:
             return _trusted_solution(vec, tan, J, piv, sens, evaluations, factorizations, vec0,
                                      forces, last_break, n, kinds, tau, sp, T, p, codes, prm,
-                                     touched, samples, A, grid, table, tail_cut, Vinv, lowest)
+                                     touched, samples, A, grid, table, tail_cut, Vinv, lowest,
+                                     other_codes, other_prm)
         newton += 1
         if newton >= 3 and step_size > 0.9 * last:
             break  # fail_fast: Newton is not contracting
@@ -1294,11 +1363,12 @@ def trusted_step(lu0, piv0, rhs, forces, vec0, max_change, guess, qb, p, n, kind
                     return _trusted_solution(at, tan, J, piv, sens, evaluations,
                                              factorizations, vec0, forces, last_break, n,
                                              kinds, tau, sp, T, p, codes, prm, touched,
-                                             samples, A, grid, table, tail_cut, Vinv, lowest)
+                                             samples, A, grid, table, tail_cut, Vinv, lowest,
+                                             other_codes, other_prm)
                 break
         last = step_size
     return (2, tan, e1, e2, ei, m0, evaluations, factorizations, m0, m0, e1, f0, math.inf,
-            e1, ek, False, 0.0, 0.0, 0.0, 0.0, e1, e1, m0, e1, e1, e1)
+            e1, ek, False, 0.0, 0.0, 0.0, 0.0, e1, e1, m0, e1, e1, e1, -math.inf)
 
 
 @_kernel

@@ -68,6 +68,8 @@ POINTS_COARSEN = 1e-12
 #: POINTS_COARSEN: a solution does not go back and forth between two counts)
 POINTS_REFINE = 1e-11
 KINDS = ("side", "tip")
+#: no obstacle, as the kernels take obstacles (codes, parameters)
+_NO_OBSTACLES = (np.zeros(0, dtype=np.int64), np.zeros((0, 7)))
 _E3 = np.array([0.0, 0.0, 1.0])
 _NEWTON_ITERATIONS = 30
 _CHORD_ITERATIONS = 8
@@ -248,7 +250,7 @@ def _resampler(n_old: int, n: int) -> np.ndarray:
 class _Config:
     """A configuration's contacts as the solver's kernels take them (internal, cached)."""
 
-    __slots__ = ("kinds", "extra", "geometry", "touched", "tips", "plain")
+    __slots__ = ("kinds", "extra", "geometry", "touched", "tips", "plain", "others")
 
     def __init__(self, solver: "RodSolver", modes: Tuple["RodContactMode", ...]):
         self.kinds = np.array([m.kind == "side" for m in modes], dtype=np.int64)
@@ -263,6 +265,11 @@ class _Config:
             first.setdefault(m.obstacle, c)
         self.touched = (tuple(sorted(first)),
                         np.array([first[k] for k in sorted(first)], dtype=np.int64))
+        #: the kernels' view of the scene's other obstacles (those no contact touches), whose
+        #: distance to a solution the kernels bound (_Accepted.clear); None where they do not
+        #: know one of them
+        self.others = kernel_obstacles([ob for k, ob in enumerate(solver.obstacles)
+                                        if k not in first])
         #: per points per segment, the plain step's constant arguments (RodSolver.trusted_step)
         self.plain = {}
 
@@ -316,6 +323,10 @@ class TrustedStep(NamedTuple):
     det : float
         sign(det J) times the geometric mean of |U_ii|; the stability monitor's event value is
         this times the branch's sign.
+    clear : float
+        A lower bound of the whole whisker's signed distance to the scene's obstacles that no
+        contact touches (inf without any; -inf where it is not known): above 0, the tracker's
+        touch test on them has nothing to find.
 
     """
 
@@ -326,6 +337,7 @@ class TrustedStep(NamedTuple):
     branch_change: float
     least: float
     det: float
+    clear: float = -math.inf
 
 
 class _Accepted(NamedTuple):
@@ -345,6 +357,7 @@ class _Accepted(NamedTuple):
     force: np.ndarray       # their sum (3,)
     moment: np.ndarray      # their moment about the base point (3,)
     above: Optional[np.ndarray] = None  # points_needed's coefficient tail, where computed
+    clear: float = -math.inf  # a bound of the distance to the obstacles not touched (TrustedStep)
 
 
 @dataclass(frozen=True)
@@ -1366,14 +1379,14 @@ class RodSolver:
         try:
             (status, tan, vec, lu, piv, sens, spent, factored, points, normals, tip, frame,
              tail_depth, depth, where, checked, error, change, least, det, s_c, f_c, loads,
-             total, moment, above) = _jit.trusted_step(
+             total, moment, above, clear) = _jit.trusted_step(
                 lu0, piv0, start.sens @ rate, forces, start.vec, max_change,
                 np.ascontiguousarray(guess, dtype=float), pose.q, pose.p, n, config.kinds,
                 tau, self._jit_sp, T, self._jit_shape, self._jit_grid, self._jit_table,
                 self._nu1, geometry[0], geometry[1], limit, config.touched[1], TAIL_SAMPLES,
                 shape.parabola or 0.0, _TOL, _TRUSTED_STEP, _TRUSTED_CHORD, _CHORD_TOL,
                 float(max_step), _NEWTON_ITERATIONS, _STALL, _NOISE, _ROUNDING, float(tail_cut),
-                last_break, Vinv, _POINTS_LADDER[0] - 2)
+                last_break, Vinv, _POINTS_LADDER[0] - 2, *(config.others or _NO_OBSTACLES))
         except (ValueError, ArithmeticError):
             # (an arithmetic error in the kernels, e.g. a division by zero: the general path
             # meets it in solve, counts its evaluations and takes a shorter sub-step)
@@ -1386,12 +1399,13 @@ class RodSolver:
             raise ConvergenceError("3D whisker: the trusted Newton solve failed")
         for arr in (loads, total, moment):
             arr.flags.writeable = False  # (shared by every equilibrium made from this entry)
+        clear = float(clear) if config.others is not None else -math.inf
         self._accepted_cache = (vec.copy(), pose, tuple(modes), _Accepted(
             points, normals, tip, frame, float(tail_depth), config.touched[0], depth, where,
             tuple(s_c.tolist()), tuple(f_c.tolist()), loads, total, moment,
-            above if above.size else None))
+            above if above.size else None, clear))
         return TrustedStep(Solved(vec, (lu, piv), sens), tan, bool(checked), error, change,
-                           least, det)
+                           least, det, clear)
 
     def _force_indices(self, modes, vec) -> np.ndarray:
         """Return the indices of the contacts' forces in an unknown vector of this length."""
@@ -1928,17 +1942,19 @@ class RodSolver:
         if not _jit.WARM:
             _jit.warm_up()
         n = self.points_of(modes, vec)
-        touched = self._config(modes).touched
+        config = self._config(modes)
+        touched = config.touched
         (points, normals, tip, frame, tail_depth, depth, where, s_c, f_c, forces, force,
-         moment) = _jit.accepted(
-            vec, n, self._kinds_of(modes), _operators(n).tau, self._jit_sp,
+         moment, clear) = _jit.accepted(
+            vec, n, config.kinds, _operators(n).tau, self._jit_sp,
             self._template(len(modes), n), pose.p, geometry[0], geometry[1], touched[1],
-            TAIL_SAMPLES,
-            shape.parabola or 0.0, self._jit_grid, self._jit_table)
+            TAIL_SAMPLES, shape.parabola or 0.0, self._jit_grid, self._jit_table,
+            *(config.others or _NO_OBSTACLES))
         for arr in (forces, force, moment):
             arr.flags.writeable = False  # (shared by every equilibrium made from this entry)
         out = _Accepted(points, normals, tip, frame, float(tail_depth), touched[0], depth, where,
-                        tuple(s_c.tolist()), tuple(f_c.tolist()), forces, force, moment)
+                        tuple(s_c.tolist()), tuple(f_c.tolist()), forces, force, moment, None,
+                        float(clear) if config.others is not None else -math.inf)
         self._accepted_cache = (vec.copy(), pose, modes, out)
         return out
 
