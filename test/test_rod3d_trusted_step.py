@@ -128,6 +128,9 @@ def test_trusted_step_solves_as_solve_does(rb1_cycle):
     n = sol.points_of(modes, reference.vec)
     assert np.array_equal(kept.above, _jit.coefficient_tail(
         _operators(n).Vinv, reference.vec, n, len(modes), _POINTS_LADDER[0] - 2))
+    # and the count it asks for, as points_needed finds it from its own kernel call
+    sol._accepted_cache = None
+    assert taken.needed == sol.points_needed(modes, reference.vec) > 0
     # the checks pass, as the tracker's own find (they raise otherwise)
     assert checked
     tracker._check_tail(modes, reference.vec, path.b)

@@ -526,8 +526,8 @@ class ArrayTracker:
         events: List[WhiskerEvent] = []
         errors: List[WhiskerError] = []
         trackers = self._trackers
-        stepped = [i for i, free in enumerate(clear.tolist())
-                   if not free or trackers[i].state.contacts]
+        # (those not certified free, and those in contact: the last tick's contact counts)
+        stepped = np.flatnonzero(~clear | (self._state.contacts > 0)).tolist()
         poses = self._poses(R, p, stepped)
         solved = np.zeros(len(self._rods), bool)
         solved[stepped] = True

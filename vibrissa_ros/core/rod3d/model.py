@@ -214,6 +214,25 @@ class _Operators(NamedTuple):
     int_matrix: np.ndarray  # nodal values -> their integral's Chebyshev coefficients
 
 
+def _points_from_tail(n: int, most: int, above: np.ndarray) -> int:
+    """
+    Return the points per segment a solution on n asks for (RodSolver.points_needed's rule).
+
+    ``above[j - lo]`` is the largest Chebyshev coefficient of degree j or more (lo = the
+    ladder's first rung - 2), ``most`` the solver's own count; n is on the ladder, above its
+    first rung or below the solver's.
+    """
+    lo = _POINTS_LADDER[0] - 2
+    if n < most and float(above[n - 2 - lo]) > POINTS_REFINE:
+        return min([m for m in _POINTS_LADDER if n < m < most] + [most])
+    for m in _POINTS_LADDER:
+        if m >= n:
+            break
+        if float(above[m - 2 - lo]) <= POINTS_COARSEN:
+            return m
+    return n
+
+
 def _same(a: np.ndarray, b: np.ndarray) -> bool:
     """Tell whether two arrays are equal (numpy.array_equal, without its wrapper's checks)."""
     return a.shape == b.shape and bool((a == b).all())
@@ -327,6 +346,9 @@ class TrustedStep(NamedTuple):
         A lower bound of the whole whisker's signed distance to the scene's obstacles that no
         contact touches (inf without any; -inf where it is not known): above 0, the tracker's
         touch test on them has nothing to find.
+    needed : int
+        The points per segment the solution asks for (:meth:`RodSolver.points_needed` of it),
+        or 0 where that is not known.
 
     """
 
@@ -338,6 +360,7 @@ class TrustedStep(NamedTuple):
     least: float
     det: float
     clear: float = -math.inf
+    needed: int = 0
 
 
 class _Accepted(NamedTuple):
@@ -1400,12 +1423,16 @@ class RodSolver:
         for arr in (loads, total, moment):
             arr.flags.writeable = False  # (shared by every equilibrium made from this entry)
         clear = float(clear) if config.others is not None else -math.inf
+        # (points_needed of the solution, from the coefficient tail computed with it)
+        needed = (max(n, self.n) if n < _POINTS_LADDER[0] or (n == _POINTS_LADDER[0]
+                                                              and n >= self.n)
+                  else _points_from_tail(n, self.n, above) if above.size else 0)
         self._accepted_cache = (vec.copy(), pose, tuple(modes), _Accepted(
             points, normals, tip, frame, float(tail_depth), config.touched[0], depth, where,
             tuple(s_c.tolist()), tuple(f_c.tolist()), loads, total, moment,
             above if above.size else None, clear))
         return TrustedStep(Solved(vec, (lu, piv), sens), tan, bool(checked), error, change,
-                           least, det, clear)
+                           least, det, clear, needed)
 
     def _force_indices(self, modes, vec) -> np.ndarray:
         """Return the indices of the contacts' forces in an unknown vector of this length."""
@@ -1615,7 +1642,6 @@ class RodSolver:
             # as few as the ladder has, or fewer (a solver made so): none dropped, and a vector
             # of fewer than the solver's goes to the solver's
             return max(n, self.n)
-        # above[j - lo]: the largest coefficient of degree j or more
         last = self._accepted_cache
         if (last is not None and last[3].above is not None
                 and (last[2] is modes or last[2] == tuple(modes)) and _same(last[0], vec)):
@@ -1627,14 +1653,7 @@ class RodSolver:
         else:
             above = np.maximum.accumulate(
                 self.coefficient_magnitudes(modes, vec, lo)[::-1])[::-1]
-        if n < self.n and float(above[n - 2 - lo]) > POINTS_REFINE:
-            return min([m for m in _POINTS_LADDER if n < m < self.n] + [self.n])
-        for m in _POINTS_LADDER:
-            if m >= n:
-                break
-            if float(above[m - 2 - lo]) <= POINTS_COARSEN:
-                return m
-        return n
+        return _points_from_tail(n, self.n, above)
 
     def resample(self, modes: Sequence[RodContactMode], vec: np.ndarray, n: int) -> np.ndarray:
         """

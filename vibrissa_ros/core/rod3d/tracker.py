@@ -496,6 +496,8 @@ class RodTracker:
         self._last_change = None
         self._last_step = None
         self._history = []
+        #: (solution, points_needed of it) of the last plain step (RodSolver.trusted_step)
+        self._needed = None
         self._state = self._make_state()
 
     @property
@@ -1138,6 +1140,8 @@ class RodTracker:
             # no event crossed, no touch, and the checks pass (as _conclude finds them, from
             # the same values): accepted
             self._accept(solved, path.b)
+            if taken.needed:
+                self._needed = (solved.vec, taken.needed)
             return 1.0, 1.0
         return self._conclude(path, 0.0, 1.0, 1.0, tan, solved, events)
 
@@ -1175,7 +1179,13 @@ class RodTracker:
         sol = self.solver
         modes, vec = self._modes, self._vec
         n_now = sol.points_of(modes, vec)
-        n_new = sol.n if full else sol.points_needed(modes, vec)
+        known = self._needed  # (the plain step's solution and the count it asks for)
+        if full:
+            n_new = sol.n
+        elif known is not None and known[0] is vec:
+            n_new = known[1]
+        else:
+            n_new = sol.points_needed(modes, vec)
         if n_new == n_now:
             return False
         finer = n_new > n_now
