@@ -482,3 +482,33 @@ def test_the_kernels_bound_spares_the_touch_search_without_changing_a_tick(scene
         events |= {kind for _, kind, _ in a[3]}
     assert "touch" in events
     assert bounded[2] < 0.5 * sampling[2]
+
+
+def test_the_compiled_stream_extrapolation_is_the_numpy_rule(rb1_cycle):
+    # _jit.stream_guess on the history's arrays: the same degree taken (or none) at every step
+    # of RB1's whisk, a guess within rounding of numpy's (another order of summation), and
+    # the arrays kept up to date across resampled and reset histories
+    poses, obstacles, shape = rb1_cycle
+    tracker = RodTracker(obstacles, poses[0], shape=shape)
+    taken = declined = 0
+    for k, pose in enumerate(poses[1:-3], 1):
+        tracker.step(pose)
+        # the next pose, and the one three ticks on (not a uniform stream: declined)
+        jump = poses[k + 3]
+        for target in (jump, poses[k + 1]):
+            path = tracker_module._Path(tracker._pose, target)
+            compiled, reference = tracker._extrapolate(path), tracker._extrapolate_numpy(path)
+            assert (compiled is None) == (reference is None)
+        if tracker._modes and len(tracker._history) >= 3:
+            declined += tracker._extrapolate(tracker_module._Path(tracker._pose, jump)) is None
+        if compiled is None:
+            continue
+        taken += 1
+        assert compiled.shape == reference.shape
+        # (weights up to 70 on values ~1: 256 ulp of the sum's terms at most)
+        assert np.max(np.abs(compiled - reference)) <= 256 * 2.3e-16 * max(
+            1.0, np.abs(reference).max())
+        stream = tracker._stream
+        assert stream[0] is tracker._history
+        assert np.array_equal(stream[2], np.array([v for _, v in tracker._history]))
+    assert taken >= 120 and declined >= 100

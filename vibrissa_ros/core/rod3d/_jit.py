@@ -89,6 +89,8 @@ def warm_up() -> None:
                          np.zeros(3), 1.0, table[0], table[1], 0.5, 0.4, 0.6, 12, 1e-13)
             free_samples(np.array([SPHERE]), np.zeros((1, 7)), np.eye(3), np.zeros(3),
                          np.zeros((3, 3)))
+            stream_guess(np.zeros((3, 7)), np.zeros((3, 4)), np.zeros(7), np.zeros(4),
+                         np.ones(7), np.array([3], np.int64), np.ones((1, 5)), 0.01)
             # the array's tick kernels (arrays/_jit.py), with the argument types it passes
             from ..arrays import _jit as arrays_jit
             arrays_jit.frames(np.zeros(2), np.zeros(2), np.zeros(2), np.zeros(2), np.zeros(2),
@@ -1556,3 +1558,63 @@ def free_samples(codes, prm, R, p, points):
                 dmin[c] = d
                 index[c] = i
     return dmin, index
+
+
+@_kernel
+def stream_guess(rows, vecs, start, v0, target, orders, weights, tol):
+    """
+    Return (k, guess): a pose stream's next solution extrapolated by a polynomial of degree k.
+
+    RodTracker._extrapolate's rule in loops: ``rows`` (m, 7) are the last m poses (p, q) before
+    ``start`` (the current one) and ``vecs`` (m, size) their solutions, ``v0`` the current
+    solution and ``target`` the next pose. Every quaternion is taken on the side of start's;
+    for each degree k of ``orders`` (highest first, ``weights[o, :k + 2]`` the (k+1)-th
+    difference's binomial weights, oldest first) that the poses allow, where the (k+1)-th
+    difference of the last k + 2 poses (target's included) is within ``tol`` times the last
+    step, the guess is the polynomial through the last k + 1 solutions at target (the same
+    difference of the solutions set to zero). (-1, empty) where no degree qualifies or the
+    step is zero.
+    """
+    m = rows.shape[0]
+    total = m + 2
+    R = np.empty((total, 7))
+    for i in range(m):
+        for j in range(7):
+            R[i, j] = rows[i, j]
+    for j in range(7):
+        R[m, j] = start[j]
+        R[m + 1, j] = target[j]
+    rw, rx, ry, rz = start[3], start[4], start[5], start[6]
+    for i in range(total):
+        if R[i, 3] * rw + R[i, 4] * rx + R[i, 5] * ry + R[i, 6] * rz < 0.0:
+            for j in range(3, 7):
+                R[i, j] = -R[i, j]
+    squares = 0.0
+    for j in range(7):
+        d = R[total - 1, j] - R[total - 2, j]
+        squares += d * d
+    step = math.sqrt(squares)
+    if step == 0.0:
+        return -1, np.zeros(0)
+    for o in range(orders.size):
+        k = orders[o]
+        if k + 2 > total or k > m:
+            continue  # too short a history yet
+        first = total - (k + 2)
+        squares = 0.0
+        for j in range(7):
+            d = 0.0
+            for i in range(k + 2):
+                d += weights[o, i] * R[first + i, j]
+            squares += d * d
+        if math.sqrt(squares) <= tol * step:
+            size = v0.size
+            guess = np.empty(size)
+            for j in range(size):
+                acc = 0.0
+                for i in range(k):
+                    acc += weights[o, i] * vecs[m - k + i, j]
+                acc += weights[o, k] * v0[j]
+                guess[j] = -acc
+            return k, guess
+    return -1, np.zeros(0)

@@ -131,6 +131,10 @@ _STREAM_HISTORY = max(_STREAM_ORDERS)
 #: polynomial of degree k, which gives the extrapolation)
 _STREAM_WEIGHTS = {k: np.array([(-1.0) ** (k + 1 - j) * math.comb(k + 1, j)
                                 for j in range(k + 2)]) for k in _STREAM_ORDERS}
+#: the same as the kernel takes them (_jit.stream_guess): the orders, and their weights padded
+_STREAM_KERNEL = (np.array(_STREAM_ORDERS, dtype=np.int64),
+                  np.array([np.pad(_STREAM_WEIGHTS[k], (0, _STREAM_HISTORY + 2 - k - 2))
+                            for k in _STREAM_ORDERS]))
 
 
 @dataclass(frozen=True)
@@ -496,6 +500,9 @@ class RodTracker:
         self._last_change = None
         self._last_step = None
         self._history = []
+        #: (the history list, its poses (m, 7), its solutions (m, size)) as arrays, for the
+        #: compiled extrapolation; valid while that list is self._history
+        self._stream = None
         #: (solution, points_needed of it) of the last plain step (RodSolver.trusted_step)
         self._needed = None
         self._state = self._make_state()
@@ -653,7 +660,7 @@ class RodTracker:
         if self._last_step is None:
             self._history = []
         else:
-            self._history = (self._history + [(start_pose, start_vec)])[-_STREAM_HISTORY:]
+            self._grow_history(start_pose, start_vec)
         self._pose = target
         if not self._modes:
             self._vec, self._solved = np.zeros(0), None
@@ -1391,8 +1398,33 @@ class RodTracker:
         predicted to ~1e-5 by a cubic, ~2e-7 by a quintic and ~1e-8 by degree 7
         (``bench/bench_array.py``'s whiskers in contact, median), within the 1e-7 where one
         Newton step converges it (:meth:`RodSolver.solve`, ``trusted``) instead of a Newton
-        step and two chord steps. Only the starting guess depends on it.
+        step and two chord steps. Only the starting guess depends on it. Compiled
+        (:func:`._jit.stream_guess`, on the history kept as arrays: a solution sums in another
+        order than numpy's, ~1e-16 apart); :meth:`_extrapolate_numpy` without the kernels.
         """
+        if len(self._history) < 3 or self._last_step is None:
+            return None
+        p0, v0 = self._pose, self._vec
+        target = path.b
+        if _jit.ENABLED:
+            # the same rule in one kernel call, on the history kept as arrays
+            stream = self._stream
+            if stream is None or stream[0] is not self._history:
+                stream = self._stream = (
+                    self._history,
+                    np.array([pose.position + pose.quaternion for pose, _ in self._history]),
+                    np.array([v for _, v in self._history]))
+            if not _jit.WARM:
+                _jit.warm_up()
+            k, guess = _jit.stream_guess(stream[1], stream[2],
+                                         np.array(p0.position + p0.quaternion), v0,
+                                         np.array(target.position + target.quaternion),
+                                         _STREAM_KERNEL[0], _STREAM_KERNEL[1], _STREAM_TOLERANCE)
+            return guess if k >= 0 else None
+        return self._extrapolate_numpy(path)
+
+    def _extrapolate_numpy(self, path: _Path) -> Optional[np.ndarray]:
+        """:meth:`_extrapolate` in numpy (without the compiled kernels; the tests' reference)."""
         if len(self._history) < 3 or self._last_step is None:
             return None
         p0, v0 = self._pose, self._vec
@@ -1420,6 +1452,20 @@ class RodTracker:
                 known = np.array([v for _, v in self._history[-k:]] + [v0])
                 return -(c[:-1] @ known)
         return None
+
+    def _grow_history(self, pose: BasePose, vec: np.ndarray) -> None:
+        """Append (pose, vec) to the stream's history, and to its arrays (:meth:`_extrapolate`)."""
+        old = self._history
+        self._history = (old + [(pose, vec)])[-_STREAM_HISTORY:]
+        stream = self._stream
+        if (_jit.ENABLED and stream is not None and stream[0] is old
+                and stream[2].shape[1] == vec.size):
+            row = np.array(pose.position + pose.quaternion)
+            self._stream = (self._history,
+                            np.concatenate((stream[1], row[None]))[-_STREAM_HISTORY:],
+                            np.concatenate((stream[2], vec[None]))[-_STREAM_HISTORY:])
+        else:
+            self._stream = None  # (made again from the list where it is asked for)
 
     def _second_order(self, path: _Path, t: float, tan: np.ndarray) -> Optional[np.ndarray]:
         """
