@@ -512,3 +512,41 @@ def test_the_compiled_stream_extrapolation_is_the_numpy_rule(rb1_cycle):
         assert stream[0] is tracker._history
         assert np.array_equal(stream[2], np.array([v for _, v in tracker._history]))
     assert taken >= 120 and declined >= 100
+
+
+def test_a_pose_repeated_at_a_whisks_turning_point_is_a_sample_of_the_stream(monkeypatch):
+    # the whisk turns at 62.5 ms: the 62 ms and 63 ms poses are the same, and RC1 is pressed
+    # on the peg. The repeated pose changes nothing but is a sample of the stream (its history
+    # stays uniform in time), so the next steps are still extrapolated and taken in one
+    # kernel call each
+    from rat_pad import PEG, WHISK
+
+    from vibrissa_ros.core.arrays import WhiskerArray
+
+    pad = ArrayTracker(WhiskerArray((rat_array("right")["RC1"],), "RC1"), Scene3D((PEG,)), HEAD,
+                       WHISK.angle(0.0))
+    rod = pad.tracker("RC1")
+    obstacles, shape = rod.obstacles, rod.shape
+    poses = [pad.whisker_poses(HEAD, WHISK.angle(k * 1e-3))[0] for k in range(70)]
+    assert poses[62] == poses[63]
+    tracker = RodTracker(obstacles, poses[0], shape=shape)
+    for pose in poses[1:63]:
+        tracker.step(pose)
+    assert tracker._modes and len(tracker._history) == 7
+    state, history = tracker.state, tracker._history
+    result = tracker.step(poses[63])
+    assert result.state is state and result.events == () and result.evaluations == 0
+    assert len(tracker._history) == 7 and tracker._history[-1][0] == poses[62]
+    assert tracker._history[:-1] == history[1:]
+    solved = []
+    real = RodSolver.trusted_step
+
+    def counted(self, *args, **kwargs):
+        taken = real(self, *args, **kwargs)
+        solved.append(taken is not None)
+        return taken
+
+    monkeypatch.setattr(RodSolver, "trusted_step", counted)
+    for pose in poses[64:68]:
+        assert tracker.step(pose).events == ()
+    assert solved == [True] * 4

@@ -630,6 +630,12 @@ class RodTracker:
         start_pose, start_vec, start_modes = self._pose, self._vec, self._modes
         events: List[RodEvent] = []
         if path.speed == 0.0:
+            if self._modes:
+                # the same pose again: a sample of a pose stream all the same (as at a whisk's
+                # turning point sampled symmetrically about it), so that the stream's history
+                # stays uniform in time and its extrapolation goes on (_extrapolate)
+                self._last_step = (self._pose, self._vec, self._modes)
+                self._grow_history(self._pose, self._vec)
             return RodStepResult(self._state, (), 0, 0)
         t = 0.0
         substeps = 0
