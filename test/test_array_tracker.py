@@ -536,6 +536,22 @@ def _single_whisker_run(name, ticks, states=None):
 def test_a_stream_step_beyond_the_sub_step_bound_is_taken_whole_where_newton_allows(
         monkeypatch):
     """RD0's steps that change the unknowns most are solved whole from the stream's guess."""
+    from vibrissa_ros.core.rod3d import RodSolver
+
+    # the plain step's kernel takes such steps whole as _whole_step does: the same states to
+    # the last bit, at the same evaluations, with the kernel and on the general path alone
+    kernel, kernel_states = [], []
+    real = RodSolver.trusted_step
+
+    def counted(self, *args, **kwargs):
+        result = real(self, *args, **kwargs)
+        kernel.append(result is not None and result.whole)
+        return result
+
+    monkeypatch.setattr(RodSolver, "trusted_step", counted)
+    kernel_events, kernel_single = _single_whisker_run("RD0", 90, kernel_states)
+    assert sum(kernel) >= 5
+    monkeypatch.setattr(RodSolver, "trusted_step", lambda self, *a, **k: None)
     taken = []
     whole = RodTracker._whole_step
 
@@ -547,6 +563,9 @@ def test_a_stream_step_beyond_the_sub_step_bound_is_taken_whole_where_newton_all
     monkeypatch.setattr(RodTracker, "_whole_step", spy)
     states = []
     events, single = _single_whisker_run("RD0", 90, states)
+    assert kernel_single.solver.evaluations == single.solver.evaluations
+    for got, want in zip(kernel_states, states):
+        assert np.array_equal(got.force, want.force) and np.array_equal(got.tip, want.tip)
     monkeypatch.setattr(RodTracker, "_whole_step", lambda self, path: None)
     ref_states = []
     ref_events, ref_single = _single_whisker_run("RD0", 90, ref_states)

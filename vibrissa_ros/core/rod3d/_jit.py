@@ -1188,11 +1188,11 @@ def _solution_measures(vec, vec0, tan, forces, last_break, lu, piv):
 
 
 @_kernel
-def _trusted_solution(vec, tan, J, piv, sens, evaluations, factorizations, vec0, forces,
+def _trusted_solution(status, vec, tan, J, piv, sens, evaluations, factorizations, vec0, forces,
                       last_break, n, kinds, tau, sp, T, p, codes, prm, touched, samples, A,
                       grid, table, tail_cut, Vinv, lowest, other_codes, other_prm):
     """
-    Return :func:`trusted_step`'s answer for the solution ``vec`` (status 0).
+    Return :func:`trusted_step`'s answer for the solution ``vec`` (``status`` 0 or 3).
 
     Its pivots 0-based (``piv``: LAPACK's), :func:`accepted`'s data (the bound of its distance
     to the obstacles ``other_codes``, ``other_prm`` among them), :func:`_checks_hold`,
@@ -1208,7 +1208,7 @@ def _trusted_solution(vec, tan, J, piv, sens, evaluations, factorizations, vec0,
     clean = _checks_hold(tail_depth, depth, tail_cut)
     error, change, least, det = _solution_measures(vec, vec0, tan, forces, last_break, J, piv0)
     above = coefficient_tail(Vinv, vec, n, kinds.size, lowest) if n > lowest else np.zeros(0)
-    return (0, tan, vec, J, piv0, sens, evaluations, factorizations, points, normals, tip,
+    return (status, tan, vec, J, piv0, sens, evaluations, factorizations, points, normals, tip,
             frame, tail_depth, depth, where, clean, error, change, least, det, s_c, f_c, loads,
             total, moment, above, clear)
 
@@ -1218,7 +1218,7 @@ def trusted_step(lu0, piv0, rhs, forces, vec0, max_change, guess, qb, p, n, kind
                  sp, T, shape, grid, table, nu1, codes, prm, limit, touched, samples, A, tol,
                  trusted_step_size, trusted_chord, chord_tol, max_step, max_iterations, stall,
                  noise, rounding, tail_cut, last_break, Vinv, lowest, other_codes,
-                 other_prm):
+                 other_prm, whole_iterations, most, adapt, refine):
     """
     Take a plain continuation step in one call: RodTracker._contact_advance's common case.
 
@@ -1231,11 +1231,16 @@ def trusted_step(lu0, piv0, rhs, forces, vec0, max_change, guess, qb, p, n, kind
     RodSolver.solve with ``trusted`` and ``fail_fast`` (Newton, chord steps on a Jacobian
     within 1e-4, as RodSolver._polish) and, on the solution, :func:`accepted`. The other
     arguments are those of :func:`evaluate` and :func:`accepted`, the contact arc lengths'
-    bound ``limit``, and the solver's tolerances and bounds.
+    bound ``limit``, and the solver's tolerances and bounds. Where the bound does shorten it,
+    with ``whole_iterations`` 1, the step is taken whole as RodTracker._whole_step takes it
+    (the same solve, at most one Newton step), unless (``adapt``, ``n`` below the solver's
+    ``most``) the tangent's end has a Chebyshev tail above ``refine`` at n or n is below the
+    ladder: RodTracker._contact_advance then goes to the full count first.
 
     Returns (status, tangent, vec, lu, piv, sens, evaluations, factorizations, points, normals,
     tip, frame, tail_depth, depth, where, checked, branch_error, branch_change, least, det, s,
-    f, forces, force, moment, above, clear): status 0 solved; 1 the bound shortens the step, or the
+    f, forces, force, moment, above, clear): status 0 solved, 3 solved whole (a step the bound
+    would shorten); 1 the bound shortens the step and it is not taken whole here, or the
     tangent is not finite (nothing solved: the general path takes the step); 2 the solve failed
     where RodSolver.solve raises ConvergenceError (the same solve from the same guess: the
     general path goes on as after its own failed trial step). piv is 0-based as scipy's, the
@@ -1275,9 +1280,28 @@ def trusted_step(lu0, piv0, rhs, forces, vec0, max_change, guess, qb, p, n, kind
     ek = np.zeros(0, np.int64)
     m0 = np.zeros((0, 3))
     f0 = np.zeros((3, 3))
-    if not finite or (big > 0.0 and max_change / big < 1.0):
+    status = 0
+    if not finite:
         return (1, tan, e1, e2, ei, m0, 0, 0, m0, m0, e1, f0, math.inf, e1, ek, False, 0.0,
                 0.0, 0.0, 0.0, e1, e1, m0, e1, e1, e1, -math.inf)
+    if big > 0.0 and max_change / big < 1.0:
+        # the bound shortens the step: RodTracker._contact_advance then takes it whole from
+        # the stream's prediction where the first Newton step converges it (whole_iterations
+        # 1: _whole_step's solve), unless it goes to the full point count first (adapt: the
+        # tangent's end asks for more points than the solution's n, below the solver's most)
+        refused = whole_iterations <= 0
+        if not refused and adapt and n < most:
+            if n < lowest + 2:
+                refused = True
+            else:
+                ahead = vec0 + tan
+                tail = coefficient_tail(Vinv, ahead, n, kinds.size, lowest)
+                refused = tail[n - 2 - lowest] > refine
+        if refused:
+            return (1, tan, e1, e2, ei, m0, 0, 0, m0, m0, e1, f0, math.inf, e1, ek, False, 0.0,
+                    0.0, 0.0, 0.0, e1, e1, m0, e1, e1, e1, -math.inf)
+        status = 3
+        max_iterations = whole_iterations
     # RodSolver.solve with ``trusted`` and ``fail_fast``: Newton from the guess; where a step
     # is short enough, chord steps on its Jacobian (RodSolver._polish)
     evaluations = 0
@@ -1347,7 +1371,8 @@ def trusted_step(lu0, piv0, rhs, forces, vec0, max_change, guess, qb, p, n, kind
         if failed:
             break
         if settled:
-            return _trusted_solution(vec, tan, J, piv, sens, evaluations, factorizations, vec0,
+            return _trusted_solution(status, vec, tan, J, piv, sens, evaluations,
+                                     factorizations, vec0,
                                      forces, last_break, n, kinds, tau, sp, T, p, codes, prm,
                                      touched, samples, A, grid, table, tail_cut, Vinv, lowest,
                                      other_codes, other_prm)
@@ -1362,7 +1387,7 @@ def trusted_step(lu0, piv0, rhs, forces, vec0, max_change, guess, qb, p, n, kind
             if since >= stall and newton >= 2 * stall and step_size > noise:
                 if rmax <= rounding:
                     # the equations hold to rounding where the steps level off
-                    return _trusted_solution(at, tan, J, piv, sens, evaluations,
+                    return _trusted_solution(status, at, tan, J, piv, sens, evaluations,
                                              factorizations, vec0, forces, last_break, n,
                                              kinds, tau, sp, T, p, codes, prm, touched,
                                              samples, A, grid, table, tail_cut, Vinv, lowest,

@@ -349,6 +349,9 @@ class TrustedStep(NamedTuple):
     needed : int
         The points per segment the solution asks for (:meth:`RodSolver.points_needed` of it),
         or 0 where that is not known.
+    whole : bool
+        The bound would have shortened the step: taken whole (``RodSolver.trusted_step``'s
+        ``whole``).
 
     """
 
@@ -361,6 +364,7 @@ class TrustedStep(NamedTuple):
     det: float
     clear: float = -math.inf
     needed: int = 0
+    whole: bool = False
 
 
 class _Accepted(NamedTuple):
@@ -1318,8 +1322,8 @@ class RodSolver:
 
     def trusted_step(self, modes: Sequence[RodContactMode], start: "Solved", rate: np.ndarray,
                      guess: np.ndarray, pose: BasePose, max_change: float,
-                     max_step: float = 0.5, tail_cut: float = -1e-9
-                     ) -> Optional[TrustedStep]:
+                     max_step: float = 0.5, tail_cut: float = -1e-9, whole: bool = False,
+                     adapt: bool = True) -> Optional[TrustedStep]:
         """
         Take a plain continuation step whole in one compiled call, or return None.
 
@@ -1353,6 +1357,13 @@ class RodSolver:
         tail_cut : float, optional
             The depth [L] beyond which the tracker's checks refuse the unloaded tail or the
             loaded part cutting an obstacle it touches.
+        whole : bool, optional
+            Where the bound would shorten the step, take it whole all the same as the tracker
+            does (one solve of at most one Newton step, :meth:`solve` with ``max_iterations``
+            1; ``TrustedStep.whole``), unless ``adapt`` and the tangent's end asks for more
+            points than the start's (the tracker then goes to the full count first).
+        adapt : bool, optional
+            The tracker adapts the point count (``RodTracker.adapt_points``).
 
         Returns
         -------
@@ -1362,8 +1373,9 @@ class RodSolver:
             than ``tail_cut`` in the obstacles they touch, from the data the call computed),
             and what the tracker decides the step by (its distance from the tangent's
             prediction and the predicted change, its least force or 1 - s, its stability
-            value). None where the bound would shorten the step or the tangent is not finite
-            (nothing solved), where the kernels meet an arithmetic error, or where the kernel
+            value). None where the bound would shorten the step (and it is not taken
+            ``whole``) or the tangent is not finite (nothing solved), where the kernels meet an
+            arithmetic error, or where the kernel
             does not apply (other obstacles or shapes, other arrays): the caller takes its
             general path.
 
@@ -1409,7 +1421,8 @@ class RodSolver:
                 self._nu1, geometry[0], geometry[1], limit, config.touched[1], TAIL_SAMPLES,
                 shape.parabola or 0.0, _TOL, _TRUSTED_STEP, _TRUSTED_CHORD, _CHORD_TOL,
                 float(max_step), _NEWTON_ITERATIONS, _STALL, _NOISE, _ROUNDING, float(tail_cut),
-                last_break, Vinv, _POINTS_LADDER[0] - 2, *(config.others or _NO_OBSTACLES))
+                last_break, Vinv, _POINTS_LADDER[0] - 2, *(config.others or _NO_OBSTACLES),
+                1 if whole else 0, self.n, bool(adapt), POINTS_REFINE)
         except (ValueError, ArithmeticError):
             # (an arithmetic error in the kernels, e.g. a division by zero: the general path
             # meets it in solve, counts its evaluations and takes a shorter sub-step)
@@ -1418,7 +1431,7 @@ class RodSolver:
         self.factorizations += factored
         if status == 1:
             return None
-        if status != 0:
+        if status == 2:
             raise ConvergenceError("3D whisker: the trusted Newton solve failed")
         for arr in (loads, total, moment):
             arr.flags.writeable = False  # (shared by every equilibrium made from this entry)
@@ -1432,7 +1445,7 @@ class RodSolver:
             tuple(s_c.tolist()), tuple(f_c.tolist()), loads, total, moment,
             above if above.size else None, clear))
         return TrustedStep(Solved(vec, (lu, piv), sens), tan, bool(checked), error, change,
-                           least, det, clear, needed)
+                           least, det, clear, needed, status == 3)
 
     def _force_indices(self, modes, vec) -> np.ndarray:
         """Return the indices of the contacts' forces in an unknown vector of this length."""

@@ -1002,7 +1002,8 @@ class RodTracker:
         stream = self._extrapolate(path) if t == 0.0 and dt == 1.0 else None
         solved = None
         if (bounded and t == 0.0 and dt < 1.0 and h == 1.0 and not near_fold
-                and _MAX_MOVE >= path.speed):
+                and _MAX_MOVE >= path.speed and not tried):
+            # (where _plain_step's kernel failed this very solve, it is not tried again)
             solved = self._whole_step(path)
             if solved is not None:
                 dt, t_new = 1.0, 1.0
@@ -1137,17 +1138,29 @@ class RodTracker:
             return None
         try:
             taken = self.solver.trusted_step(modes, self._solved, path.rate(path.a), stream,
-                                             path.b, _MAX_CHANGE, tail_cut=_TAIL_CUT)
+                                             path.b, _MAX_CHANGE, tail_cut=_TAIL_CUT,
+                                             whole=True, adapt=self.adapt_points)
         except ConvergenceError:
             return False
         if taken is None:
             return None
         solved, tan = taken.solved, taken.tangent
+        # (as _fold_limit records it at the step's start)
+        self._fold_prev = (path, modes, 0.0, 1.0 / max(float(tan @ tan), 1e-300))
+        if taken.whole:
+            # a step the bound would shorten, taken whole as _contact_advance takes it
+            # (_whole_step, then _conclude with ``whole``): accepted where no check refuses it
+            # and no event is crossed, else the bounded sub-steps from the start
+            if (taken.checked and not self._crossed(path, taken)
+                    and not self._touches(path, 1.0, solved.vec, taken.clear)):
+                self._accept(solved, path.b)
+                if taken.needed:
+                    self._needed = (solved.vec, taken.needed)
+                return 1.0, 1.0
+            return 0.0, _MAX_CHANGE / self._largest_change(tan)
         # _off_branch(solved.vec, self._vec + tan, self._vec), from the kernel's measures
         if _beyond_branch(taken.branch_error, taken.branch_change):
             return False  # (as a failed solve: the general path takes shorter sub-steps)
-        # (as _fold_limit records it at the step's start)
-        self._fold_prev = (path, modes, 0.0, 1.0 / max(float(tan @ tan), 1e-300))
         if (taken.checked and not self._crossed(path, taken)
                 and not self._touches(path, 1.0, solved.vec, taken.clear)):
             # no event crossed, no touch, and the checks pass (as _conclude finds them, from
