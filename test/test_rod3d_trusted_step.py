@@ -467,9 +467,10 @@ def test_the_kernels_bound_spares_the_touch_search_without_changing_a_tick(scene
         ticks = [tracker.step(HEAD, whisk.angle(k * 1e-3)) for k in range(1, 121)]
         work = [(tracker.tracker(n).solver.evaluations, tracker.tracker(n).solver.factorizations)
                 for n in tracker.names]
-        return [(t.force_base, t.moment_base, t.contacts, [(e.whisker, e.kind, e.s)
-                                                          for e in t.events],
-                 [(e.whisker, e.message) for e in t.errors]) for t in ticks], work, len(sampled)
+        rows = [(t.force_base, t.moment_base, t.contacts,
+                 [(e.whisker, e.kind, e.s) for e in t.events],
+                 [(e.whisker, e.message) for e in t.errors]) for t in ticks]
+        return rows, work, len(sampled)
 
     monkeypatch.setattr(RodTracker, "_contact_gap", counted)
     bounded = run()
