@@ -553,3 +553,54 @@ def test_a_pose_repeated_at_a_whisks_turning_point_is_a_sample_of_the_stream(mon
     for pose in poses[64:68]:
         assert tracker.step(pose).events == ()
     assert solved == [True] * 4
+
+
+def test_a_pose_held_or_sent_twice_keeps_the_stream(monkeypatch):
+    # RC1 whisked into the peg, every pose given twice (a held input, or a head pose that ticks
+    # the array between two whisks): each repeat costs nothing and changes nothing, and the
+    # stream's extrapolation goes on without the repeats, so the steps are the kernel's as
+    # often as with every pose given once, to the same equilibria
+    from rat_pad import PEG, WHISK
+
+    from vibrissa_ros.core.arrays import WhiskerArray
+
+    pad = ArrayTracker(WhiskerArray((rat_array("right")["RC1"],), "RC1"), Scene3D((PEG,)), HEAD,
+                       WHISK.angle(0.0))
+    rod = pad.tracker("RC1")
+    poses = [pad.whisker_poses(HEAD, WHISK.angle(k * 1e-3))[0] for k in range(121)]
+    solved = []
+    real = RodSolver.trusted_step
+
+    def counted(self, *args, **kwargs):
+        taken = real(self, *args, **kwargs)
+        solved.append(taken is not None)
+        return taken
+
+    monkeypatch.setattr(RodSolver, "trusted_step", counted)
+
+    def run(times):
+        solved.clear()
+        tracker = RodTracker(rod.obstacles, poses[0], shape=rod.shape)
+        out = []
+        for k, pose in enumerate(poses[1:], 1):
+            for repeat in range(times):
+                if repeat:
+                    state, before = tracker.state, tracker.solver.evaluations
+                    path = tracker_module._Path(tracker._pose, poses[min(k + 1, 120)])
+                    compiled = tracker._extrapolate(path)
+                    reference = tracker._extrapolate_numpy(path)
+                    assert (compiled is None) == (reference is None)
+                result = tracker.step(pose)
+                if repeat:
+                    assert result.state is state and result.events == ()
+                    assert tracker.solver.evaluations == before
+            out.append(result.state)
+        return out, sum(solved)
+
+    once, kernel_once = run(1)
+    twice, kernel_twice = run(2)
+    assert kernel_once >= 60 and kernel_twice >= kernel_once - 5
+    for a, b in zip(once, twice):
+        assert len(a.contacts) == len(b.contacts)
+        assert np.abs(np.subtract(a.force, b.force)).max() <= 1e-12
+        assert np.abs(np.subtract(a.tip, b.tip)).max() <= 1e-12

@@ -526,8 +526,10 @@ class ArrayTracker:
         events: List[WhiskerEvent] = []
         errors: List[WhiskerError] = []
         trackers = self._trackers
-        # (those not certified free, and those in contact: the last tick's contact counts)
-        stepped = np.flatnonzero(~clear | (self._state.contacts > 0)).tolist()
+        # (those not certified free, and those in contact: each tracker's own state, which a
+        # tick that stopped half-way, or a caller of tracker(name), may have changed)
+        stepped = [i for i, free in enumerate(clear.tolist())
+                   if not free or trackers[i].state.contacts]
         poses = self._poses(R, p, stepped)
         solved = np.zeros(len(self._rods), bool)
         solved[stepped] = True

@@ -387,6 +387,12 @@ class _Path:
         return out
 
 
+def _stream_arrays(history):
+    """Return (history, its poses' rows (p, q) (m, 7), its solutions (m, size)) for the kernel."""
+    return (history, np.array([pose.position + pose.quaternion for pose, _ in history]),
+            np.array([v for _, v in history]))
+
+
 def _as_pose(pose) -> BasePose:
     if isinstance(pose, BasePose):
         return pose
@@ -629,11 +635,14 @@ class RodTracker:
         self._last_change = None
         start_pose, start_vec, start_modes = self._pose, self._vec, self._modes
         events: List[RodEvent] = []
-        if path.speed == 0.0:
+        if path.speed == 0.0 or (target.position == self._pose.position
+                                 and target.quaternion == self._pose.quaternion):
+            # (the same pose: its path's angle may come out ~1e-16, not 0, from rounding)
             if self._modes:
                 # the same pose again: a sample of a pose stream all the same (as at a whisk's
                 # turning point sampled symmetrically about it), so that the stream's history
-                # stays uniform in time and its extrapolation goes on (_extrapolate)
+                # stays uniform in time and its extrapolation goes on (_extrapolate; a pose
+                # held, or sent twice, is left out there where the stream is not uniform with it)
                 self._last_step = (self._pose, self._vec, self._modes)
                 self._grow_history(self._pose, self._vec)
             return RodStepResult(self._state, (), 0, 0)
@@ -1420,38 +1429,66 @@ class RodTracker:
         step and two chord steps. Only the starting guess depends on it. Compiled
         (:func:`._jit.stream_guess`, on the history kept as arrays: a solution sums in another
         order than numpy's, ~1e-16 apart); :meth:`_extrapolate_numpy` without the kernels.
+
+        A pose given again is kept in the history (a stream's sample: a whisk sampled
+        symmetrically about its turning point gives the same pose twice, :meth:`_step`); where
+        the stream is not uniform with it, it is tried once more without the repeated poses (a
+        pose held or sent twice, e.g. a head pose that ticks the array between two whisks).
         """
         if len(self._history) < 3 or self._last_step is None:
             return None
+        if not _jit.ENABLED:
+            return self._extrapolate_numpy(path)
         p0, v0 = self._pose, self._vec
-        target = path.b
-        if _jit.ENABLED:
-            # the same rule in one kernel call, on the history kept as arrays
-            stream = self._stream
-            if stream is None or stream[0] is not self._history:
-                stream = self._stream = (
-                    self._history,
-                    np.array([pose.position + pose.quaternion for pose, _ in self._history]),
-                    np.array([v for _, v in self._history]))
-            if not _jit.WARM:
-                _jit.warm_up()
-            k, guess = _jit.stream_guess(stream[1], stream[2],
-                                         np.array(p0.position + p0.quaternion), v0,
-                                         np.array(target.position + target.quaternion),
-                                         _STREAM_KERNEL[0], _STREAM_KERNEL[1], _STREAM_TOLERANCE)
-            return guess if k >= 0 else None
-        return self._extrapolate_numpy(path)
+        # the same rule in one kernel call, on the history kept as arrays
+        stream = self._stream
+        if stream is None or stream[0] is not self._history:
+            stream = self._stream = _stream_arrays(self._history)
+        if stream[2].shape[1] != v0.size:  # (never: the history is kept on the vector's count)
+            raise ConvergenceError(f"the pose stream's history holds vectors of "
+                                   f"{stream[2].shape[1]} unknowns, the solution {v0.size}")
+        if not _jit.WARM:
+            _jit.warm_up()
+        start = np.array(p0.position + p0.quaternion)
+        target = np.array(path.b.position + path.b.quaternion)
+        k, guess = _jit.stream_guess(stream[1], stream[2], start, v0, target, _STREAM_KERNEL[0],
+                                     _STREAM_KERNEL[1], _STREAM_TOLERANCE)
+        if k >= 0:
+            return guess
+        distinct = self._distinct_history()
+        if distinct is None:
+            return None
+        stream = _stream_arrays(distinct)
+        k, guess = _jit.stream_guess(stream[1], stream[2], start, v0, target, _STREAM_KERNEL[0],
+                                     _STREAM_KERNEL[1], _STREAM_TOLERANCE)
+        return guess if k >= 0 else None
+
+    def _distinct_history(self):
+        """Return the history without its repeated poses, if it has any and 3 others, or None."""
+        history = self._history
+        after = [pose for pose, _ in history[1:]] + [self._pose]
+        distinct = [(pose, vec) for (pose, vec), nxt in zip(history, after)
+                    if pose.position != nxt.position or pose.quaternion != nxt.quaternion]
+        return distinct if len(distinct) < len(history) and len(distinct) >= 3 else None
 
     def _extrapolate_numpy(self, path: _Path) -> Optional[np.ndarray]:
         """:meth:`_extrapolate` in numpy (without the compiled kernels; the tests' reference)."""
         if len(self._history) < 3 or self._last_step is None:
             return None
+        guess = self._stream_numpy(path, self._history)
+        if guess is None:
+            distinct = self._distinct_history()
+            if distinct is not None:
+                guess = self._stream_numpy(path, distinct)
+        return guess
+
+    def _stream_numpy(self, path: _Path, history) -> Optional[np.ndarray]:
         p0, v0 = self._pose, self._vec
         target = path.b
         # (p, q) of each pose, q on the side of p0's (one array: fewer numpy calls per pose)
         rw, rx, ry, rz = p0.quaternion
         rows = []
-        for pose, _ in self._history + [(p0, v0), (target, None)]:
+        for pose, _ in history + [(p0, v0), (target, None)]:
             w, x, y, z = q = pose.quaternion
             if w * rw + x * rx + y * ry + z * rz < 0.0:
                 q = (-w, -x, -y, -z)
@@ -1468,7 +1505,7 @@ class RodTracker:
             diff = c @ rows[-(k + 2):]
             if math.sqrt(float(diff.dot(diff))) <= _STREAM_TOLERANCE * step:
                 # the (k+1)-th difference of the solutions, target's included, vanishes
-                known = np.array([v for _, v in self._history[-k:]] + [v0])
+                known = np.array([v for _, v in history[-k:]] + [v0])
                 return -(c[:-1] @ known)
         return None
 
