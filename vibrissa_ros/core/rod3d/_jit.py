@@ -863,9 +863,11 @@ def accepted(vec, n, kinds, tau, sp, T, p, codes, prm, touched, samples, A, grid
     without any): RodSolver.equilibrium's points, normals, tip, frame and loads,
     RodTracker._check_tail's and _touched_depth's distances, and what spares _contact_gap.
     """
-    b, w, r, frames = nodes(vec, n, kinds, tau, sp, T, p)
     k = kinds.size
     N = n * k
+    # (nodes' placement, with the nodes' arc lengths kept for clear_of)
+    b, s_nodes, w, Ls = _weights(vec, n, kinds, tau, sp)
+    r = _positions(vec, T, w, p, N)
     points = np.empty((k, 3))
     normals = np.empty((k, 3))
     hess = np.empty((k, 3, 3))
@@ -874,7 +876,8 @@ def accepted(vec, n, kinds, tau, sp, T, p, codes, prm, touched, samples, A, grid
         points[c, 0], points[c, 1], points[c, 2] = r[e, 0], r[e, 1], r[e, 2]
         surface(codes[c], prm[c], r[e, 0], r[e, 1], r[e, 2], normals, hess, c)
     e = N - 1
-    last = frames[k - 1]
+    last = np.empty((3, 3))
+    _rotation(vec[4 * e:4 * e + 4], last)
     q2 = 0.0
     for i in range(4):
         q2 += vec[4 * e + i] * vec[4 * e + i]
@@ -883,6 +886,10 @@ def accepted(vec, n, kinds, tau, sp, T, p, codes, prm, touched, samples, A, grid
     tip = np.empty(3)
     tip[:] = r[e]
     tail_depth = math.inf
+    # the unloaded tail's samples beyond a last side contact short of the tip (arc lengths,
+    # points): the tail check's, and clear_of's
+    tail_s = np.zeros(0)
+    tail = np.zeros((0, 3))
     if end < 1.0:
         if A != 0.0:
             dx, dy, phi = parabola_tip(end, A, grid, table)
@@ -898,18 +905,18 @@ def accepted(vec, n, kinds, tau, sp, T, p, codes, prm, touched, samples, A, grid
             turned[i, 2] = frame[i, 2]
         frame = turned
         if kinds[k - 1] == 1:
-            s = end + (1.0 - end) * samples
+            tail_s = end + (1.0 - end) * samples
             if A != 0.0:
-                off = parabola_tail(end, s, A, grid, table)
+                off = parabola_tail(end, tail_s, A, grid, table)
             else:
-                off = np.zeros((s.size, 2))
-                for j in range(s.size):
-                    off[j, 0] = s[j] - end
-            for j in range(s.size):
-                x = r[e, 0] + off[j, 0] * last[0, 0] + off[j, 1] * last[0, 1]
-                y = r[e, 1] + off[j, 0] * last[1, 0] + off[j, 1] * last[1, 1]
-                z = r[e, 2] + off[j, 0] * last[2, 0] + off[j, 1] * last[2, 1]
-                d = distance(codes[k - 1], prm[k - 1], x, y, z)
+                off = np.zeros((tail_s.size, 2))
+                for j in range(tail_s.size):
+                    off[j, 0] = tail_s[j] - end
+            tail = np.empty((tail_s.size, 3))
+            for j in range(tail_s.size):
+                for i in range(3):
+                    tail[j, i] = r[e, i] + off[j, 0] * last[i, 0] + off[j, 1] * last[i, 1]
+                d = distance(codes[k - 1], prm[k - 1], tail[j, 0], tail[j, 1], tail[j, 2])
                 if d < tail_depth:
                     tail_depth = d
     m = touched.size
@@ -927,8 +934,7 @@ def accepted(vec, n, kinds, tau, sp, T, p, codes, prm, touched, samples, A, grid
     s_c, f_c, forces, force, moment = contact_loads(vec, n, kinds, points, normals, p)
     clear = math.inf
     if other_codes.size:
-        clear = clear_of(vec, n, kinds, tau, sp, r, last, samples, A, grid, table, other_codes,
-                         other_prm)
+        clear = clear_of(s_nodes, r, tail_s, tail, other_codes, other_prm)
     return (points, normals, tip, frame, tail_depth, depth, where, s_c, f_c, forces, force,
             moment, clear)
 
@@ -943,7 +949,7 @@ _SPEED = 1.5
 
 
 @_kernel
-def clear_of(vec, n, kinds, tau, sp, r, last, samples, A, grid, table, codes, prm):
+def clear_of(s, r, tail_s, tail, codes, prm):
     """
     Return a lower bound of the whole centerline's signed distance to the obstacles given.
 
@@ -951,35 +957,22 @@ def clear_of(vec, n, kinds, tau, sp, r, last, samples, A, grid, table, codes, pr
     (it is 1-Lipschitz), and the centerline moves by at most _SPEED ds, so between two of its
     points at arc lengths s_a <= s_b the distance is at least (d_a + d_b - _SPEED (s_b - s_a)) / 2
     (the larger of d_a - _SPEED u and d_b - _SPEED (s_b - s_a - u) at any u). The points: the
-    nodes (r (N, 3) at their arc lengths, the segments' ends among them) and, beyond a last side
-    contact at s_k < 1, the unloaded tail (its plane curve in the frame ``last`` at s_k, the
-    centerline's own, RodSolver.centerline) at the fractions ``samples`` of 1 - s_k. A bound
-    above 0 means no point of the whisker is on or inside one of them: what
-    RodTracker._contact_gap would find only by sampling the centerline and minimizing.
+    nodes (``r`` (N, 3) at their arc lengths ``s``, the segments' ends among them) and, beyond a
+    last side contact short of the tip, the unloaded tail's samples (``tail`` (m, 3) at
+    ``tail_s``, the centerline's own, RodSolver.centerline, as :func:`accepted` places them;
+    m = 0 without). A bound above 0 means no point of the whisker is on or inside one of them:
+    what RodTracker._contact_gap would find only by sampling the centerline and minimizing.
     """
-    k = kinds.size
-    N = n * k
-    b, s, w, Ls = _weights(vec, n, kinds, tau, sp)
-    end = b[k - 1]
-    m = samples.size if (end < 1.0 and kinds[k - 1] == 1) else 0
+    N = s.size
+    m = tail_s.size
     arc = np.empty(N + m)
     pts = np.empty((N + m, 3))
     for i in range(N):
         arc[i] = s[i]
         pts[i, 0], pts[i, 1], pts[i, 2] = r[i, 0], r[i, 1], r[i, 2]
-    if m:
-        e = N - 1
-        at = end + (1.0 - end) * samples
-        if A != 0.0:
-            off = parabola_tail(end, at, A, grid, table)
-        else:
-            off = np.zeros((m, 2))
-            for j in range(m):
-                off[j, 0] = at[j] - end
-        for j in range(m):
-            arc[N + j] = at[j]
-            for i in range(3):
-                pts[N + j, i] = r[e, i] + off[j, 0] * last[i, 0] + off[j, 1] * last[i, 1]
+    for j in range(m):
+        arc[N + j] = tail_s[j]
+        pts[N + j, 0], pts[N + j, 1], pts[N + j, 2] = tail[j, 0], tail[j, 1], tail[j, 2]
     least = math.inf
     for o in range(codes.size):
         before = distance(codes[o], prm[o], pts[0, 0], pts[0, 1], pts[0, 2])

@@ -219,9 +219,11 @@ def _points_from_tail(n: int, most: int, above: np.ndarray) -> int:
     Return the points per segment a solution on n asks for (RodSolver.points_needed's rule).
 
     ``above[j - lo]`` is the largest Chebyshev coefficient of degree j or more (lo = the
-    ladder's first rung - 2), ``most`` the solver's own count; n is on the ladder, above its
-    first rung or below the solver's.
+    ladder's first rung - 2; not read where :func:`_fewest_points`), ``most`` the solver's own
+    count.
     """
+    if _fewest_points(n, most):
+        return max(n, most)
     lo = _POINTS_LADDER[0] - 2
     if n < most and float(above[n - 2 - lo]) > POINTS_REFINE:
         return min([m for m in _POINTS_LADDER if n < m < most] + [most])
@@ -231,6 +233,15 @@ def _points_from_tail(n: int, most: int, above: np.ndarray) -> int:
         if float(above[m - 2 - lo]) <= POINTS_COARSEN:
             return m
     return n
+
+
+def _fewest_points(n: int, most: int) -> bool:
+    """
+    Tell whether n points per segment are as few as the ladder has, or fewer (a solver made so).
+
+    None is dropped then, and a vector of fewer than the solver's ``most`` goes to ``most``.
+    """
+    return n < _POINTS_LADDER[0] or (n == _POINTS_LADDER[0] and n >= most)
 
 
 def _same(a: np.ndarray, b: np.ndarray) -> bool:
@@ -347,8 +358,8 @@ class TrustedStep(NamedTuple):
         contact touches (inf without any; -inf where it is not known): above 0, the tracker's
         touch test on them has nothing to find.
     needed : int
-        The points per segment the solution asks for (:meth:`RodSolver.points_needed` of it),
-        or 0 where that is not known.
+        The points per segment the solution asks for (:meth:`RodSolver.points_needed` of it;
+        0: not given).
     whole : bool
         The bound would have shortened the step: taken whole (``RodSolver.trusted_step``'s
         ``whole``).
@@ -385,6 +396,16 @@ class _Accepted(NamedTuple):
     moment: np.ndarray      # their moment about the base point (3,)
     above: Optional[np.ndarray] = None  # points_needed's coefficient tail, where computed
     clear: float = -math.inf  # a bound of the distance to the obstacles not touched (TrustedStep)
+
+
+def _accepted_of(config, points, normals, tip, frame, tail_depth, depth, where, s_c, f_c,
+                 forces, force, moment, above, clear) -> _Accepted:
+    """Return :func:`._jit.accepted`'s answer for a configuration as an _Accepted."""
+    for arr in (forces, force, moment):
+        arr.flags.writeable = False  # (shared by every equilibrium made from this entry)
+    return _Accepted(points, normals, tip, frame, float(tail_depth), config.touched[0], depth,
+                     where, tuple(s_c.tolist()), tuple(f_c.tolist()), forces, force, moment,
+                     above, float(clear) if config.others is not None else -math.inf)
 
 
 @dataclass(frozen=True)
@@ -1433,19 +1454,14 @@ class RodSolver:
             return None
         if status == 2:
             raise ConvergenceError("3D whisker: the trusted Newton solve failed")
-        for arr in (loads, total, moment):
-            arr.flags.writeable = False  # (shared by every equilibrium made from this entry)
-        clear = float(clear) if config.others is not None else -math.inf
-        # (points_needed of the solution, from the coefficient tail computed with it)
-        needed = (max(n, self.n) if n < _POINTS_LADDER[0] or (n == _POINTS_LADDER[0]
-                                                              and n >= self.n)
-                  else _points_from_tail(n, self.n, above) if above.size else 0)
-        self._accepted_cache = (vec.copy(), pose, tuple(modes), _Accepted(
-            points, normals, tip, frame, float(tail_depth), config.touched[0], depth, where,
-            tuple(s_c.tolist()), tuple(f_c.tolist()), loads, total, moment,
-            above if above.size else None, clear))
+        post = _accepted_of(config, points, normals, tip, frame, tail_depth, depth, where, s_c,
+                            f_c, loads, total, moment, above if above.size else None, clear)
+        self._accepted_cache = (vec.copy(), pose, tuple(modes), post)
+        # (points_needed of the solution, from the coefficient tail computed with it; the
+        # kernel computes it wherever n is above the ladder's fewest)
         return TrustedStep(Solved(vec, (lu, piv), sens), tan, bool(checked), error, change,
-                           least, det, clear, needed, status == 3)
+                           least, det, post.clear, _points_from_tail(n, self.n, above),
+                           status == 3)
 
     def _force_indices(self, modes, vec) -> np.ndarray:
         """Return the indices of the contacts' forces in an unknown vector of this length."""
@@ -1651,10 +1667,8 @@ class RodSolver:
         vec = np.ascontiguousarray(vec, dtype=float)
         n = self.points_of(modes, vec)
         lo = _POINTS_LADDER[0] - 2
-        if n < _POINTS_LADDER[0] or (n == _POINTS_LADDER[0] and n >= self.n):
-            # as few as the ladder has, or fewer (a solver made so): none dropped, and a vector
-            # of fewer than the solver's goes to the solver's
-            return max(n, self.n)
+        if _fewest_points(n, self.n):
+            return _points_from_tail(n, self.n, None)
         last = self._accepted_cache
         if (last is not None and last[3].above is not None
                 and (last[2] is modes or last[2] == tuple(modes)) and _same(last[0], vec)):
@@ -1982,11 +1996,8 @@ class RodSolver:
             self._template(len(modes), n), pose.p, geometry[0], geometry[1], touched[1],
             TAIL_SAMPLES, shape.parabola or 0.0, self._jit_grid, self._jit_table,
             *(config.others or _NO_OBSTACLES))
-        for arr in (forces, force, moment):
-            arr.flags.writeable = False  # (shared by every equilibrium made from this entry)
-        out = _Accepted(points, normals, tip, frame, float(tail_depth), touched[0], depth, where,
-                        tuple(s_c.tolist()), tuple(f_c.tolist()), forces, force, moment, None,
-                        float(clear) if config.others is not None else -math.inf)
+        out = _accepted_of(config, points, normals, tip, frame, tail_depth, depth, where, s_c, f_c,
+                           forces, force, moment, None, clear)
         self._accepted_cache = (vec.copy(), pose, modes, out)
         return out
 

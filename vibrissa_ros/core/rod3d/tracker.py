@@ -635,8 +635,7 @@ class RodTracker:
         self._last_change = None
         start_pose, start_vec, start_modes = self._pose, self._vec, self._modes
         events: List[RodEvent] = []
-        if path.speed == 0.0 or (target.position == self._pose.position
-                                 and target.quaternion == self._pose.quaternion):
+        if path.speed == 0.0 or target == self._pose:
             # (the same pose: its path's angle may come out ~1e-16, not 0, from rounding)
             if self._modes:
                 # the same pose again: a sample of a pose stream all the same (as at a whisk's
@@ -881,7 +880,7 @@ class RodTracker:
 
     def _contact_gap(self, path, t, vec, exact=False):
         skip = {m.obstacle for m in self._modes}
-        behind = self._modes[-1].kind == "tip" and self._alone_on_its_obstacle(-1)
+        behind = self._behind_tip()
         if len(skip) == len(self.obstacles) and not behind:
             return (math.inf, -1, 0.0)
         pose = path.pose(t)
@@ -897,6 +896,10 @@ class RodTracker:
             if same[0] < best[0]:
                 best = same
         return best
+
+    def _behind_tip(self) -> bool:
+        """Tell whether the last contact is at the tip, alone on its obstacle (_gap_behind_tip)."""
+        return self._modes[-1].kind == "tip" and self._alone_on_its_obstacle(-1)
 
     def _touches(self, path, t, vec, clear=None) -> bool:
         """
@@ -915,8 +918,7 @@ class RodTracker:
         if clear is None and len(self.obstacles) > 1:
             post = self.solver._accepted(modes, vec, path.pose(t))
             clear = -math.inf if post is None else post.clear
-        if (clear is not None and clear > 0.0
-                and not (modes[-1].kind == "tip" and self._alone_on_its_obstacle(-1))):
+        if clear is not None and clear > 0.0 and not self._behind_tip():
             return False
         return self._contact_gap(path, t, vec)[0] < _CUT
 
@@ -1156,19 +1158,9 @@ class RodTracker:
         solved, tan = taken.solved, taken.tangent
         # (as _fold_limit records it at the step's start)
         self._fold_prev = (path, modes, 0.0, 1.0 / max(float(tan @ tan), 1e-300))
-        if taken.whole:
-            # a step the bound would shorten, taken whole as _contact_advance takes it
-            # (_whole_step, then _conclude with ``whole``): accepted where no check refuses it
-            # and no event is crossed, else the bounded sub-steps from the start
-            if (taken.checked and not self._crossed(path, taken)
-                    and not self._touches(path, 1.0, solved.vec, taken.clear)):
-                self._accept(solved, path.b)
-                if taken.needed:
-                    self._needed = (solved.vec, taken.needed)
-                return 1.0, 1.0
-            return 0.0, _MAX_CHANGE / self._largest_change(tan)
-        # _off_branch(solved.vec, self._vec + tan, self._vec), from the kernel's measures
-        if _beyond_branch(taken.branch_error, taken.branch_change):
+        # _off_branch(solved.vec, self._vec + tan, self._vec), from the kernel's measures (a
+        # step taken whole is not measured so, as _contact_advance takes it)
+        if not taken.whole and _beyond_branch(taken.branch_error, taken.branch_change):
             return False  # (as a failed solve: the general path takes shorter sub-steps)
         if (taken.checked and not self._crossed(path, taken)
                 and not self._touches(path, 1.0, solved.vec, taken.clear)):
@@ -1178,6 +1170,11 @@ class RodTracker:
             if taken.needed:
                 self._needed = (solved.vec, taken.needed)
             return 1.0, 1.0
+        if taken.whole:
+            # a step the bound would shorten, taken whole (_whole_step) where it crossed an
+            # event or a check refuses it: the bounded sub-steps from the start, as
+            # _contact_advance and _conclude with ``whole`` go on
+            return 0.0, _MAX_CHANGE / self._largest_change(tan)
         return self._conclude(path, 0.0, 1.0, 1.0, tan, solved, events)
 
     def _crossed(self, path: _Path, taken) -> bool:
@@ -1435,54 +1432,52 @@ class RodTracker:
         the stream is not uniform with it, it is tried once more without the repeated poses (a
         pose held or sent twice, e.g. a head pose that ticks the array between two whisks).
         """
+        return self._extrapolate_by(path, self._stream_compiled if _jit.ENABLED
+                                    else self._stream_numpy)
+
+    def _extrapolate_numpy(self, path: _Path) -> Optional[np.ndarray]:
+        """:meth:`_extrapolate` in numpy (without the compiled kernels; the tests' reference)."""
+        return self._extrapolate_by(path, self._stream_numpy)
+
+    def _extrapolate_by(self, path: _Path, stream_guess) -> Optional[np.ndarray]:
+        """:meth:`_extrapolate` with ``stream_guess(path, history)`` for the rule itself."""
         if len(self._history) < 3 or self._last_step is None:
             return None
-        if not _jit.ENABLED:
-            return self._extrapolate_numpy(path)
-        p0, v0 = self._pose, self._vec
-        # the same rule in one kernel call, on the history kept as arrays
-        stream = self._stream
-        if stream is None or stream[0] is not self._history:
-            stream = self._stream = _stream_arrays(self._history)
-        if stream[2].shape[1] != v0.size:  # (never: the history is kept on the vector's count)
-            raise ConvergenceError(f"the pose stream's history holds vectors of "
-                                   f"{stream[2].shape[1]} unknowns, the solution {v0.size}")
-        if not _jit.WARM:
-            _jit.warm_up()
-        start = np.array(p0.position + p0.quaternion)
-        target = np.array(path.b.position + path.b.quaternion)
-        k, guess = _jit.stream_guess(stream[1], stream[2], start, v0, target, _STREAM_KERNEL[0],
-                                     _STREAM_KERNEL[1], _STREAM_TOLERANCE)
-        if k >= 0:
-            return guess
-        distinct = self._distinct_history()
-        if distinct is None:
-            return None
-        stream = _stream_arrays(distinct)
-        k, guess = _jit.stream_guess(stream[1], stream[2], start, v0, target, _STREAM_KERNEL[0],
-                                     _STREAM_KERNEL[1], _STREAM_TOLERANCE)
-        return guess if k >= 0 else None
+        guess = stream_guess(path, self._history)
+        if guess is None:
+            distinct = self._distinct_history()
+            if distinct is not None:
+                guess = stream_guess(path, distinct)
+        return guess
 
     def _distinct_history(self):
         """Return the history without its repeated poses, if it has any and 3 others, or None."""
         history = self._history
         after = [pose for pose, _ in history[1:]] + [self._pose]
-        distinct = [(pose, vec) for (pose, vec), nxt in zip(history, after)
-                    if pose.position != nxt.position or pose.quaternion != nxt.quaternion]
+        distinct = [(pose, vec) for (pose, vec), nxt in zip(history, after) if pose != nxt]
         return distinct if len(distinct) < len(history) and len(distinct) >= 3 else None
 
-    def _extrapolate_numpy(self, path: _Path) -> Optional[np.ndarray]:
-        """:meth:`_extrapolate` in numpy (without the compiled kernels; the tests' reference)."""
-        if len(self._history) < 3 or self._last_step is None:
-            return None
-        guess = self._stream_numpy(path, self._history)
-        if guess is None:
-            distinct = self._distinct_history()
-            if distinct is not None:
-                guess = self._stream_numpy(path, distinct)
-        return guess
+    def _stream_compiled(self, path: _Path, history) -> Optional[np.ndarray]:
+        """:meth:`_stream_numpy`'s rule in one kernel call, on the history kept as arrays."""
+        v0 = self._vec
+        stream = self._stream
+        if history is not self._history:
+            stream = _stream_arrays(history)
+        elif stream is None or stream[0] is not history:
+            stream = self._stream = _stream_arrays(history)
+        if stream[2].shape[1] != v0.size:  # (never: the history is kept on the vector's count)
+            raise ConvergenceError(f"the pose stream's history holds vectors of "
+                                   f"{stream[2].shape[1]} unknowns, the solution {v0.size}")
+        if not _jit.WARM:
+            _jit.warm_up()
+        p0, target = self._pose, path.b
+        k, guess = _jit.stream_guess(stream[1], stream[2], np.array(p0.position + p0.quaternion),
+                                     v0, np.array(target.position + target.quaternion),
+                                     _STREAM_KERNEL[0], _STREAM_KERNEL[1], _STREAM_TOLERANCE)
+        return guess if k >= 0 else None
 
     def _stream_numpy(self, path: _Path, history) -> Optional[np.ndarray]:
+        """Return the extrapolation of ``history`` and the current solution to path.b, or None."""
         p0, v0 = self._pose, self._vec
         target = path.b
         # (p, q) of each pose, q on the side of p0's (one array: fewer numpy calls per pose)
