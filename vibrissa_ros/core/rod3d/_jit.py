@@ -1215,7 +1215,7 @@ def trusted_step(lu0, piv0, rhs, forces, vec0, max_change, guess, qb, p, n, kind
                  sp, T, shape, grid, table, nu1, codes, prm, limit, touched, samples, A, tol,
                  trusted_step_size, trusted_chord, chord_tol, max_step, max_iterations, stall,
                  noise, rounding, tail_cut, last_break, Vinv, lowest, other_codes,
-                 other_prm, whole_iterations, most, adapt, refine):
+                 other_prm, whole_iterations, most, adapt, refine, fold_t, fold_g):
     """
     Take a plain continuation step in one call: RodTracker._contact_advance's common case.
 
@@ -1232,7 +1232,10 @@ def trusted_step(lu0, piv0, rhs, forces, vec0, max_change, guess, qb, p, n, kind
     with ``whole_iterations`` 1, the step is taken whole as RodTracker._whole_step takes it
     (the same solve, at most one Newton step), unless (``adapt``, ``n`` below the solver's
     ``most``) the tangent's end has a Chebyshev tail above ``refine`` at n or n is below the
-    ladder: RodTracker._contact_advance then goes to the full count first.
+    ladder: RodTracker._contact_advance then goes to the full count first. Nor is it taken where
+    the tangent announces a fold within the step from the one recorded before it (``fold_t``
+    < 0 on this step's parameter, its ``fold_g`` = 1 / norm(tangent)^2; inf: none), as
+    RodTracker._fold_limit announces it: the general path locates that fold first.
 
     Returns (status, tangent, vec, lu, piv, sens, evaluations, factorizations, points, normals,
     tip, frame, tail_depth, depth, where, checked, branch_error, branch_change, least, det, s,
@@ -1248,7 +1251,8 @@ def trusted_step(lu0, piv0, rhs, forces, vec0, max_change, guess, qb, p, n, kind
     where it is a side contact, or -1), :func:`det_measure` of its factorization, its
     :func:`contact_loads`, its :func:`coefficient_tail` from degree ``lowest`` (``Vinv``
     (n, n); empty where n <= lowest) and :func:`clear_of`'s bound of its distance to the
-    obstacles ``other_codes``, ``other_prm`` (-inf where nothing was solved).
+    obstacles ``other_codes``, ``other_prm`` (-inf where nothing was solved). Status 1 also
+    where a fold is announced within the step.
     """
     size0 = vec0.size
     piv1 = np.empty(size0, np.int32)
@@ -1281,6 +1285,15 @@ def trusted_step(lu0, piv0, rhs, forces, vec0, max_change, guess, qb, p, n, kind
     if not finite:
         return (1, tan, e1, e2, ei, m0, 0, 0, m0, m0, e1, f0, math.inf, e1, ek, False, 0.0,
                 0.0, 0.0, 0.0, e1, e1, m0, e1, e1, e1, -math.inf)
+    # RodTracker._fold_limit at the step's start: g = 1 / norm(tan)^2 against the tangent
+    # recorded before the step (on this step's parameter); a fold announced within the
+    # sub-step (the bound's, or the whole step) is the general path's
+    g = 1.0 / max(np.dot(tan, tan), 1e-300)
+    if fold_g < math.inf and g < 0.5 * fold_g:
+        reach = max_change / big if big > 0.0 and max_change / big < 1.0 else 1.0
+        if g * (0.0 - fold_t) / (fold_g - g) < reach:
+            return (1, tan, e1, e2, ei, m0, 0, 0, m0, m0, e1, f0, math.inf, e1, ek, False,
+                    0.0, 0.0, 0.0, 0.0, e1, e1, m0, e1, e1, e1, -math.inf)
     if big > 0.0 and max_change / big < 1.0:
         # the bound shortens the step: RodTracker._contact_advance then takes it whole from
         # the stream's prediction where the first Newton step converges it (whole_iterations

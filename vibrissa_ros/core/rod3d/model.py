@@ -1344,7 +1344,8 @@ class RodSolver:
     def trusted_step(self, modes: Sequence[RodContactMode], start: "Solved", rate: np.ndarray,
                      guess: np.ndarray, pose: BasePose, max_change: float,
                      max_step: float = 0.5, tail_cut: float = -1e-9, whole: bool = False,
-                     adapt: bool = True) -> Optional[TrustedStep]:
+                     adapt: bool = True, fold_before: Optional[Tuple[float, float]] = None
+                     ) -> Optional[TrustedStep]:
         """
         Take a plain continuation step whole in one compiled call, or return None.
 
@@ -1385,6 +1386,11 @@ class RodSolver:
             points than the start's (the tracker then goes to the full count first).
         adapt : bool, optional
             The tracker adapts the point count (``RodTracker.adapt_points``).
+        fold_before : (float, float), optional
+            A tangent recorded before the step, (t, g) on this step's parameter (t < 0, g =
+            1 / norm(tangent)^2): where the tangent's g has fallen below half of it and the
+            line through the two reaches 0 within the step (or the bound's sub-step), a fold
+            is announced there (``RodTracker._fold_limit``), and nothing is solved (None).
 
         Returns
         -------
@@ -1395,7 +1401,8 @@ class RodSolver:
             and what the tracker decides the step by (its distance from the tangent's
             prediction and the predicted change, its least force or 1 - s, its stability
             value). None where the bound would shorten the step (and it is not taken
-            ``whole``) or the tangent is not finite (nothing solved), where the kernels meet an
+            ``whole``), a fold is announced within it (``fold_before``) or the tangent is not
+            finite (nothing solved), where the kernels meet an
             arithmetic error, or where the kernel
             does not apply (other obstacles or shapes, other arrays): the caller takes its
             general path.
@@ -1433,6 +1440,7 @@ class RodSolver:
                 _operators(n).Vinv)
         forces, last_break, tau, T, limit, Vinv = plain
         try:
+            fold_t, fold_g = (0.0, math.inf) if fold_before is None else fold_before
             (status, tan, vec, lu, piv, sens, spent, factored, points, normals, tip, frame,
              tail_depth, depth, where, checked, error, change, least, det, s_c, f_c, loads,
              total, moment, above, clear) = _jit.trusted_step(
@@ -1443,7 +1451,8 @@ class RodSolver:
                 shape.parabola or 0.0, _TOL, _TRUSTED_STEP, _TRUSTED_CHORD, _CHORD_TOL,
                 float(max_step), _NEWTON_ITERATIONS, _STALL, _NOISE, _ROUNDING, float(tail_cut),
                 last_break, Vinv, _POINTS_LADDER[0] - 2, *(config.others or _NO_OBSTACLES),
-                1 if whole else 0, self.n, bool(adapt), POINTS_REFINE)
+                1 if whole else 0, self.n, bool(adapt), POINTS_REFINE, float(fold_t),
+                float(fold_g))
         except (ValueError, ArithmeticError):
             # (an arithmetic error in the kernels, e.g. a division by zero: the general path
             # meets it in solve, counts its evaluations and takes a shorter sub-step)

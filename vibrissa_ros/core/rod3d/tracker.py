@@ -360,6 +360,8 @@ class _Path:
                       (0.5 * self.angle / sin_half) * rz) if sin_half > 0.0 else (0.0, 0.0, 0.0)
         #: bound on the speed of any point of the whisker per unit t
         self.speed = math.sqrt(dx * dx + dy * dy + dz * dz) + self.angle
+        #: (dp, angle axis in the body frame at a): the direction of the motion
+        self._motion = (dx, dy, dz) + tuple(2.0 * w for w in self._turn)
         self._cache = {}
 
     def pose(self, t: float) -> BasePose:
@@ -373,6 +375,30 @@ class _Path:
                 self._cache.clear()
             cached = self._cache[t] = self.a.at(self.b, t)
         return cached
+
+    def continuing(self, record):
+        """
+        Return a tangent's record (path, contacts, t, g) on the path before, on this path, or None.
+
+        Where this path goes on from that one's end (``a`` is its ``b``) at about its speed and
+        in about its direction (a pose stream's next step: speeds within 20 %, the directions of
+        (dp, angle axis) within ~25 degrees), the record's t and g = 1 / norm(dv/dt)^2 are
+        converted to this path's parameter: t - 1 scaled by the ratio r of the speeds, g by r^2
+        (the same pose-space distance in a step r times as long).
+        """
+        before = record[0]
+        if before.b is not self.a or not (self.speed > 0.0 and before.speed > 0.0):
+            return None
+        r = before.speed / self.speed
+        if not 0.8 <= r <= 1.25:
+            return None
+        u, w = self._motion, before._motion
+        uw = uu = ww = 0.0
+        for x, y in zip(u, w):
+            uw, uu, ww = uw + x * y, uu + x * x, ww + y * y
+        if not uw > 0.9 * math.sqrt(uu * ww):
+            return None
+        return self, record[1], (record[2] - 1.0) * r, record[3] * r * r, record[4]
 
     def rate(self, pose: BasePose) -> np.ndarray:
         """(dp/dt, dq/dt) (7,) at ``pose`` on the path: dq/dt = q * (0, angle axis / 2)."""
@@ -500,7 +526,9 @@ class RodTracker:
         self._solved = None
         self._sign = 1.0
         self._gap_cache = None
-        self._fold_prev = None
+        #: the last tangent's (path, contacts, t, g = 1 / norm(dv/dt)^2, dv/dt) (_fold_limit),
+        #: and the last one on the path before
+        self._fold_prev = self._fold_before = None
         #: (path, contacts) where _locate_fold found no fold (not looked for again there)
         self._fold_sought = None
         self._last_change = None
@@ -998,15 +1026,17 @@ class RodTracker:
             # would ask for more points is followed on the full count
             return self._contact_advance(path, t, h, events)
         reach = dt
-        limited, left = self._fold_limit(path, t, tan, dt)
+        limited, left, across = self._fold_limit(path, t, tan, dt)
         near_fold, dt = limited < dt, limited
         # a fold announced within the sub-step: located at once, and the sub-step goes to
         # _H_MIN short of it (as a failed step would have located it), or None; looked for
         # once per path and contacts (where it is not found or not confirmed, the sub-steps
-        # close in on it as before)
+        # close in on it as before), and once more where the step's first announcement came
+        # from the tangents of the step before (a coarser estimate)
         fold = None
         if near_fold and self._fold_sought != (path, self._modes):
-            self._fold_sought = (path, self._modes)
+            if not across:
+                self._fold_sought = (path, self._modes)
             fold = self._locate_fold(path, t, tan, left, min(reach, 2.0 * left))
         if fold is not None:
             dt = (fold[0] - _H_MIN) - t
@@ -1147,17 +1177,20 @@ class RodTracker:
         stream = self._extrapolate(path)
         if stream is None:
             return None
+        before = self._tangent_before(path)
         try:
             taken = self.solver.trusted_step(modes, self._solved, path.rate(path.a), stream,
                                              path.b, _MAX_CHANGE, tail_cut=_TAIL_CUT,
-                                             whole=True, adapt=self.adapt_points)
+                                             whole=True, adapt=self.adapt_points,
+                                             fold_before=None if before is None
+                                             else before[2:4])
         except ConvergenceError:
             return False
         if taken is None:
             return None
         solved, tan = taken.solved, taken.tangent
         # (as _fold_limit records it at the step's start)
-        self._fold_prev = (path, modes, 0.0, 1.0 / max(float(tan @ tan), 1e-300))
+        self._record_tangent(path, 0.0, tan)
         # _off_branch(solved.vec, self._vec + tan, self._vec), from the kernel's measures (a
         # step taken whole is not measured so, as _contact_advance takes it)
         if not taken.whole and _beyond_branch(taken.branch_error, taken.branch_change):
@@ -1248,13 +1281,15 @@ class RodTracker:
             raise
         except (ConvergenceError, ModelAssumptionError):
             return False
-        self._sign = sign
-        self._solved, self._vec = solved, solved.vec
         self._history = [(p, sol.resample(modes, v, n_new)) for p, v in self._history]
         if self._last_step is not None:
             p, v, m = self._last_step
             self._last_step = (p, sol.resample(modes, v, n_new), m)
-        self._fold_prev = None
+        # (the tangents recorded for _fold_limit on the new points, before the vector changes)
+        self._fold_prev, self._fold_before = (self._resampled_record(r, n_new)
+                                              for r in (self._fold_prev, self._fold_before))
+        self._sign = sign
+        self._solved, self._vec = solved, solved.vec
         return True
 
     def _lost_beyond(self, path: _Path, t: float) -> bool:
@@ -1305,7 +1340,10 @@ class RodTracker:
 
     def _fold_limit(self, path: _Path, t: float, tan: np.ndarray, dt: float):
         """
-        Return the sub-step shortened to stay short of a fold the tangent announces, and t_f - t.
+        Return the sub-step shortened short of a fold the tangent announces, t_f - t, and how.
+
+        The third value tells whether the announcement came from the tangent of the step
+        before.
 
         Near a fold the solution goes like v_f + a sqrt(t_f - t), so 1 / norm(dv/dt)^2 falls
         linearly to 0 at t_f: two sub-steps of the same configuration along the same path give
@@ -1318,19 +1356,56 @@ class RodTracker:
         it, and a solve just past it must fail); where that does not find it, it is located
         to _H_MIN by a failed step. The distance t_f - t is None where no fold is announced
         within the sub-step.
+
+        At a step's start the tangent before it is the last one recorded on the step before,
+        where this step goes on from it (a pose stream, :meth:`_Path.continuing`; and across
+        a change of the point count, its tangent resampled): a fold within the step is then
+        announced before any solve past it fails, and the pose stream's trusted solve is not
+        tried (:meth:`RodSolver.trusted_step` makes the same test). That estimate spans a
+        whole step and is coarser: where it is not confirmed, the fold is looked for once more
+        from the sub-steps' own tangents. On the rat's pad (``bench/bench_array.py``, the
+        right side's 17 snaps) the snaps took 412 evaluations instead of 693.
         """
-        g = 1.0 / max(float(tan @ tan), 1e-300)
-        prev = self._fold_prev
-        self._fold_prev = (path, self._modes, t, g)
-        if prev is None or prev[0] is not path or prev[1] != self._modes or not prev[2] < t:
-            return dt, None
+        prev = self._record_tangent(path, t, tan)
+        g = self._fold_prev[3]
+        across = prev is None or prev[0] is not path or not prev[2] < t
+        if across:
+            # none earlier on this path (_plain_step may have recorded its start): the last
+            # on the path before
+            prev = self._tangent_before(path)
+        if prev is None or prev[1] != self._modes or not prev[2] < t:
+            return dt, None, False
         t_prev, g_prev = prev[2], prev[3]
         if not g < 0.5 * g_prev:  # the tangent must grow markedly
-            return dt, None
+            return dt, None, False
         left = g * (t - t_prev) / (g_prev - g)
         if left >= dt:
-            return dt, None
-        return (0.9 * left if 0.9 * left >= _H_MIN else 4.0 * _H_MIN), left
+            return dt, None, False
+        return (0.9 * left if 0.9 * left >= _H_MIN else 4.0 * _H_MIN), left, across
+
+    def _record_tangent(self, path: _Path, t: float, tan: np.ndarray):
+        """Record the tangent at t of ``path`` for :meth:`_fold_limit`; return the last record."""
+        prev = self._fold_prev
+        if prev is not None and prev[0] is not path:
+            self._fold_before = prev
+        self._fold_prev = (path, self._modes, t, 1.0 / max(float(tan @ tan), 1e-300), tan)
+        return prev
+
+    def _tangent_before(self, path: _Path):
+        """Return the last tangent's record on the path before, on this path's t, or None."""
+        prev = self._fold_prev
+        if prev is not None and prev[0] is path:
+            prev = self._fold_before
+        if prev is None or prev[0] is path or prev[1] != self._modes:
+            return None
+        return path.continuing(prev)
+
+    def _resampled_record(self, record, n: int):
+        """Return a tangent's record with its tangent on n points per segment, or None."""
+        if record is None or record[1] != self._modes or record[4].size != self._vec.size:
+            return None
+        tan = self.solver.resample(self._modes, record[4], n)
+        return record[:3] + (1.0 / max(float(tan @ tan), 1e-300), tan)
 
     def _locate_fold(self, path: _Path, t: float, tan: np.ndarray, left: float, reach: float):
         """
@@ -1836,7 +1911,8 @@ class RodTracker:
 
         Return the path parameter of the state it lands in: t, or t + 1e-6 (cases 1 and 3).
         """
-        self._fold_prev = None  # the tangent before the jump says nothing about the branch after
+        # the tangent before the jump says nothing about the branch after
+        self._fold_prev = self._fold_before = None
         self._last_change = None  # a change after the snap is not the reverse of one before it
         if self._last_snap is not None and self._last_snap[0] is path \
                 and self._last_snap[1] - 1e-9 <= t <= self._last_snap[2] + 1e-9:
