@@ -49,7 +49,9 @@ def _kernel_steps(monkeypatch):
     Record what RodSolver.trusted_step does at each call, in the list returned.
 
     ``failed`` (it raised ConvergenceError), ``bounded`` (None: the general path takes the
-    step), ``whole`` (a step the bound would shorten, taken whole) or ``solved``.
+    step), ``whole`` (a step the bound would shorten, taken whole) or ``solved`` (from the
+    stream's prediction, or ``solved, no stream`` from the tangent's with the second-order
+    term).
     """
     steps = []
     real = RodSolver.trusted_step
@@ -60,7 +62,8 @@ def _kernel_steps(monkeypatch):
         except ConvergenceError:
             steps.append("failed")
             raise
-        steps.append("bounded" if result is None else "whole" if result.whole else "solved")
+        steps.append("bounded" if result is None else "whole" if result.whole
+                     else "solved" if kwargs.get("whole") else "solved, no stream")
         return result
 
     monkeypatch.setattr(RodSolver, "trusted_step", recorded)
@@ -84,6 +87,8 @@ def test_the_compiled_step_gives_the_general_paths_states_to_the_last_bit(rb1_cy
     # trusted solve fails there (Newton not contracting: the general path's shorter sub-steps
     # follow, without trying that solve again)
     assert taken.count("solved") >= 120
+    # and the first steps after each touch (no stream yet) from the tangent's prediction
+    assert taken.count("solved, no stream") >= 3
     if announced:
         assert taken.count("bounded") == 1 and "failed" not in taken
     else:

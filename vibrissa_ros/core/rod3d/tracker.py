@@ -1051,6 +1051,10 @@ class RodTracker:
         curve = (self._second_order(path, t, tan) if stream is None and left is None
                  else None)
         whole = solved is not None
+        # the whole step from a prediction (the stream's, or the tangent's with the last
+        # step's second-order term) is solved as trusted: Newton at once, as _plain_step's
+        # kernel solves it
+        predicted = t == 0.0 and (stream is not None or curve is not None)
         # a sub-step's solve gives up as soon as Newton stops contracting (fail_fast: from its
         # third step on, no step shorter than 0.9 times the one before): a shorter sub-step is
         # the remedy, and past a fold Newton would wander for ten iterations or more; only the
@@ -1078,12 +1082,12 @@ class RodTracker:
                 t_f, v_f = fold
                 guess = v_f + math.sqrt((t_f - t_new) / (t_f - t)) * (self._vec - v_f)
             try:
-                if tried and stream is not None and t_new == 1.0:
+                if tried and predicted and t_new == 1.0:
                     # (the same solve, from the same guess, failed in _plain_step: not again)
                     tried = False
                     raise ConvergenceError("3D whisker: the trusted Newton solve failed")
                 solved = sol.solve(self._modes, path.pose(t_new), guess, start=self._solved,
-                                   max_step=0.5, trusted=stream is not None and t_new == 1.0,
+                                   max_step=0.5, trusted=predicted and t_new == 1.0,
                                    fail_fast=not in_full)
                 # (measured against the tangent's prediction, whatever the guess was)
                 if _off_branch(solved.vec, self._vec + (t_new - t) * tan, self._vec):
@@ -1162,9 +1166,11 @@ class RodTracker:
         Take the commonest step's solve in one compiled call, or return None for the general path.
 
         A pose stream's next pose, within the sub-step bound, the solution predicted by
-        :meth:`_extrapolate`, contacts on spheres, cylinders and planes (no edges): the general
-        path below would compute the tangent and its bound, then solve from the prediction
-        (Newton, chord steps near the solution). :meth:`RodSolver.trusted_step` does both in
+        :meth:`_extrapolate` (or, where there is no stream yet, the first steps after an
+        event, by the tangent and the last step's second-order term, :meth:`_second_order`),
+        contacts on spheres, cylinders and planes (no edges): the general path below would
+        compute the tangent and its bound, then solve from the prediction (Newton, chord
+        steps near the solution). :meth:`RodSolver.trusted_step` does both in
         one kernel call with the same operations (the same solution to the last bit), and the
         sub-step is concluded as below (:meth:`_conclude`: event values, gap, checks). Returns
         its (t, h); None where the bound would shorten the step (or the kernel does not apply),
@@ -1176,12 +1182,24 @@ class RodTracker:
             return None
         stream = self._extrapolate(path)
         if stream is None:
-            return None
+            # no stream yet (the first steps after an event): the general path's guess for
+            # the whole step, the tangent and the last step's second-order term (~1e-9 away
+            # at 1 kHz), solved as trusted there too; not taken whole where the bound would
+            # shorten the step (the general path takes that whole from a stream only)
+            if self._last_step is None or self._last_step[2] != modes:
+                return None
+            tan = self.solver.tangent(self._solved, path.rate(path.a))
+            curve = self._second_order(path, 0.0, tan)
+            if curve is None:
+                return None
+            guess, whole = (self._vec + 1.0 * tan) + 1.0 * curve, False
+        else:
+            guess, whole = stream, True
         before = self._tangent_before(path)
         try:
-            taken = self.solver.trusted_step(modes, self._solved, path.rate(path.a), stream,
+            taken = self.solver.trusted_step(modes, self._solved, path.rate(path.a), guess,
                                              path.b, _MAX_CHANGE, tail_cut=_TAIL_CUT,
-                                             whole=True, adapt=self.adapt_points,
+                                             whole=whole, adapt=self.adapt_points,
                                              fold_before=None if before is None
                                              else before[2:4])
         except ConvergenceError:
