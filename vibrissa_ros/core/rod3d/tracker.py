@@ -356,12 +356,12 @@ class _Path:
         rw, rx, ry, rz = _relative(a.quaternion, b.quaternion)
         sin_half = math.sqrt(rx * rx + ry * ry + rz * rz)
         self.angle = 2.0 * math.atan2(sin_half, rw)
-        self._turn = ((0.5 * self.angle / sin_half) * rx, (0.5 * self.angle / sin_half) * ry,
-                      (0.5 * self.angle / sin_half) * rz) if sin_half > 0.0 else (0.0, 0.0, 0.0)
+        c = self.angle / sin_half if sin_half > 0.0 else 0.0
+        self._turn = (0.5 * c * rx, 0.5 * c * ry, 0.5 * c * rz)
         #: bound on the speed of any point of the whisker per unit t
         self.speed = math.sqrt(dx * dx + dy * dy + dz * dz) + self.angle
         #: (dp, angle axis in the body frame at a): the direction of the motion
-        self._motion = (dx, dy, dz) + tuple(2.0 * w for w in self._turn)
+        self._motion = (dx, dy, dz, c * rx, c * ry, c * rz)
         self._cache = {}
 
     def pose(self, t: float) -> BasePose:
