@@ -13,6 +13,8 @@ import sys
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from vibrissa_ros.core.rod3d import BasePose, Cylinder, Plane, RodShape, RodTracker, Sphere
 from vibrissa_ros.core.rod3d import _jit
@@ -335,3 +337,39 @@ def test_warm_up_compiles_every_kernel_an_array_of_whiskers_calls():
     out = subprocess.run([sys.executable, "-c", _NOTHING_COMPILED_LATER % root],
                          capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"
+
+
+@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(radius=st.floats(0.05, 2.0), turn=st.floats(-0.999, 0.999), end=st.floats(1.0, 1.25),
+       nodes=st.integers(6, 40), tail=st.integers(0, 8), seed=st.integers(0, 2 ** 31 - 1))
+def test_clear_of_bounds_a_unit_speed_curve_also_past_the_tip(radius, turn, end, nodes, tail,
+                                                              seed):
+    # _jit.clear_of on a helix of unit speed (as a resolved centerline's nodes are to 1e-12)
+    # sampled at random arc lengths up to ``end``: past 1 as on a side contact's branch continued
+    # past the tip while side -> tip is located, where the bound covers more than the whisker.
+    # Never above the curve's least distance to the obstacles (sampled densely), and within
+    # _SPEED times half the largest spacing of it
+    from hypothesis import assume
+
+    from vibrissa_ros.core.rod3d.model import kernel_obstacles
+
+    rng = np.random.default_rng(seed)
+    omega = math.sqrt(1.0 - turn * turn) / radius  # (radius omega)^2 + turn^2 = 1: unit speed
+
+    def curve(s):
+        s = np.asarray(s, dtype=float)
+        return np.stack((radius * np.cos(omega * s), radius * np.sin(omega * s), turn * s), -1)
+
+    arcs = np.sort(np.concatenate(([0.0, end], rng.uniform(0.0, end, nodes + tail - 2))))
+    s, tail_s = arcs[:nodes], arcs[nodes:]
+    obstacles = [Sphere(tuple(rng.uniform(-1.5, 1.5, 3)), float(rng.uniform(0.01, 0.5)), "ball"),
+                 Cylinder(tuple(rng.uniform(-1.5, 1.5, 3)), tuple(rng.normal(size=3)),
+                          float(rng.uniform(0.01, 0.3)), "post"),
+                 Plane(tuple(rng.uniform(-1.5, 1.5, 3)), tuple(rng.normal(size=3)), "wall")]
+    codes, prm = kernel_obstacles(obstacles)
+    dense = curve(np.linspace(0.0, end, 20001))
+    least = min(float(ob.signed_distance(dense).min()) for ob in obstacles)
+    bound = _jit.clear_of(s, curve(s), tail_s, curve(tail_s).reshape(-1, 3), codes, prm)
+    assume(math.isfinite(least))
+    assert bound <= least + 1e-12
+    assert bound >= least - 0.5 * _jit._SPEED * float(np.diff(arcs).max()) - 1e-12

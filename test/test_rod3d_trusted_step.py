@@ -618,3 +618,35 @@ def test_a_pose_held_or_sent_twice_keeps_the_stream(monkeypatch):
         assert len(a.contacts) == len(b.contacts)
         assert np.abs(np.subtract(a.force, b.force)).max() <= 1e-12
         assert np.abs(np.subtract(a.tip, b.tip)).max() <= 1e-12
+
+
+def test_a_solve_the_kernel_failed_is_not_tried_again(rb1_cycle, monkeypatch):
+    # where the kernel's trusted solve fails (a step within the bound, or one taken whole),
+    # the general path goes on with shorter sub-steps and never solves from that guess again
+    # at that pose: counted directly, solve by solve (RB1 with its fold not announced, so that
+    # the trusted solve fails there, and the rat's right pad)
+    monkeypatch.setattr(RodTracker, "_tangent_before", lambda self, path: None)
+    failed, repeated = [], []
+    real_step, real_solve = RodSolver.trusted_step, RodSolver.solve
+
+    def step(self, modes, start, rate, guess, pose, *args, **kwargs):
+        try:
+            return real_step(self, modes, start, rate, guess, pose, *args, **kwargs)
+        except ConvergenceError:
+            failed.append((guess.tobytes(), pose, kwargs.get("whole")))
+            raise
+
+    def solve(self, modes, pose, guess, *args, **kwargs):
+        if any(guess.tobytes() == g and pose == p for g, p, _ in failed):
+            repeated.append(pose)
+        return real_solve(self, modes, pose, guess, *args, **kwargs)
+
+    monkeypatch.setattr(RodSolver, "trusted_step", step)
+    monkeypatch.setattr(RodSolver, "solve", solve)
+    _run(rb1_cycle)
+    whisk = CosineWhisk(8.0, math.radians(-20.0), math.radians(20.0))
+    peg = Cylinder((0.03, -0.016, 0.0), (0, 0, 1), 0.0015, "peg_right")
+    pad = ArrayTracker(rat_array("right"), Scene3D((peg,)), HEAD, whisk.angle(0.0))
+    for k in range(1, 251):
+        pad.step(HEAD, whisk.angle(k * 1e-3))
+    assert len(failed) >= 5 and repeated == []
