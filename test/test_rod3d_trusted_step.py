@@ -650,3 +650,51 @@ def test_a_solve_the_kernel_failed_is_not_tried_again(rb1_cycle, monkeypatch):
     for k in range(1, 251):
         pad.step(HEAD, whisk.angle(k * 1e-3))
     assert len(failed) >= 5 and repeated == []
+
+
+def test_a_tangent_recorded_on_the_step_before_carries_over_where_the_stream_goes_on():
+    # _Path.continuing: the record's t and g on the next step's parameter, only where that step
+    # starts at this one's end (the same pose object) at about its speed and direction
+    from vibrissa_ros.core.rod3d import BasePose
+    from vibrissa_ros.core.rod3d.pose import quat_about
+
+    def pose(k):
+        return BasePose((0.01 * k, 0.002 * k, 0.0), quat_about((0.0, 0.0, 1.0), 0.05 * k))
+
+    a, b = pose(0), pose(1)
+    before = tracker_module._Path(a, b)
+    tan = np.array([3.0, 4.0])
+    record = (before, ("modes",), 0.25, 1.0 / 25.0, tan)
+    c = pose(2)
+    after = tracker_module._Path(b, c)
+    carried = after.continuing(record)
+    r = before.speed / after.speed
+    assert carried[0] is after and carried[1] == ("modes",) and carried[4] is tan
+    assert carried[2] == pytest.approx(-0.75 * r) and carried[3] == pytest.approx(r * r / 25.0)
+    assert r == pytest.approx(1.0, rel=1e-9)
+    # twice as far (the same direction): not a uniform stream
+    assert tracker_module._Path(b, pose(3)).continuing(record) is None
+    # back the way it came (a whisk's turning point): not going on
+    assert tracker_module._Path(b, a).continuing(record) is None
+    # from an equal pose that is not the step's end: not its continuation
+    assert tracker_module._Path(pose(1), c).continuing(record) is None
+    # a held pose: no speed
+    assert tracker_module._Path(b, b).continuing(record) is None
+
+
+def test_the_recorded_tangents_follow_a_change_of_the_point_count(rb1_cycle):
+    # _resolve_points resamples the tangents recorded for _fold_limit with the solution (a fold
+    # is then still announced from the step before), and g stays 1 / norm(tangent)^2
+    poses, obstacles, shape = rb1_cycle
+    tracker = RodTracker(obstacles, poses[0], shape=shape)
+    changed = 0
+    for pose in poses[1:]:
+        n = len(tracker._vec)
+        tracker.step(pose)
+        record = tracker._fold_prev
+        if tracker._modes and n and len(tracker._vec) != n and record is not None:
+            if record[1] == tracker._modes:
+                changed += 1
+                assert record[4].size == tracker._vec.size
+                assert record[3] == 1.0 / float(record[4] @ record[4])
+    assert changed >= 3
