@@ -696,5 +696,37 @@ def test_the_recorded_tangents_follow_a_change_of_the_point_count(rb1_cycle):
             if record[1] == tracker._modes:
                 changed += 1
                 assert record[4].size == tracker._vec.size
-                assert record[3] == 1.0 / float(record[4] @ record[4])
+                assert record[3] == tracker_module._fold_g(record[4])
+                assert record[3] == pytest.approx(1.0 / float(record[4] @ record[4]), rel=1e-14)
     assert changed >= 3
+
+
+def test_a_trusted_solve_from_a_far_guess_still_converges_to_the_tolerance(rb1_cycle):
+    # Newton's quadratic prediction of the next step is believed only from a last step of at
+    # most 1e-4 (model._settled): from a tangent's guess 8 to 32 poses ahead (1e-3 to 1e-2
+    # away) the solution is within ~1e-13 of Newton's limit (it stopped up to 6.7e-13 from it
+    # when a first step of ~1e-2 followed by one of ~1e-6 was taken for convergence)
+    poses, obstacles, shape = rb1_cycle
+    tracker = RodTracker(obstacles, poses[0], shape=shape)
+    sol = tracker.solver
+    errors = []
+    for k in range(1, 240):
+        tracker.step(poses[k])
+        if not tracker._modes or k % 2:
+            continue
+        for ahead in (8, 12, 16, 24, 32):
+            if k + ahead >= len(poses):
+                break
+            path = tracker_module._Path(tracker._pose, poses[k + ahead])
+            guess = tracker._vec + sol.tangent(tracker._solved, path.rate(path.a))
+            try:
+                solved = sol.solve(tracker._modes, path.b, guess, start=tracker._solved,
+                                   max_step=0.5, trusted=True, fail_fast=True)
+            except ConvergenceError:
+                continue
+            limit = solved.vec
+            for _ in range(4):
+                res, J, _ = sol.residual(tracker._modes, limit, path.b)
+                limit = limit - np.linalg.solve(J, res)
+            errors.append(float(np.abs(solved.vec - limit).max()))
+    assert len(errors) >= 200 and max(errors) <= 2.5e-13

@@ -78,6 +78,7 @@ def warm_up() -> None:
             solver._residual_compiled(modes, vec, pose, False, False)
             solver._nodes(modes, vec, pose)
             least_distance(np.array([SPHERE]), np.zeros((1, 7)), np.zeros((2, 3)))
+            fold_measure(np.ones(2))
             solver._centerline_compiled(modes, vec, pose, np.array([0.25, 1.0]))
             parabola_tail(0.5, np.array([1.0]), 1.0, *RodShape(parabola=1.0)._u_table())
             parabola_tip(0.5, 1.0, *RodShape(parabola=1.0)._u_table())
@@ -949,6 +950,21 @@ _SPEED = 1.5
 
 
 @_kernel
+def fold_measure(tan):
+    """
+    Return g = 1 / norm(tan)^2 (at least 1 / 1e-300), summed in index order.
+
+    RodTracker._fold_limit's measure of a tangent, here for both it and :func:`trusted_step`
+    (one loop, the same bits in either: numpy's ``@`` and numba's ``np.dot`` call BLAS builds
+    that may sum in other orders).
+    """
+    total = 0.0
+    for i in range(tan.size):
+        total += tan[i] * tan[i]
+    return 1.0 / max(total, 1e-300)
+
+
+@_kernel
 def clear_of(s, r, tail_s, tail, codes, prm):
     """
     Return a lower bound of the whole centerline's signed distance to the obstacles given.
@@ -1288,7 +1304,7 @@ def trusted_step(lu0, piv0, rhs, forces, vec0, max_change, guess, qb, p, n, kind
     # RodTracker._fold_limit at the step's start: g = 1 / norm(tan)^2 against the tangent
     # recorded before the step (on this step's parameter); a fold announced within the
     # sub-step (the bound's, or the whole step) is the general path's
-    g = 1.0 / max(np.dot(tan, tan), 1e-300)
+    g = fold_measure(tan)
     if fold_g < math.inf and g < 0.5 * fold_g:
         reach = max_change / big if big > 0.0 and max_change / big < 1.0 else 1.0
         if g * (0.0 - fold_t) / (fold_g - g) < reach:
@@ -1351,7 +1367,7 @@ def trusted_step(lu0, piv0, rhs, forces, vec0, max_change, guess, qb, p, n, kind
         vec = vec - res
         if not _breaks_hold(vec, n, kinds, limit):
             break
-        settled = (step_size <= tol or (last < math.inf
+        settled = (step_size <= tol or (last <= trusted_chord
                                         and step_size * step_size * step_size / (last * last)
                                         <= tol)
                    or (last < math.inf and step_size <= noise and step_size > 0.25 * last)

@@ -124,11 +124,14 @@ def _settled(size: float, last: float) -> bool:
 
     Either quadratic convergence predicts the next step below the tolerance, or the steps have
     stopped shrinking at the rounding floor (a fine discretization's noise can sit just above
-    1e-13).
+    1e-13). The prediction is trusted only from a last step of at most _TRUSTED_CHORD (1e-4):
+    from farther, the steps' ratio need not be Newton's asymptotic one (a trusted solve from a
+    guess 5.7e-3 away took steps of 5.7e-3 and 6.2e-7, the next predicted at 7e-15, and stopped
+    8.9e-11 from the solution); there the closing chord steps (:meth:`RodSolver._polish`) go on.
     """
     if last == math.inf:
         return False
-    return (size * size * size / (last * last) <= _TOL
+    return ((last <= _TRUSTED_CHORD and size * size * size / (last * last) <= _TOL)
             or (size <= _NOISE and size > 0.25 * last))
 
 

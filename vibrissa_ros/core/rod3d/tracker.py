@@ -378,13 +378,14 @@ class _Path:
 
     def continuing(self, record):
         """
-        Return a tangent's record (path, contacts, t, g) on the path before, on this path, or None.
+        Return a tangent's record on the path before, on this path, or None.
 
-        Where this path goes on from that one's end (``a`` is its ``b``) at about its speed and
-        in about its direction (a pose stream's next step: speeds within 20 %, the directions of
-        (dp, angle axis) within ~25 degrees), the record's t and g = 1 / norm(dv/dt)^2 are
-        converted to this path's parameter: t - 1 scaled by the ratio r of the speeds, g by r^2
-        (the same pose-space distance in a step r times as long).
+        A record is (path, contacts, t, g = 1 / norm(dv/dt)^2, dv/dt). Where this path goes on
+        from that one's end (``a`` is its ``b``) at about its speed and in about its direction
+        (a pose stream's next step: the ratio r of the speeds within [0.8, 1.25], the
+        directions of (dp, angle axis) within ~25 degrees), its t and g are converted to this
+        path's parameter: t - 1 scaled by r, g by r^2 (the same pose-space distance in a step
+        r times as long); the tangent is kept as it is.
         """
         before = record[0]
         if before.b is not self.a or not (self.speed > 0.0 and before.speed > 0.0):
@@ -417,6 +418,11 @@ def _stream_arrays(history):
     """Return (history, its poses' rows (p, q) (m, 7), its solutions (m, size)) for the kernel."""
     return (history, np.array([pose.position + pose.quaternion for pose, _ in history]),
             np.array([v for _, v in history]))
+
+
+def _fold_g(tan: np.ndarray) -> float:
+    """Return g = 1 / norm(tan)^2, as the plain step's kernel computes it (_jit.fold_measure)."""
+    return float(_jit.fold_measure(np.ascontiguousarray(tan, dtype=float)))
 
 
 def _as_pose(pose) -> BasePose:
@@ -587,7 +593,7 @@ class RodTracker:
             target = BasePose(given.position, tuple(-v for v in given.quaternion))
         self._start = self.solver.evaluations
         saved = (self._pose, self._modes, self._vec, self._solved, self._sign, self._state,
-                 self._history, self._last_step)
+                 self._history, self._last_step, self._fold_prev, self._fold_before)
         try:
             result = self._step_checked(target)
             if target is not given:
@@ -596,7 +602,7 @@ class RodTracker:
             return result
         except (ModelAssumptionError, ConvergenceError) as exc:
             (self._pose, self._modes, self._vec, self._solved, self._sign, self._state,
-             self._history, self._last_step) = saved
+             self._history, self._last_step, self._fold_prev, self._fold_before) = saved
             if not self.recover:
                 raise
             spent = self.solver.evaluations - self._start
@@ -607,7 +613,7 @@ class RodTracker:
             return RodStepResult(result.state, result.events, 0, spent + result.evaluations)
         except BaseException:
             (self._pose, self._modes, self._vec, self._solved, self._sign, self._state,
-             self._history, self._last_step) = saved
+             self._history, self._last_step, self._fold_prev, self._fold_before) = saved
             raise
 
     def reset(self, pose: Optional[BasePose] = None, reason: str = "reset on request"
@@ -870,6 +876,7 @@ class RodTracker:
         solved = self.solver.solve((mode,), pose, vec)
         self._check_features((mode,), solved.vec, pose)
         self._modes = (mode,)
+        self._fold_prev = self._fold_before = None  # (as for any change of the contacts)
         self._accept(solved, pose)
         self._sign = math.copysign(1.0, _det_measure(solved.lu))
         self._pose = pose
@@ -1038,6 +1045,12 @@ class RodTracker:
             if not across:
                 self._fold_sought = (path, self._modes)
             fold = self._locate_fold(path, t, tan, left, min(reach, 2.0 * left))
+            if fold is None and across:
+                # the step before's coarser estimate, not confirmed: dropped, and the sub-steps'
+                # own tangents announce the fold where there is one (held to it, a false
+                # announcement had a step crawl at 0.9 of it and double back: ~100 evaluations
+                # where ~20 did)
+                near_fold, dt, left = False, reach, None
         if fold is not None:
             dt = (fold[0] - _H_MIN) - t
         stream = self._extrapolate(path) if t == 0.0 and dt == 1.0 else None
@@ -1173,9 +1186,11 @@ class RodTracker:
         steps near the solution). :meth:`RodSolver.trusted_step` does both in
         one kernel call with the same operations (the same solution to the last bit), and the
         sub-step is concluded as below (:meth:`_conclude`: event values, gap, checks). Returns
-        its (t, h); None where the bound would shorten the step (or the kernel does not apply),
-        and False where the solve failed: nothing has changed, and the general path takes the
-        step from the start (after a failed solve, as after its own: a shorter sub-step).
+        its (t, h); None where the bound would shorten the step, where the tangent announces
+        a fold within it from the step before (:meth:`_fold_limit`: the general path locates
+        it), or where the kernel does not apply, and False where the solve failed: nothing
+        has changed, and the general path takes the step from the start (after a failed
+        solve, as after its own: a shorter sub-step).
         """
         modes = self._modes
         if self._edges or not _MAX_MOVE >= path.speed:
@@ -1380,17 +1395,21 @@ class RodTracker:
         a change of the point count, its tangent resampled): a fold within the step is then
         announced before any solve past it fails, and the pose stream's trusted solve is not
         tried (:meth:`RodSolver.trusted_step` makes the same test). That estimate spans a
-        whole step and is coarser: where it is not confirmed, the fold is looked for once more
-        from the sub-steps' own tangents. On the rat's pad (``bench/bench_array.py``, the
-        right side's 17 snaps) the snaps took 412 evaluations instead of 693.
+        whole step and is coarser: where it is not confirmed, it is dropped (the sub-step is
+        not held short of it) and the fold is looked for once more from the sub-steps' own
+        tangents. Only at t = 0: a sub-step tried again from the same t, or the first one
+        after a touch within the step, has no tangent before it; and a change of the contacts
+        forgets the recorded ones. On the rat's pad (``bench/bench_array.py``, the right
+        side's 17 snaps) the snaps took 412 evaluations instead of 693.
         """
         prev = self._record_tangent(path, t, tan)
         g = self._fold_prev[3]
         across = prev is None or prev[0] is not path or not prev[2] < t
         if across:
-            # none earlier on this path (_plain_step may have recorded its start): the last
-            # on the path before
-            prev = self._tangent_before(path)
+            # none earlier on this path (_plain_step may have recorded its start): at the
+            # step's start, the last on the path before; elsewhere (a sub-step tried again from
+            # the same t, the first after a touch within the step) none
+            prev = self._tangent_before(path) if t == 0.0 else None
         if prev is None or prev[1] != self._modes or not prev[2] < t:
             return dt, None, False
         t_prev, g_prev = prev[2], prev[3]
@@ -1406,7 +1425,7 @@ class RodTracker:
         prev = self._fold_prev
         if prev is not None and prev[0] is not path:
             self._fold_before = prev
-        self._fold_prev = (path, self._modes, t, 1.0 / max(float(tan @ tan), 1e-300), tan)
+        self._fold_prev = (path, self._modes, t, _fold_g(tan), tan)
         return prev
 
     def _tangent_before(self, path: _Path):
@@ -1423,7 +1442,7 @@ class RodTracker:
         if record is None or record[1] != self._modes or record[4].size != self._vec.size:
             return None
         tan = self.solver.resample(self._modes, record[4], n)
-        return record[:3] + (1.0 / max(float(tan @ tan), 1e-300), tan)
+        return record[:3] + (_fold_g(tan), tan)
 
     def _locate_fold(self, path: _Path, t: float, tan: np.ndarray, left: float, reach: float):
         """
@@ -1914,6 +1933,9 @@ class RodTracker:
         return float(d1 @ H @ d1 + kappa0 * (np.asarray(near.normal, dtype=float) @ d2))
 
     def _set_configuration(self, pose, modes, breaks, forces):
+        # the tangents recorded before a change of the contacts say nothing about the branch
+        # after it (even where the same contacts come back within the step)
+        self._fold_prev = self._fold_before = None
         if not modes:
             self._modes, self._vec, self._solved, self._pose = (), np.zeros(0), None, pose
             return
