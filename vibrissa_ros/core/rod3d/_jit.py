@@ -1227,6 +1227,16 @@ def _trusted_solution(status, vec, tan, J, piv, sens, evaluations, factorization
 
 
 @_kernel
+def _unsolved(status, tan, evaluations, factorizations):
+    """Return :func:`trusted_step`'s answer where nothing was solved (status 1 or 2)."""
+    e1 = np.zeros(0)
+    m0 = np.zeros((0, 3))
+    return (status, tan, e1, np.zeros((0, 0)).T, np.zeros(0, np.int32), m0, evaluations,
+            factorizations, m0, m0, e1, np.zeros((3, 3)), math.inf, e1, np.zeros(0, np.int64),
+            False, 0.0, 0.0, 0.0, 0.0, e1, e1, m0, e1, e1, e1, -math.inf)
+
+
+@_kernel
 def trusted_step(lu0, piv0, rhs, forces, vec0, max_change, guess, qb, p, n, kinds, tau,
                  sp, T, shape, grid, table, nu1, codes, prm, limit, touched, samples, A, tol,
                  trusted_step_size, trusted_chord, chord_tol, max_step, max_iterations, stall,
@@ -1291,16 +1301,9 @@ def trusted_step(lu0, piv0, rhs, forces, vec0, max_change, guess, qb, p, n, kind
     for i in range(size0):
         if weighted[i] > big:
             big = weighted[i]
-    e2 = np.zeros((0, 0)).T
-    e1 = np.zeros(0)
-    ei = np.zeros(0, np.int32)
-    ek = np.zeros(0, np.int64)
-    m0 = np.zeros((0, 3))
-    f0 = np.zeros((3, 3))
     status = 0
     if not finite:
-        return (1, tan, e1, e2, ei, m0, 0, 0, m0, m0, e1, f0, math.inf, e1, ek, False, 0.0,
-                0.0, 0.0, 0.0, e1, e1, m0, e1, e1, e1, -math.inf)
+        return _unsolved(1, tan, 0, 0)
     # RodTracker._fold_limit at the step's start: g = 1 / norm(tan)^2 against the tangent
     # recorded before the step (on this step's parameter); a fold announced within the
     # sub-step (the bound's, or the whole step) is the general path's
@@ -1308,8 +1311,7 @@ def trusted_step(lu0, piv0, rhs, forces, vec0, max_change, guess, qb, p, n, kind
     if fold_g < math.inf and g < 0.5 * fold_g:
         reach = max_change / big if big > 0.0 and max_change / big < 1.0 else 1.0
         if g * (0.0 - fold_t) / (fold_g - g) < reach:
-            return (1, tan, e1, e2, ei, m0, 0, 0, m0, m0, e1, f0, math.inf, e1, ek, False,
-                    0.0, 0.0, 0.0, 0.0, e1, e1, m0, e1, e1, e1, -math.inf)
+            return _unsolved(1, tan, 0, 0)
     if big > 0.0 and max_change / big < 1.0:
         # the bound shortens the step: RodTracker._contact_advance then takes it whole from
         # the stream's prediction where the first Newton step converges it (whole_iterations
@@ -1324,8 +1326,7 @@ def trusted_step(lu0, piv0, rhs, forces, vec0, max_change, guess, qb, p, n, kind
                 tail = coefficient_tail(Vinv, ahead, n, kinds.size, lowest)
                 refused = tail[n - 2 - lowest] > refine
         if refused:
-            return (1, tan, e1, e2, ei, m0, 0, 0, m0, m0, e1, f0, math.inf, e1, ek, False, 0.0,
-                    0.0, 0.0, 0.0, e1, e1, m0, e1, e1, e1, -math.inf)
+            return _unsolved(1, tan, 0, 0)
         status = 3
         max_iterations = whole_iterations
     # RodSolver.solve with ``trusted`` and ``fail_fast``: Newton from the guess; where a step
@@ -1420,8 +1421,7 @@ def trusted_step(lu0, piv0, rhs, forces, vec0, max_change, guess, qb, p, n, kind
                                              other_codes, other_prm)
                 break
         last = step_size
-    return (2, tan, e1, e2, ei, m0, evaluations, factorizations, m0, m0, e1, f0, math.inf,
-            e1, ek, False, 0.0, 0.0, 0.0, 0.0, e1, e1, m0, e1, e1, e1, -math.inf)
+    return _unsolved(2, tan, evaluations, factorizations)
 
 
 @_kernel

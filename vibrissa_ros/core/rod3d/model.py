@@ -1405,10 +1405,9 @@ class RodSolver:
             prediction and the predicted change, its least force or 1 - s, its stability
             value). None where the bound would shorten the step (and it is not taken
             ``whole``), a fold is announced within it (``fold_before``) or the tangent is not
-            finite (nothing solved), where the kernels meet an
-            arithmetic error, or where the kernel
-            does not apply (other obstacles or shapes, other arrays): the caller takes its
-            general path.
+            finite (nothing solved), where the kernels meet an arithmetic error, or where the
+            kernel does not apply (other obstacles or shapes, other arrays): the caller takes
+            its general path.
 
         Raises
         ------
