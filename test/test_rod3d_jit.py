@@ -248,6 +248,31 @@ def test_the_sampled_solution_equals_the_numpy_reference(shape, monkeypatch):
         assert np.max(np.abs(getattr(got[1], name) - getattr(want[1], name))) <= 1e-14, name
 
 
+@pytest.mark.parametrize("shape", sorted(SHAPES))
+@pytest.mark.parametrize("config", sorted(CONFIGURATIONS))
+def test_the_tip_gap_equals_the_sampled_centerlines(shape, config):
+    # RodSolver.tip_gap (each segment's integrated tangent as Chebyshev coefficients once, then
+    # a recurrence per point) against the least d(s) / (1 - s) of the centerline sampled as
+    # RodTracker._gap_behind_tip samples it, to the last contact's obstacle
+    solver = RodSolver(SHAPES[shape], OBSTACLES, n=12)
+    modes, breaks, forces = CONFIGURATIONS[config]
+    pose = _pose(0.01, -0.02, 0.03, 0.2, 0.3, 0.1)
+    vec = _vector(solver, modes, breaks, forces, pose)
+    ends = solver.breaks_of(modes, vec)
+    lo = ends[-2] if len(modes) > 1 else 0.0
+    s = np.linspace(0.0, 1.0, 81)
+    s = np.ascontiguousarray(s[(s > lo) & (s < min(ends[-1], 1.0))])
+    assert s.size > 10
+    got = solver.tip_gap(modes, vec, pose, s)
+    points = solver.centerline(modes, vec, pose, s)
+    want = np.min(OBSTACLES[modes[-1].obstacle].signed_distance(points) / (1.0 - s))
+    assert abs(got - want) <= 1e-14 * max(1.0, abs(want))
+    assert solver.tip_gap(modes, vec, pose, np.zeros(0)) == math.inf
+    bad = vec.copy()
+    bad[5] = math.nan
+    assert solver.tip_gap(modes, bad, pose, s) is None
+
+
 def _stream():
     """Return a rolled, tapered, curved whisker swept past a sphere while its base turns."""
     ball = Sphere((0.55, 0.2, 0.05), 0.12, "ball")

@@ -1947,6 +1947,45 @@ class RodSolver:
                                    int_matrix)
         return out
 
+    def tip_gap(self, modes, vec, pose: BasePose, s) -> Optional[float]:
+        """
+        Return the least d(s) / (1 - s) over ``s``, d the distance to the last contact's obstacle.
+
+        The sampled value behind a tip contact (RodTracker._gap_behind_tip's before it refines
+        it), by one compiled call: the centerline at ``s`` (< 1, inside the segments, as
+        :meth:`centerline` samples it) and the obstacle's signed distance there. None where the
+        kernels do not know the obstacle, or a value is not a number.
+
+        Parameters
+        ----------
+        modes : sequence of RodContactMode
+            The contacts (at least one).
+        vec : numpy.ndarray
+            The unknown vector.
+        pose : BasePose
+            The base pose.
+        s : numpy.ndarray
+            Arc lengths in [0, 1), inside the segments.
+
+        Returns
+        -------
+        float or None
+            The least value (inf without arc lengths).
+
+        """
+        if not _jit.ENABLED:
+            return None
+        geometry = self._geometry_of(modes)
+        if geometry is None:
+            return None
+        breaks, w, r_nodes, _ = self._nodes(modes, vec, pose)
+        n = self.points_of(modes, vec)
+        value = _jit.tip_gap(np.ascontiguousarray(s, dtype=float),
+                             np.ascontiguousarray(vec, dtype=float), n, breaks, w, r_nodes,
+                             self._jit_sp, _operators(n).int_matrix, geometry[0][-1],
+                             geometry[1][-1])
+        return None if value == -math.inf else float(value)
+
     def _nodes(self, modes, vec, pose):
         """
         Return (breaks, w, r at the nodes, frames at the contacts) by the compiled kernel.

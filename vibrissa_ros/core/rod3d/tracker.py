@@ -91,6 +91,10 @@ _FREE_SAMPLES = np.linspace(0.0, 1.0, 321)
 _FREE_HALF_SPACING = 0.5 / 320.0
 #: clearance below which the distance is refined by a minimisation in s
 _NEAR = 0.05
+#: the compiled sampled value behind a tip contact (RodSolver.tip_gap) above _NEAR by this is
+#: above it as _gap_behind_tip samples it too (the same points and distances, summed in
+#: another order: ~1e-16 apart)
+_TIP_GAP_MARGIN = 1e-9
 _NUMERICAL_ERRORS = (ArithmeticError, ValueError, np.linalg.LinAlgError)
 #: where the unloaded tail beyond a side contact is checked (fractions of its length)
 _TAIL_SAMPLES = TAIL_SAMPLES
@@ -946,15 +950,27 @@ class RodTracker:
         :meth:`RodSolver._accepted`'s: :func:`._jit.clear_of`), there is nothing to find on
         them and _contact_gap is not called: its value would be above 0 too (a sampled
         distance less half the spacing where it is over _NEAR, else a distance the centerline
-        attains). Behind a tip contact alone on its obstacle it is always called (the second
-        touch on that obstacle is its own test).
+        attains). Behind a tip contact alone on its obstacle, the second touch on that obstacle
+        is its own test: its sampled value (:meth:`_gap_behind_tip`'s, by one compiled call,
+        :meth:`RodSolver.tip_gap`) clearly above _NEAR is what _contact_gap would return (no
+        touch); else _contact_gap is called.
         """
         modes = self._modes
         if clear is None and len(self.obstacles) > 1:
             post = self.solver._accepted(modes, vec, path.pose(t))
             clear = -math.inf if post is None else post.clear
-        if clear is not None and clear > 0.0 and not self._behind_tip():
+        behind = self._behind_tip()
+        cleared = clear is not None and clear > 0.0
+        if cleared and not behind:
             return False
+        if behind and (cleared or len(self.obstacles) == 1):
+            # behind a tip contact (the other obstacles cleared): _gap_behind_tip's sampled
+            # value, compiled; clearly above _NEAR, it is what _contact_gap returns (no touch)
+            lo = self.solver.breaks_of(modes, vec)[-2] if len(modes) > 1 else 0.0
+            first = int(np.searchsorted(_SAMPLES, lo, side="right"))
+            least = self.solver.tip_gap(modes, vec, path.pose(t), _SAMPLES[first:-1])
+            if least is not None and least > _NEAR + _TIP_GAP_MARGIN:
+                return False
         return self._contact_gap(path, t, vec)[0] < _CUT
 
     def _gap_behind_tip(self, pose, vec, pts, point_at, exact):
