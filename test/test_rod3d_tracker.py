@@ -655,3 +655,26 @@ def test_on_a_ball_the_touch_behind_the_tip_depends_on_its_curvature(radius, kin
         assert [c.kind for c in tracker.state.contacts] == ["side", "tip"]
     else:
         assert [c.kind for c in tracker.state.contacts] == ["side"]
+
+
+@pytest.mark.parametrize("compiled", [True, False])
+def test_a_state_is_a_value_its_arrays_cannot_be_written(compiled, monkeypatch):
+    # the equilibrium's arrays are shared with the solver's record of its last answer, which
+    # the tracker's next checks read: writing into one would change the tracking, so none can
+    from vibrissa_ros.core.rod3d import _jit
+
+    monkeypatch.setattr(_jit, "ENABLED", compiled and _jit.ENABLED)
+    shape = RodShape(taper=0.2, parabola=0.8)
+    mid = shape.free_centerline(np.array([0.6]))[0]
+    ball = Sphere((mid[0], mid[1] + 0.16, 0.0), 0.1, "ball")
+    tracker = RodTracker([ball], BasePose((0.0, 0.0, 0.0)), shape=shape)
+    states = [tracker.state]
+    for y in np.linspace(0.0, 0.1, 21)[1:]:
+        states.append(tracker.step(BasePose((0.0, float(y), 0.0))).state)
+    assert states[-1].contacts and not states[0].contacts
+    for state in (states[0], states[-1]):
+        eq = state.equilibrium
+        for name in ("vec", "points", "forces", "force", "moment", "tip", "tip_frame"):
+            arr = getattr(eq, name)
+            with pytest.raises(ValueError, match="read-only"):
+                arr[...] = 0.0

@@ -404,7 +404,7 @@ class _Accepted(NamedTuple):
 def _accepted_of(config, points, normals, tip, frame, tail_depth, depth, where, s_c, f_c,
                  forces, force, moment, above, clear) -> _Accepted:
     """Return :func:`._jit.accepted`'s answer for a configuration as an _Accepted."""
-    for arr in (forces, force, moment):
+    for arr in (points, tip, frame, forces, force, moment):
         arr.flags.writeable = False  # (shared by every equilibrium made from this entry)
     return _Accepted(points, normals, tip, frame, float(tail_depth), config.touched[0], depth,
                      where, tuple(s_c.tolist()), tuple(f_c.tolist()), forces, force, moment,
@@ -2132,5 +2132,9 @@ class RodSolver:
             moment = np.zeros(3)
         vec = np.array(vec, dtype=float)
         vec.setflags(write=False)
+        for arr in (pts, forces, force, moment, tip, frame):
+            # (an equilibrium is a value: the kernels' arrays are shared with the solver's
+            # cache of the last answer, which the tracker's checks read)
+            arr.flags.writeable = False
         return RodEquilibrium(pose, modes, vec, tuple(breaks), tuple(fs), pts, forces, force,
                               moment, tip, frame, self)
