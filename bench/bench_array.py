@@ -27,8 +27,18 @@ With ``--plain [WHISKER ...]`` it prints instead what a plain step of one whiske
 costs (its own tracker fed its poses alone, the steps in contact without events: what a median
 tick is made of), and its evaluations and factorizations per step.
 
+With ``--points-tolerance T`` it steps two arrays in lockstep instead, tick by tick in
+alternating order (the machine's speed varies from minute to minute; each tick of both sees it at
+nearly the same moment): one at the default discretization tolerance (1e-11, exact to the
+solver's convergence) and one at T (``ArrayTracker``'s ``points_tolerance``: fewer points per
+segment). Printed: both runs' tick times and their ratios, their evaluations and factorizations,
+the points per segment the whiskers in contact were solved on, and how far T's base forces and
+moments lie from the default's (relative to the largest over the run) and whether every event
+is the same.
+
 Run: OPENBLAS_NUM_THREADS=1 python bench/bench_array.py [--cycles 2] [--side right|both]
      [--baseline-ticks 250] [--breakdown] [--plain [RB1 RC1 RD0] [--repeats 5]]
+     [--points-tolerance 1e-9]
 """
 
 from __future__ import annotations
@@ -211,6 +221,81 @@ def run(side: str, cycles: float, baseline_ticks: int, dt: float = 1e-3,
           f"{np.median(mine) / np.median(base):.3f}; failed whisker steps {failed}")
 
 
+def _points_in_contact(tracker, counts) -> None:
+    """Count the points per segment each whisker in contact is solved on, into ``counts``."""
+    for name in tracker.names:
+        rod = tracker.tracker(name)
+        if rod.state.contacts:
+            n = rod.solver.points_of(rod.state.equilibrium.modes, rod.state.equilibrium.vec)
+            counts[n] = counts.get(n, 0) + 1
+
+
+def tolerance_lockstep(side: str, cycles: float, tolerance: float, dt: float = 1e-3) -> None:
+    """
+    Print the array at the default points_tolerance against ``tolerance``, in lockstep.
+
+    Two ArrayTrackers on the same ticks, stepped one after the other in alternating order; the
+    tick times, the solver's work, the point counts in contact, and the coarser one's base
+    forces and moments against the default's (largest difference over every whisker and tick,
+    relative to the largest value) with the ticks whose events differ.
+    """
+    _jit.warm_up()
+    array, scene, whisk = _setup(side)
+    runs = [ArrayTracker(array, scene, HEAD, whisk.angle(0.0)),
+            ArrayTracker(array, scene, HEAD, whisk.angle(0.0), points_tolerance=tolerance)]
+    ticks = int(round(cycles / whisk.frequency / dt))
+    times = [[], []]
+    counts = [{}, {}]
+    force, moment, differ = [0.0, 0.0], [0.0, 0.0], 0
+    # per whisker: the largest difference and the largest value of |F| and |M| over the run
+    own = np.zeros((4, len(array)))
+    for k in range(1, ticks + 1):
+        steps = [None, None]
+        for j in ((0, 1) if k % 2 else (1, 0)):
+            t0 = time.perf_counter()
+            steps[j] = runs[j].step(HEAD, whisk.angle(k * dt))
+            times[j].append(time.perf_counter() - t0)
+        for j in (0, 1):
+            _points_in_contact(runs[j], counts[j])
+        a, b = steps
+        force = [max(force[0], float(np.abs(a.force_base - b.force_base).max())),
+                 max(force[1], float(np.abs(a.force_base).max()))]
+        moment = [max(moment[0], float(np.abs(a.moment_base - b.moment_base).max())),
+                  max(moment[1], float(np.abs(a.moment_base).max()))]
+        own = np.maximum(own, np.array([
+            np.abs(a.force_base - b.force_base).max(axis=1),
+            np.abs(a.force_base).max(axis=1),
+            np.abs(a.moment_base - b.moment_base).max(axis=1),
+            np.abs(a.moment_base).max(axis=1)]))
+        events = [[(e.whisker, e.kind, e.obstacle) for e in st.events] for st in steps]
+        differ += events[0] != events[1] or not np.array_equal(a.contacts, b.contacts)
+    times = [np.array(t) for t in times]
+    print(f"\n== {side} side(s): {len(array)} whiskers, {ticks} ticks of 1 ms in lockstep, "
+          f"points_tolerance 1e-11 (default) against {tolerance:g}")
+    for j, label in enumerate(("1e-11", f"{tolerance:g}")):
+        t = times[j]
+        print(f"   {label:>7s}: tick median {np.median(t) * 1e3:.3f} ms "
+              f"({1.0 / np.median(t):,.0f} ticks/s), mean {t.mean() * 1e3:.3f}, p99 "
+              f"{_pct(t, 99):.2f}; evaluations {_evaluations(runs[j]):,}, factorizations "
+              f"{_factorizations(runs[j]):,}; points per segment in contact "
+              f"{dict(sorted(counts[j].items()))}")
+    ratio = times[1] / times[0]
+    print(f"   {tolerance:g} / default: per-tick ratio median {np.median(ratio):.3f}; medians "
+          f"{np.median(times[1]) / np.median(times[0]):.3f}; means "
+          f"{times[1].mean() / times[0].mean():.3f}")
+    print(f"   base force off by {force[0]:.2e} N at most ({force[0] / force[1]:.1e} of the "
+          f"largest, {force[1]:.2e} N); base moment by {moment[0]:.2e} N m "
+          f"({moment[0] / moment[1]:.1e} of {moment[1]:.2e} N m); ticks whose events or "
+          f"contacts differ: {differ}")
+    touched = own[1] > 0.0
+    if touched.any():
+        rf = own[0][touched] / own[1][touched]
+        rm = own[2][touched] / own[3][touched]
+        print(f"   each whisker in contact against its own largest value: force off by "
+              f"{rf.max():.1e} at most (median {np.median(rf):.1e}), moment {rm.max():.1e} "
+              f"(median {np.median(rm):.1e}), over {int(touched.sum())} whiskers")
+
+
 def plain_steps(names, cycles: float, repeats: int, dt: float = 1e-3) -> None:
     """
     Print what a plain step of one whisker in contact costs, its tracker replayed alone.
@@ -264,7 +349,14 @@ def main(argv=None) -> int:
     parser.add_argument("--breakdown", action="store_true",
                         help="also print what the ticks nearest the median are made of (each "
                              "whisker's step timed: a little slower)")
+    parser.add_argument("--points-tolerance", type=float, default=None, metavar="T",
+                        help="instead: the default discretization tolerance against T, two "
+                             "arrays in lockstep (speed, and the base wrenches' difference)")
     args = parser.parse_args(argv)
+    if args.points_tolerance is not None:
+        for side in ((args.side,) if args.side else ("right", "both")):
+            tolerance_lockstep(side, args.cycles, args.points_tolerance)
+        return 0
     if args.plain is not None:
         plain_steps(args.plain or ["RB1", "RC1", "RD0"], args.cycles, args.repeats)
         return 0

@@ -619,6 +619,8 @@ def test_joint_names_rows_and_whisk_map_to_whiskers():
     ({"whisk.protraction": -0.5}, "protraction"),
     ({"rate": 0.0}, "rate = 0.0"),
     ({"solver.adapt_points": "yes"}, "solver.adapt_points"),
+    ({"solver.points_tolerance": 1e-3}, "solver.points_tolerance"),
+    ({"solver.points_tolerance": 0.0}, "solver.points_tolerance"),
 ])
 def test_a_bad_configuration_is_one_line_naming_the_parameter(change, words):
     from vibrissa_ros.core.errors import ParameterError
@@ -639,6 +641,17 @@ def test_solver_adapt_points_reaches_every_whiskers_tracker():
         tracker = ArrayPipeline(build_array_config(
             dict(values, **{"solver.adapt_points": flag}))).tracker
         assert {tracker.tracker(name).adapt_points for name in tracker.names} == {flag}
+
+
+def test_solver_points_tolerance_reaches_every_whiskers_solver():
+    from vibrissa_ros.node.array import ArrayPipeline
+
+    values = dict(_shipped(), **{"scene.file": str(ROOT / "config" / "scene_peg_array_m.yaml"),
+                                 "array.side": "right"})
+    assert build_array_config(values).values["solver.points_tolerance"] == 1e-11
+    tracker = ArrayPipeline(build_array_config(
+        dict(values, **{"solver.points_tolerance": 1e-8}))).tracker
+    assert {tracker.tracker(name).solver.points_tolerance for name in tracker.names} == {1e-8}
 
 
 def test_the_cloud_layout_round_trips_by_field_name():

@@ -198,6 +198,8 @@ ROW0 = "0,0,0,0,1,0,0,0\n"
     (None, ["--whisk=8,-20,20", "--side", "left"], ["--side left", "no whisker"]),
     (None, ["--whisk=8,-20,20", "--rate", "0"], ["--rate", "0"]),
     (None, ["--whisk=8,-20,20", "--taper", "0.5"], ["--taper", "array file"]),
+    (None, ["--whisk=8,-20,20", "--points-tolerance", "1e-3"],
+     ["points_tolerance = 0.001", "1e-12 to 1e-06"]),
 ])
 def test_bad_input_exits_2_with_one_line(tmp_path, files, capsys, make, args, words):
     args = list(args)
@@ -235,10 +237,27 @@ def test_a_bad_array_file_names_the_file_whisker_and_key(tmp_path, files, capsys
     assert len(err.strip().splitlines()) == 1
 
 
+def test_a_coarser_points_tolerance_gives_the_rows_to_its_error(tmp_path, files):
+    # the same whisk at --points-tolerance 1e-8: the same contacts, the base wrenches within
+    # ~1e-9 of the default run's largest
+    out = str(tmp_path / "coarse.csv")
+    assert main(["scan", "--array", files["array"], "--scene", files["scene"], *WHISK,
+                 "--points-tolerance", "1e-8", "--out", out]) == 0
+    rows, exact = _rows(out), _rows(files["csv"])
+    assert [r["contacts"] for r in rows] == [r["contacts"] for r in exact]
+    keys = ("fx", "fy", "fz", "mx", "my", "mz")
+    got = np.array([[float(r[k]) for k in keys] for r in rows])
+    want = np.array([[float(r[k]) for k in keys] for r in exact])
+    assert np.abs(want).max() > 0 and np.abs(got - want).max() <= 1e-9 * np.abs(want).max()
+
+
 def test_array_options_need_an_array(capsys):
     assert main(["scan", "--profile", "parabola", "--param", "p0=0.3", "--from", "1", "--to",
                  "-1", "--step", "0.5", "--csv", "-", "--side", "left"]) == 2
     assert "--side applies to a whisker array" in capsys.readouterr().err
+    assert main(["scan", "--profile", "parabola", "--param", "p0=0.3", "--from", "1", "--to",
+                 "-1", "--step", "0.5", "--csv", "-", "--points-tolerance", "1e-8"]) == 2
+    assert "--points-tolerance applies to a whisker array" in capsys.readouterr().err
     assert main(["scan", "--profile", "parabola", "--param", "p0=0.3", "--from", "1", "--to",
                  "-1", "--step", "0.5"]) == 2
     assert "--csv" in capsys.readouterr().err

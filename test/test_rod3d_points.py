@@ -131,3 +131,57 @@ def test_the_array_passes_its_choice_of_points_to_every_whisker():
                     seen.add(rod.solver.points_of(rod._modes, rod._vec))
         counts[adapt] = seen
     assert counts[False] == {28} and min(counts[True]) < 28
+
+
+@pytest.mark.parametrize("bad", [0.0, -1e-9, 1e-3, 1e-13, float("nan"), float("inf"), "x", None,
+                                 True])
+def test_a_points_tolerance_out_of_its_range_is_refused_naming_it(bad):
+    with pytest.raises(ParameterError, match=r"points_tolerance = .*1e-12 to 1e-06"):
+        RodSolver(RodShape(), (), points_tolerance=bad)
+    with pytest.raises(ParameterError, match="points_tolerance"):
+        RodTracker((), HEAD, points_tolerance=bad)
+    array = WhiskerArray((rat_array("right")["RB1"],), "one")
+    with pytest.raises(ParameterError, match="points_tolerance"):
+        ArrayTracker(array, Scene3D((PEG,)), HEAD, WHISK.angle(0.0), points_tolerance=bad)
+
+
+def test_the_default_points_tolerance_is_the_solvers_old_resolution():
+    # the default keeps the ladder from 16 and the thresholds 1e-12 / 1e-11 exactly
+    from vibrissa_ros.core.rod3d.model import POINTS_REFINE, POINTS_TOLERANCE, points_for
+
+    shape = RodShape(taper=0.05, parabola=0.5)
+    sol = RodSolver(shape)
+    assert sol.points_tolerance == POINTS_TOLERANCE == 1e-11
+    assert (sol._coarsen, sol._refine) == (POINTS_COARSEN, POINTS_REFINE)
+    assert sol._ladder[0] == 16 and sol.n == points_for(shape)
+    # a coarser one: fewer points from the start, and rungs below 16
+    coarse = RodSolver(shape, points_tolerance=1e-8)
+    assert coarse.n < sol.n and coarse._ladder[0] == 8
+    assert coarse._coarsen == pytest.approx(1e-9) and coarse._refine == pytest.approx(1e-8)
+
+
+def test_a_coarser_points_tolerance_takes_fewer_points_within_its_error(rb1_cycle):
+    # RB1 over a whisk cycle (touch, snap, touch) at 1e-8: the same events, fewer points per
+    # segment, the base wrench within ~1e-9 of the default's; each solution's last two
+    # coefficients at most the tolerance (dropped below a tenth of it, taken up again above it)
+    poses, obstacles, shape = rb1_cycle
+    runs = {}
+    for tolerance in (1e-11, 1e-8):
+        tracker = RodTracker(obstacles, poses[0], shape=shape, points_tolerance=tolerance)
+        sol = tracker.solver
+        loads, events, points = [], [], []
+        for pose in poses[1:]:
+            result = tracker.step(pose)
+            loads.append(np.concatenate((result.state.force, result.state.moment)))
+            events += [(e.kind, e.contacts_after) for e in result.events]
+            if tracker._modes:
+                modes, vec = tracker._modes, tracker._vec
+                m = sol.points_of(modes, vec)
+                points.append(m)
+                if m < sol.n:
+                    assert sol.coefficient_magnitudes(modes, vec)[m - 2:].max() <= 1e-8
+        runs[tolerance] = np.array(loads), events, points
+    (exact, events, points), (coarse, coarse_events, coarse_points) = runs[1e-11], runs[1e-8]
+    assert coarse_events == events and [e[0] for e in events] == ["touch", "snap", "touch"]
+    assert max(coarse_points) < max(points) and min(coarse_points) < min(points)
+    assert np.abs(coarse - exact).max() <= 1e-9 * np.abs(exact).max()

@@ -277,6 +277,10 @@ def build_parser() -> argparse.ArgumentParser:
     arr.add_argument("--out", metavar="OUT.parquet",
                      help="the rows (one per whisker and tick): Parquet for *.parquet (needs "
                      "pyarrow), else CSV ('-' for standard output)")
+    arr.add_argument("--points-tolerance", type=float, metavar="TOL",
+                     help="each whisker's discretization error asked for, in its own length, "
+                     "1e-12 to 1e-6 (default 1e-11: resolved to the solver's convergence; "
+                     "coarser: fewer points per segment, faster)")
     arr.add_argument("--plot-tick", type=_nonnegative, metavar="T",
                      help="the time [s] whose whisker shapes --plot draws (default: the first "
                      "tick with the most whiskers in contact)")
@@ -640,7 +644,8 @@ def _is_3d_run(args) -> bool:
 
 
 #: the options of an array run only
-_ARRAY_OPTIONS = ("side", "duration", "rate", "head", "velocity", "out", "plot_tick")
+_ARRAY_OPTIONS = ("side", "duration", "rate", "head", "velocity", "out", "plot_tick",
+                  "points_tolerance")
 
 
 def _cmd_scan(args) -> int:
@@ -987,7 +992,9 @@ def _cmd_scan_array(args) -> int:
             duration = args.duration if args.duration is not None else 1.0 / whisk.frequency
             path = timed_path(duration, 1000.0 if args.rate is None else args.rate, head,
                               args.velocity or (0.0, 0.0, 0.0))
-        plan = plan_array_scan(array, scene, path, whisk)
+        plan = plan_array_scan(array, scene, path, whisk,
+                               **({} if args.points_tolerance is None
+                                  else {"points_tolerance": args.points_tolerance}))
     except VibrissaError as exc:
         print(f"vibrissa scan: error: {exc}", file=sys.stderr)
         return 2

@@ -48,6 +48,7 @@ from ..core.arrays.array import WhiskerArray
 from ..core.arrays.tracker import ArrayStep, ArrayTracker
 from ..core.arrays.whisking import CosineWhisk
 from ..core.errors import ParameterError, VibrissaError
+from ..core.rod3d.model import POINTS_TOLERANCE, _points_tolerance
 from ..core.rod3d.pose import BasePose
 from ..core.rod3d.scene import Scene3D
 
@@ -302,6 +303,8 @@ class ArrayScan:
         The ticks.
     protraction : numpy.ndarray
         (ticks, k) every whisker's protraction at every tick [rad].
+    points_tolerance : float, optional
+        Each whisker's discretization error asked for, in its own length (ArrayTracker's).
 
     """
 
@@ -309,6 +312,7 @@ class ArrayScan:
     scene: Scene3D
     path: HeadPath
     protraction: np.ndarray
+    points_tolerance: float = POINTS_TOLERANCE
 
     def tracker(self) -> ArrayTracker:
         """
@@ -326,7 +330,8 @@ class ArrayScan:
 
         """
         try:
-            return ArrayTracker(self.array, self.scene, self.path.heads[0], self.protraction[0])
+            return ArrayTracker(self.array, self.scene, self.path.heads[0], self.protraction[0],
+                                points_tolerance=self.points_tolerance)
         except VibrissaError as exc:
             raise type(exc)(f"{self.path.describe(0)}: {exc}") from None
 
@@ -378,7 +383,8 @@ class ArrayScan:
 
 
 def plan_array_scan(array: WhiskerArray, scene: Scene3D, path: HeadPath,
-                    whisk: Optional[CosineWhisk] = None) -> ArrayScan:
+                    whisk: Optional[CosineWhisk] = None,
+                    points_tolerance: float = POINTS_TOLERANCE) -> ArrayScan:
     """
     Check an array run before it runs: every tick's protraction, the array clear at the start.
 
@@ -392,6 +398,9 @@ def plan_array_scan(array: WhiskerArray, scene: Scene3D, path: HeadPath,
         The ticks; its protraction columns, if any, name whiskers of the array.
     whisk : CosineWhisk, optional
         Every whisker's protraction at each tick's time (not with a protraction in ``path``).
+    points_tolerance : float, optional
+        Each whisker's discretization error asked for, in its own length (default 1e-11: to
+        the solver's convergence; coarser, up to 1e-6: fewer points, faster).
 
     Returns
     -------
@@ -401,12 +410,13 @@ def plan_array_scan(array: WhiskerArray, scene: Scene3D, path: HeadPath,
     Raises
     ------
     ParameterError
-        When a protraction column names no whisker of the array, or both a whisk and a
-        protraction column are given.
+        When a protraction column names no whisker of the array, both a whisk and a
+        protraction column are given, or ``points_tolerance`` is out of its range.
     InvalidPoseError
         When an unloaded whisker cuts an obstacle at the first tick.
 
     """
+    points_tolerance = _points_tolerance(points_tolerance)
     names = array.names
     k, n = len(names), len(path.times)
     theta = np.zeros((n, k))
@@ -423,7 +433,7 @@ def plan_array_scan(array: WhiskerArray, scene: Scene3D, path: HeadPath,
             raise ParameterError(f"{path.describe(0).split(',')[0]}: column protraction_{name} "
                                  f"names no whisker of the array (it has {', '.join(names)})")
         theta[:, names.index(name)] = values
-    plan = ArrayScan(array, scene, path, theta)
+    plan = ArrayScan(array, scene, path, theta, points_tolerance)
     plan.tracker()
     return plan
 

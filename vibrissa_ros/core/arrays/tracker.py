@@ -37,7 +37,7 @@ import numpy as np
 
 from ..errors import InvalidPoseError, ParameterError, VibrissaError
 from ..rod3d import _jit
-from ..rod3d.model import kernel_obstacles
+from ..rod3d.model import POINTS_TOLERANCE, _points_tolerance, kernel_obstacles
 from ..rod3d.pose import BasePose, quat_from_matrix, quat_matrix
 from ..rod3d.scene import Scene3D
 from ..rod3d.tracker import RodStepResult, RodTracker
@@ -305,6 +305,12 @@ class ArrayTracker:
         Each whisker in contact solved on as few points per segment as its solution needs
         (:class:`~vibrissa_ros.core.rod3d.tracker.RodTracker`'s ``adapt_points``); False: always
         its shape's full count, for comparisons.
+    points_tolerance : float, optional
+        Each whisker's discretization error asked for, in its own length
+        (:class:`~vibrissa_ros.core.rod3d.model.RodSolver`): the default 1e-11 resolves every
+        whisker to about the solver's own convergence; a coarser one (up to 1e-6) solves on
+        fewer points, for speed (on the rat's pad at 1e-9 the base wrenches moved by ~2e-12 of
+        their largest value, with the same events; ``bench/bench_array.py``).
 
     Raises
     ------
@@ -317,9 +323,11 @@ class ArrayTracker:
 
     def __init__(self, array: WhiskerArray, scene, head: Optional[BasePose] = None,
                  protraction=0.0, samples: int = CLEARANCE_SAMPLES,
-                 max_evaluations: int = 20000, adapt_points: bool = True):
+                 max_evaluations: int = 20000, adapt_points: bool = True,
+                 points_tolerance: float = POINTS_TOLERANCE):
         if not isinstance(array, WhiskerArray):
             raise ParameterError(f"array = {array!r} is not allowed; it is a WhiskerArray")
+        points_tolerance = _points_tolerance(points_tolerance)
         samples = int(samples)
         if samples < 9 or (samples - 1) % _COARSE:
             raise ParameterError(f"samples = {samples} is not allowed; the clearance test needs "
@@ -357,7 +365,8 @@ class ArrayTracker:
                 self._trackers.append(RodTracker(self._scenes[i], self._pose(R, p, i),
                                                  shape=rod.shape,
                                                  max_evaluations=max_evaluations,
-                                                 adapt_points=adapt_points))
+                                                 adapt_points=adapt_points,
+                                                 points_tolerance=points_tolerance))
             except InvalidPoseError as exc:
                 raise InvalidPoseError(f"whisker {rod.name}: {exc}") from None
         self._R, self._p = R, p

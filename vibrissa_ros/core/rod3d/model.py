@@ -56,16 +56,24 @@ from .shape import RodShape
 
 #: the fewest Chebyshev points per segment :func:`points_for` chooses
 DEFAULT_SEGMENT_POINTS = 16
-#: the discretization error :func:`points_for` asks for on its probe load [L]
+#: the discretization error :func:`points_for` asks for on its probe load [L]: the default
+#: ``points_tolerance`` of a solver (RodSolver), which also sets its thresholds below
 POINTS_TOLERANCE = 1e-11
+#: the ``points_tolerance`` a solver takes: from finer than the default to a coarse 1e-6
+POINTS_TOLERANCE_RANGE = (1e-12, 1e-6)
 _POINTS_LADDER = (16, 20, 24, 28, 32, 36, 40, 48)
+#: the rungs below the ladder a solver coarser than the default (``points_tolerance`` above
+#: POINTS_TOLERANCE) may also take
+_COARSE_RUNGS = (8, 10, 12, 14)
 _POINTS_REFERENCE = 64
 #: a solution is resolved by m points per segment (m on the ladder, below the solver's n) where
 #: every Chebyshev coefficient of its quaternions from degree m - 2 up is below this (the error
-#: of m points is then ~1e-12 to 1e-11, as POINTS_TOLERANCE asks of the probe load)
+#: of m points is then ~1e-12 to 1e-11, as POINTS_TOLERANCE asks of the probe load): a tenth
+#: of the solver's points_tolerance, this at the default
 POINTS_COARSEN = 1e-12
 #: and asks for more points again where its last two coefficients exceed this (ten times
-#: POINTS_COARSEN: a solution does not go back and forth between two counts)
+#: POINTS_COARSEN: a solution does not go back and forth between two counts): the solver's
+#: points_tolerance, this at the default
 POINTS_REFINE = 1e-11
 KINDS = ("side", "tip")
 #: no obstacle, as the kernels take obstacles (codes, parameters)
@@ -170,23 +178,45 @@ def warm_up() -> None:
     _jit.warm_up()
 
 
+def _ladder(tolerance: float) -> Tuple[int, ...]:
+    """Return the points per segment a solver of this ``points_tolerance`` takes, ascending."""
+    return _POINTS_LADDER if tolerance <= POINTS_TOLERANCE else _COARSE_RUNGS + _POINTS_LADDER
+
+
+def _points_tolerance(value) -> float:
+    """Return a solver's ``points_tolerance`` as a float, or raise ParameterError."""
+    lo, hi = POINTS_TOLERANCE_RANGE
+    try:
+        tolerance = float(value)
+    except (TypeError, ValueError):
+        tolerance = math.nan
+    if isinstance(value, bool) or not lo <= tolerance <= hi:
+        raise ParameterError(f"points_tolerance = {value!r}: need a number from {lo:g} to {hi:g} "
+                             f"(the discretization error asked for, in whisker lengths; default "
+                             f"{POINTS_TOLERANCE:g})")
+    return tolerance
+
+
 @lru_cache(maxsize=64)
-def points_for(shape: RodShape) -> int:
+def points_for(shape: RodShape, tolerance: float = POINTS_TOLERANCE) -> int:
     """
-    Return the Chebyshev points per segment that resolve ``shape`` to about 1e-11.
+    Return the Chebyshev points per segment that resolve ``shape`` to about ``tolerance``.
 
     The whisker under a probe tip load (a force across it and out of its plane, 0.4 L of linear
-    deflection each, and a couple twisting it by 0.3 rad) is solved on 16, 20, 24, ... points and
-    compared with 64 points; the first
-    count whose tip position and frame agree to :data:`POINTS_TOLERANCE` is taken. A uniform or
-    gently tapered whisker needs 16; a thin cone (taper < 0.1) or a strongly curved parabola
-    (the branch points of its curvature, s = +-i/(4A) from the vertex, come close to the base)
-    needs 24 to 48 (doc/mechanics/rod3d.md). Cached per shape.
+    deflection each, and a couple twisting it by 0.3 rad) is solved on 16, 20, 24, ... points
+    (from 8 at a tolerance coarser than the default) and compared with 64 points; the first
+    count whose tip position and frame agree to ``tolerance`` is taken. At the default
+    (:data:`POINTS_TOLERANCE`, 1e-11) a uniform or gently tapered whisker needs 16; a thin cone
+    (taper < 0.1) or a strongly curved parabola (the branch points of its curvature,
+    s = +-i/(4A) from the vertex, come close to the base) needs 24 to 48
+    (doc/mechanics/rod3d.md). Cached per shape and tolerance.
 
     Parameters
     ----------
     shape : RodShape
         The whisker.
+    tolerance : float, optional
+        The discretization error asked for [L] (a solver's ``points_tolerance``).
 
     Returns
     -------
@@ -198,9 +228,9 @@ def points_for(shape: RodShape) -> int:
         reference = _probe_tip(shape, _POINTS_REFERENCE)
     except ConvergenceError:
         return _POINTS_REFERENCE
-    for n in _POINTS_LADDER:
+    for n in _ladder(tolerance):
         try:
-            if np.max(np.abs(_probe_tip(shape, n) - reference)) <= POINTS_TOLERANCE:
+            if np.max(np.abs(_probe_tip(shape, n) - reference)) <= tolerance:
                 return n
         except ConvergenceError:
             continue
@@ -217,34 +247,35 @@ class _Operators(NamedTuple):
     int_matrix: np.ndarray  # nodal values -> their integral's Chebyshev coefficients
 
 
-def _points_from_tail(n: int, most: int, above: np.ndarray) -> int:
+def _points_from_tail(n: int, most: int, above: np.ndarray, ladder=_POINTS_LADDER,
+                      coarsen: float = POINTS_COARSEN, refine: float = POINTS_REFINE) -> int:
     """
     Return the points per segment a solution on n asks for (RodSolver.points_needed's rule).
 
     ``above[j - lo]`` is the largest Chebyshev coefficient of degree j or more (lo = the
-    ladder's first rung - 2; not read where :func:`_fewest_points`), ``most`` the solver's own
-    count.
+    ``ladder``'s first rung - 2; not read where :func:`_fewest_points`), ``most`` the solver's
+    own count; ``coarsen``, ``refine``: the solver's thresholds.
     """
-    if _fewest_points(n, most):
+    if _fewest_points(n, most, ladder):
         return max(n, most)
-    lo = _POINTS_LADDER[0] - 2
-    if n < most and float(above[n - 2 - lo]) > POINTS_REFINE:
-        return min([m for m in _POINTS_LADDER if n < m < most] + [most])
-    for m in _POINTS_LADDER:
+    lo = ladder[0] - 2
+    if n < most and float(above[n - 2 - lo]) > refine:
+        return min([m for m in ladder if n < m < most] + [most])
+    for m in ladder:
         if m >= n:
             break
-        if float(above[m - 2 - lo]) <= POINTS_COARSEN:
+        if float(above[m - 2 - lo]) <= coarsen:
             return m
     return n
 
 
-def _fewest_points(n: int, most: int) -> bool:
+def _fewest_points(n: int, most: int, ladder=_POINTS_LADDER) -> bool:
     """
     Tell whether n points per segment are as few as the ladder has, or fewer (a solver made so).
 
     None is dropped then, and a vector of fewer than the solver's ``most`` goes to ``most``.
     """
-    return n < _POINTS_LADDER[0] or (n == _POINTS_LADDER[0] and n >= most)
+    return n < ladder[0] or (n == ladder[0] and n >= most)
 
 
 def _same(a: np.ndarray, b: np.ndarray) -> bool:
@@ -779,9 +810,18 @@ class RodSolver:
     obstacles : sequence
         The scene's 3D obstacles (objects with ``surface(point)`` and ``signed_distance``).
     n : int, optional
-        Chebyshev points per segment; default :func:`points_for` the shape. New
-        configurations start from it; a vector of fewer (:meth:`points_needed`,
-        :meth:`resample`) is solved on its own count, read from its length.
+        Chebyshev points per segment; default :func:`points_for` the shape (at
+        ``points_tolerance``). New configurations start from it; a vector of fewer
+        (:meth:`points_needed`, :meth:`resample`) is solved on its own count, read from its
+        length.
+    points_tolerance : float, optional
+        The discretization error asked for [L], in :data:`POINTS_TOLERANCE_RANGE`: the default
+        :data:`POINTS_TOLERANCE` (1e-11) resolves the whisker to about the solver's own
+        convergence (1e-13 on the unknowns); a coarser one takes fewer points per segment
+        (:func:`points_for`, :meth:`points_needed`: coefficients dropped below a tenth of it,
+        points added above it, from 8 points up), for speed. On the rat's pad, 1e-9 moved the
+        base wrenches by ~2e-12 of their largest value, 1e-8 by ~2e-11, with the same events
+        (doc/benchmarks.md).
 
     Attributes
     ----------
@@ -793,16 +833,22 @@ class RodSolver:
     Raises
     ------
     ParameterError
-        When ``n`` is below 8.
+        When ``n`` is below 8, or ``points_tolerance`` is not a number in its range.
 
     """
 
     def __init__(self, shape: RodShape, obstacles: Sequence[Any] = (),
-                 n: Optional[int] = None):
+                 n: Optional[int] = None, points_tolerance: float = POINTS_TOLERANCE):
+        tolerance = _points_tolerance(points_tolerance)
         if n is None:
-            n = points_for(shape)
+            n = points_for(shape, tolerance)
         if int(n) < 8:
             raise ParameterError(f"collocation points per segment n = {n}: need at least 8")
+        #: the discretization error asked for, and the point counts and thresholds it sets
+        self.points_tolerance = tolerance
+        self._ladder = _ladder(tolerance)
+        self._coarsen = POINTS_COARSEN * (tolerance / POINTS_TOLERANCE)
+        self._refine = POINTS_REFINE * (tolerance / POINTS_TOLERANCE)
         self.shape = shape
         self.obstacles = tuple(obstacles)
         self.n = int(n)
@@ -1452,8 +1498,8 @@ class RodSolver:
                 self._nu1, geometry[0], geometry[1], limit, config.touched[1], TAIL_SAMPLES,
                 shape.parabola or 0.0, _TOL, _TRUSTED_STEP, _TRUSTED_CHORD, _CHORD_TOL,
                 float(max_step), _NEWTON_ITERATIONS, _STALL, _NOISE, _ROUNDING, float(tail_cut),
-                last_break, Vinv, _POINTS_LADDER[0] - 2, *(config.others or _NO_OBSTACLES),
-                1 if whole else 0, self.n, bool(adapt), POINTS_REFINE, float(fold_t),
+                last_break, Vinv, self._ladder[0] - 2, *(config.others or _NO_OBSTACLES),
+                1 if whole else 0, self.n, bool(adapt), self._refine, float(fold_t),
                 float(fold_g))
         except (ValueError, ArithmeticError):
             # (an arithmetic error in the kernels, e.g. a division by zero: the general path
@@ -1471,7 +1517,9 @@ class RodSolver:
         # (points_needed of the solution, from the coefficient tail computed with it; the
         # kernel computes it wherever n is above the ladder's fewest)
         return TrustedStep(Solved(vec, (lu, piv), sens), tan, bool(checked), error, change,
-                           least, det, post.clear, _points_from_tail(n, self.n, above),
+                           least, det, post.clear,
+                           _points_from_tail(n, self.n, above, self._ladder, self._coarsen,
+                                             self._refine),
                            status == 3)
 
     def _force_indices(self, modes, vec) -> np.ndarray:
@@ -1656,11 +1704,12 @@ class RodSolver:
 
         :func:`points_for` sizes the whisker for its hardest case, a load at the tip; a
         lighter load, or a contact nearer the base, leaves a smoother loaded part that fewer
-        points resolve. The count drops to the least m on the ladder (16, 20, 24, ...) whose
-        omitted Chebyshev coefficients (degree m - 2 up) are all below :data:`POINTS_COARSEN`,
-        and climbs one rung where the last two coefficients of the current count exceed
-        :data:`POINTS_REFINE`; never above the solver's n, which every new configuration
-        starts from.
+        points resolve. The count drops to the least m on the ladder (16, 20, 24, ...; from 8 at
+        a ``points_tolerance`` coarser than the default) whose omitted Chebyshev coefficients
+        (degree m - 2 up) are all below a tenth of the solver's ``points_tolerance``
+        (:data:`POINTS_COARSEN` at the default), and climbs one rung where the last two
+        coefficients of the current count exceed it (:data:`POINTS_REFINE`); never above the
+        solver's n, which every new configuration starts from.
 
         Parameters
         ----------
@@ -1677,9 +1726,9 @@ class RodSolver:
         """
         vec = np.ascontiguousarray(vec, dtype=float)
         n = self.points_of(modes, vec)
-        lo = _POINTS_LADDER[0] - 2
-        if _fewest_points(n, self.n):
-            return _points_from_tail(n, self.n, None)
+        lo = self._ladder[0] - 2
+        if _fewest_points(n, self.n, self._ladder):
+            return _points_from_tail(n, self.n, None, self._ladder)
         last = self._accepted_cache
         if (last is not None and last[3].above is not None
                 and (last[2] is modes or last[2] == tuple(modes)) and _same(last[0], vec)):
@@ -1691,7 +1740,7 @@ class RodSolver:
         else:
             above = np.maximum.accumulate(
                 self.coefficient_magnitudes(modes, vec, lo)[::-1])[::-1]
-        return _points_from_tail(n, self.n, above)
+        return _points_from_tail(n, self.n, above, self._ladder, self._coarsen, self._refine)
 
     def resample(self, modes: Sequence[RodContactMode], vec: np.ndarray, n: int) -> np.ndarray:
         """

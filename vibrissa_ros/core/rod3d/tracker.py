@@ -56,8 +56,8 @@ from ..errors import (
 )
 from . import _jit
 from .model import (
-    TAIL_SAMPLES, RodContactMode, RodSolver, _lu_factor, _lu_solve, _settled, kernel_geometry,
-    kernel_obstacles,
+    POINTS_TOLERANCE, TAIL_SAMPLES, RodContactMode, RodSolver, _lu_factor, _lu_solve, _settled,
+    kernel_geometry, kernel_obstacles,
 )
 from .pose import BasePose, _relative, quat_matrix, quat_multiply
 from .shape import RodShape
@@ -479,21 +479,29 @@ class RodTracker:
         step whose end asks for more goes on ``n``): on the rat's pad, the same events and base
         wrenches within 2e-14 relative, with a third less factorization work
         (``bench/bench_array.py``). False: always ``n``.
+    points_tolerance : float, optional
+        The discretization error asked for [L]
+        (:class:`~vibrissa_ros.core.rod3d.model.RodSolver`): the default 1e-11 resolves the
+        whisker to about the solver's own convergence; a coarser one (up to 1e-6) solves on
+        fewer points, for speed.
 
     Raises
     ------
     InvalidPoseError
         When the unloaded whisker cuts an obstacle at ``pose``.
+    ParameterError
+        When ``n`` or ``points_tolerance`` is out of range.
 
     """
 
     def __init__(self, obstacles: Sequence[Any], pose: BasePose,
                  shape: Optional[RodShape] = None, n: Optional[int] = None,
                  max_evaluations: int = 20000, recover: bool = True,
-                 adapt_points: bool = True):
+                 adapt_points: bool = True, points_tolerance: float = POINTS_TOLERANCE):
         self.shape = RodShape() if shape is None else shape
         self.obstacles = tuple(getattr(obstacles, "obstacles", obstacles))
-        self.solver = RodSolver(self.shape, self.obstacles, n=n)
+        self.solver = RodSolver(self.shape, self.obstacles, n=n,
+                                points_tolerance=points_tolerance)
         self.max_evaluations = int(max_evaluations)
         self.recover = bool(recover)
         self.adapt_points = bool(adapt_points)
