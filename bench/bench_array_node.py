@@ -20,7 +20,7 @@ Scenes: ``peg`` (config/rat_array_node.yaml: columns 0-2 hit the peg, the solver
 bottleneck) and ``free`` (a ball far away: every whisker is certified free, the node's own cost).
 
 Run: OPENBLAS_NUM_THREADS=1 python bench/bench_array_node.py [--seconds 20] [--rate 1000]
-     [--scenes peg,free] [--nodes array,events,recording,echo,builtin]
+     [--scenes peg,free] [--nodes array,events,recording,echo,builtin] [--points-tolerance T]
 """
 
 from __future__ import annotations
@@ -162,6 +162,8 @@ def start_node(kind: str, scene: str, args, work: Path) -> subprocess.Popen:
         cmd += ["-p", "executor:=events"]
     if kind == "recording":
         cmd += ["-p", f"record.path:={work / 'run.mcap'}"]
+    if args.points_tolerance is not None:
+        cmd += ["-p", f"solver.points_tolerance:={args.points_tolerance!r}"]
     return subprocess.Popen(cmd, start_new_session=True)
 
 
@@ -210,6 +212,8 @@ def main(argv=None):
     parser.add_argument("--seconds", type=float, default=20.0)
     parser.add_argument("--rate", type=float, default=1000.0)
     parser.add_argument("--scenes", default="peg,free")
+    parser.add_argument("--points-tolerance", type=float, default=None, metavar="T",
+                        help="array_node's solver.points_tolerance (default: the node's, 1e-11)")
     parser.add_argument("--nodes", default="array,events,recording,echo,builtin")
     parser.add_argument("--role", choices=["sender", "receiver"], help=argparse.SUPPRESS)
     parser.add_argument("--work", help=argparse.SUPPRESS)
