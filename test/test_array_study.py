@@ -124,6 +124,11 @@ BAD = [
      "motion: {whisk: {retraction_deg: 20, protraction_deg: -20}}\n", "must be >= retraction"),
     ("kind: array\narray: three.yaml\nobjects: [{scene: missing.yaml}]\n" + _MOTION,
      "objects[0].scene = 'missing.yaml'"),
+    ("kind: array\narray: three.yaml\npoints_tolerance: 1.0e-3\nobjects: [{scene: peg.yaml}]\n"
+     + _MOTION, "points_tolerance = 0.001: need a number from 1e-12 to 1e-06"),
+    ("kind: array\narray: three.yaml\npoints_tolerance: [1.0e-8, 1.0e-9]\n"
+     "objects: [{scene: peg.yaml}]\n" + _MOTION, "points_tolerance = [1e-08, 1e-09] must be one "
+     "number"),
 ]
 
 
@@ -191,3 +196,40 @@ def test_every_task_equals_vibrissa_scan_array_of_it(study_dir, client, tmp_path
             assert mine.protraction.iloc[0] == pytest.approx(math.radians(-20))
     again = run_study(study, str(out), client=client, progress=None)
     assert again.computed == 0 and again.already_done == 6
+
+
+def test_a_study_passes_its_points_tolerance_to_every_run(study_dir, client, tmp_path, capsys):
+    # points_tolerance: the runs on the workers and the tasks' commands take it, and a task's
+    # rows equal its command's
+    text = STUDY.replace("side: right\n", "side: right\npoints_tolerance: 1.0e-8\n")
+    text = text.split("  - velocity:")[0]  # the whisk alone: two tasks of the peg file
+    text = text.replace("  - cylinder: {x: {uniform: [0.027, 0.031]}, y: -0.016, z: 0, "
+                        "r: 0.0015}\n    samples: 2\n", "")
+    text = text.replace("duration: 0.012", "duration: 0.05")
+    (study_dir / "coarse.yaml").write_text(text)
+    study = load_study(str(study_dir / "coarse.yaml"))
+    assert study.points_tolerance == 1e-8 and len(study.tasks) == 1
+    assert load_study(str(study_dir / "study.yaml")).points_tolerance == 1e-11
+    out = tmp_path / "ds"
+    report = run_study(study, str(out), client=client, progress=None)
+    assert report.complete and report.computed == 1 and not report.errors
+    ds = dataset.open(str(out))
+    command = ds.tasks.command.iloc[0]
+    assert "--points-tolerance=1e-08" in command
+    args = command.split()[1:]
+    args[args.index("--out") + 1] = str(tmp_path / "run.csv")
+    assert main(args) == 0, capsys.readouterr().err
+    import csv
+
+    rows = list(csv.DictReader((tmp_path / "run.csv").open()))
+    mine = ds.poses
+    assert (mine.contacts > 0).any() and len(rows) == len(mine)
+    for want, (_, got) in zip(rows, mine.iterrows()):
+        for col in ("fx", "fy", "fz", "mx", "my", "mz"):
+            assert got[col] == _float(want[col]), col
+    # and not the default's: the run was made at 1e-8
+    args.remove("--points-tolerance=1e-08")
+    args[args.index("--out") + 1] = str(tmp_path / "exact.csv")
+    assert main(args) == 0
+    exact = list(csv.DictReader((tmp_path / "exact.csv").open()))
+    assert any(a["fx"] != b["fx"] for a, b in zip(rows, exact) if a["fx"])

@@ -10,6 +10,9 @@ motions; the tasks are their product. Units are SI (metres, seconds, degrees whe
     seed: 4                                 # the random draws (default 0)
     array: rat_array.yaml                   # an array file, relative to the study file
     side: right                             # optional: one side's whiskers
+    points_tolerance: 1.0e-8                # optional: each whisker's discretization error
+                                            # (in its length; default 1e-11, exact; coarser
+                                            # is faster, vibrissa scan --points-tolerance)
     objects:                                # a list of object blocks
       - scene: [scene_peg_array_m.yaml]       # 3D scene files in metres (a list: a grid axis)
       - cylinder: {x: {uniform: [0.02, 0.035]}, y: -0.016, z: 0, r: [0.001, 0.002],
@@ -55,11 +58,13 @@ from typing import Dict, List, Optional, Tuple
 import numpy as np
 
 from ..core.errors import VibrissaError
+from ..core.rod3d.model import POINTS_TOLERANCE, _points_tolerance
 from .study import (StudyError, _axis, _block, _draw, _grid, _integer, _keys, _number, _Random,
                     _show, _values)
 
 #: the keys of an array study
-TOP_KEYS = ("kind", "description", "seed", "array", "side", "objects", "head", "motion")
+TOP_KEYS = ("kind", "description", "seed", "array", "side", "points_tolerance", "objects",
+            "head", "motion")
 OBJECT_KINDS = {"cylinder": ("x", "y", "z", "r", "axis"), "sphere": ("x", "y", "z", "r")}
 HEAD_KEYS = ("x", "y", "z", "yaw_deg", "pitch_deg", "roll_deg", "samples")
 MOTION_KEYS = ("whisk", "velocity", "duration", "rate")
@@ -150,7 +155,8 @@ class ArrayTask:
                             "whisk_protraction_deg"), self.whisk))
         return row
 
-    def run(self, array_text: str, array_label: str, side: Optional[str]):
+    def run(self, array_text: str, array_label: str, side: Optional[str],
+            points_tolerance: float = POINTS_TOLERANCE):
         """
         Compute the run with the functions ``vibrissa scan --array`` calls.
 
@@ -162,6 +168,8 @@ class ArrayTask:
             Its name, for error messages.
         side : str or None
             One side's whiskers, or all.
+        points_tolerance : float, optional
+            Each whisker's discretization error asked for (the study's).
 
         Returns
         -------
@@ -181,9 +189,10 @@ class ArrayTask:
         if self.whisk is not None:
             f, ret, pro = self.whisk
             whisk = CosineWhisk(f, math.radians(ret), math.radians(pro))
-        return plan_array_scan(array, scene, path, whisk).run()
+        return plan_array_scan(array, scene, path, whisk, points_tolerance).run()
 
-    def scan_command(self, array_path: str, side: Optional[str]) -> str:
+    def scan_command(self, array_path: str, side: Optional[str],
+                     points_tolerance: float = POINTS_TOLERANCE) -> str:
         """
         Return the ``vibrissa scan --array`` command that computes this task's rows.
 
@@ -196,6 +205,8 @@ class ArrayTask:
             The array file as ``vibrissa batch`` read it.
         side : str or None
             The study's side.
+        points_tolerance : float, optional
+            The study's (``--points-tolerance`` where it is not the default).
 
         Returns
         -------
@@ -214,6 +225,8 @@ class ArrayTask:
                   "--head=" + ",".join(repr(v) for v in self.head)]
         if any(self.velocity):
             words.append("--velocity=" + ",".join(repr(v) for v in self.velocity))
+        if points_tolerance != POINTS_TOLERANCE:
+            words.append(f"--points-tolerance={points_tolerance!r}")
         return " ".join(words + ["--out", f"task-{self.index}.parquet"])
 
 
@@ -290,6 +303,8 @@ class ArrayStudy:
         One side's whiskers, or all.
     whiskers : int
         How many whiskers a run has (0 when the array file was not read).
+    points_tolerance : float, optional
+        Each whisker's discretization error asked for, in its length (default 1e-11).
 
     """
 
@@ -302,6 +317,7 @@ class ArrayStudy:
     array_text: str
     side: Optional[str]
     whiskers: int
+    points_tolerance: float = POINTS_TOLERANCE
 
     @property
     def poses(self) -> int:
@@ -344,6 +360,14 @@ def parse_array_study(doc: dict, text: str, base_dir: Optional[str] = None,
     side = doc.get("side")
     if side is not None and side not in ("left", "right"):
         raise StudyError(f"side = {_show(side)} is not allowed; side is left or right")
+    points_tolerance = doc.get("points_tolerance", POINTS_TOLERANCE)
+    if isinstance(points_tolerance, bool) or not isinstance(points_tolerance, (int, float)):
+        raise StudyError(f"points_tolerance = {_show(points_tolerance)} must be one number "
+                         "(each whisker's discretization error, in its length)")
+    try:
+        points_tolerance = _points_tolerance(points_tolerance)
+    except VibrissaError as exc:
+        raise StudyError(str(exc)) from None
     name = doc["array"]
     if not isinstance(name, str) or not name.strip():
         raise StudyError(f"array = {_show(name)} must be an array file's path")
@@ -376,7 +400,7 @@ def parse_array_study(doc: dict, text: str, base_dir: Optional[str] = None,
             seen.add(path)
             digest.update(f"\0{file}\0{scene_text}".encode("utf-8"))
     return ArrayStudy(text, digest.hexdigest(), seed, tuple(tasks), name, array_path,
-                      array_text, side, whiskers)
+                      array_text, side, whiskers, points_tolerance)
 
 
 def _read(where: str, path: str) -> str:
@@ -683,13 +707,14 @@ def array_tasks_table(study: ArrayStudy):
 
     rows = [dict(task=t.index, **t.parameters(),
                  scene_yaml=None if t.scene_file is not None else t.scene_text,
-                 command=t.scan_command(study.array_path, study.side))
+                 command=t.scan_command(study.array_path, study.side,
+                                        study.points_tolerance))
             for t in study.tasks]
     return pa.Table.from_pylist(rows, schema=_schemas()["tasks"])
 
 
 def run_array_task(task: ArrayTask, layout: ArrayLayout, array_text: str, array_label: str,
-                   side: Optional[str]):
+                   side: Optional[str], points_tolerance: float = POINTS_TOLERANCE):
     """
     Compute one array task (on a worker) and encode its tables as Parquet files.
 
@@ -705,6 +730,8 @@ def run_array_task(task: ArrayTask, layout: ArrayLayout, array_text: str, array_
         Its path, for messages.
     side : str or None
         The study's side.
+    points_tolerance : float, optional
+        The study's discretization tolerance.
 
     Returns
     -------
@@ -716,7 +743,7 @@ def run_array_task(task: ArrayTask, layout: ArrayLayout, array_text: str, array_
 
     del layout
     try:
-        result = task.run(array_text, array_label, side)
+        result = task.run(array_text, array_label, side, points_tolerance)
     except VibrissaError as exc:
         return encode(array_failure_tables(task, exc))
     return encode(array_result_tables(task, result))

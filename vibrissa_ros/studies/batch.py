@@ -179,7 +179,8 @@ def run_study(
         # the array file's text goes to every worker once, not with every task
         function = run_array_task
         shared = dict(array_text=client.scatter(study.array_text, broadcast=True),
-                      array_label=study.array_path, side=study.side)
+                      array_label=study.array_path, side=study.side,
+                      points_tolerance=study.points_tolerance)
 
     def submit(n: int):
         tasks = list(itertools.islice(pending, n))
