@@ -2156,7 +2156,8 @@ class RodTracker:
                 left = self.max_evaluations - (self.solver.evaluations - self._start)
                 helper = RodTracker(self.obstacles, start, shape=self.shape, n=self.solver.n,
                                     max_evaluations=max(left, 1), recover=False,
-                                    adapt_points=self.adapt_points)
+                                    adapt_points=self.adapt_points,
+                                    points_tolerance=self.solver.points_tolerance)
                 helper._nested = True
                 helper.step(pose)
             except VibrissaError:
