@@ -14,7 +14,8 @@ from vibrissa_ros.core.arrays.rat import rat_array
 from vibrissa_ros.core.arrays.tracker import ArrayTracker
 from vibrissa_ros.core.errors import ParameterError
 from vibrissa_ros.core.rod3d import (
-    BasePose, Cylinder, RodContactMode, RodShape, RodSolver, RodTracker, Scene3D, Sphere,
+    BasePose, Cylinder, Plane, RodContactMode, RodShape, RodSolver, RodTracker, Scene3D,
+    Sphere,
 )
 from vibrissa_ros.core.rod3d.model import POINTS_COARSEN
 from vibrissa_ros.core.rod3d.pose import quat_about
@@ -185,3 +186,25 @@ def test_a_coarser_points_tolerance_takes_fewer_points_within_its_error(rb1_cycl
     assert coarse_events == events and [e[0] for e in events] == ["touch", "snap", "touch"]
     assert max(coarse_points) < max(points) and min(coarse_points) < min(points)
     assert np.abs(coarse - exact).max() <= 1e-9 * np.abs(exact).max()
+
+
+@pytest.mark.parametrize("tolerance", [1e-8, 1e-6])
+def test_a_grazing_touch_at_a_coarse_tolerance_is_the_discrete_whiskers(tolerance):
+    # the touch is located on the unloaded whisker as it is, the contact solved on fewer
+    # points, whose force at the touch comes out a little below 0 (-2e-10 at 1e-8): the contact
+    # is made where the discrete whisker's force reaches 0, or not at all in a graze shallower
+    # than the discretization; never released at once and touched again at the same pose
+    # (which looped until "more than 64 events in one step")
+    shape = RodShape(taper=0.2, parabola=0.8)
+    tip = shape.free_centerline(np.array([1.0]))[0]
+    wall = Plane((tip[0], tip[1] + 0.01, 0.0), (0.0, -1.0, 0.0), "wall")
+    for eps in (1e-10, 1e-9, 1e-8, 1e-7, 1e-6, 1e-4):
+        tracker = RodTracker([wall], HEAD, shape=shape, recover=False,
+                             points_tolerance=tolerance)
+        result = tracker.step(BasePose((0.0, 0.01 + eps, 0.0)))
+        kinds = [e.kind for e in result.events]
+        assert kinds in ([], ["touch"]), (eps, kinds)
+        assert all(c.f >= 0.0 for c in result.state.contacts)
+        back = tracker.step(HEAD)
+        assert [e.kind for e in back.events] == (["release"] if kinds else []), eps
+    assert kinds == ["touch"]  # deep enough, it touches at every tolerance

@@ -309,7 +309,7 @@ class ArrayTracker:
         Each whisker's discretization error asked for, in its own length
         (:class:`~vibrissa_ros.core.rod3d.model.RodSolver`): the default 1e-11 resolves every
         whisker to about the solver's own convergence; a coarser one (up to 1e-6) solves on
-        fewer points, for speed (on the rat's pad at 1e-9 the base wrenches moved by ~2e-12 of
+        fewer points, for speed (on the rat's pad at 1e-8 the base wrenches moved by ~3e-11 of
         their largest value, with the same events; ``bench/bench_array.py``).
 
     Raises

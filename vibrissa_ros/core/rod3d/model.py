@@ -278,6 +278,17 @@ def _fewest_points(n: int, most: int, ladder=_POINTS_LADDER) -> bool:
     return n < ladder[0] or (n == ladder[0] and n >= most)
 
 
+def _kernel_array(a) -> np.ndarray:
+    """
+    Return ``a`` as the kernels take it: float, C-contiguous and writable (copied if need be).
+
+    A read-only array (an equilibrium's vector, a value) would make numba compile another
+    version of the kernel it is passed to, in the middle of a tick.
+    """
+    a = np.ascontiguousarray(a, dtype=float)
+    return a if a.flags.writeable else a.copy()
+
+
 def _same(a: np.ndarray, b: np.ndarray) -> bool:
     """Tell whether two arrays are equal (numpy.array_equal, without its wrapper's checks)."""
     return a.shape == b.shape and bool((a == b).all())
@@ -819,9 +830,9 @@ class RodSolver:
         :data:`POINTS_TOLERANCE` (1e-11) resolves the whisker to about the solver's own
         convergence (1e-13 on the unknowns); a coarser one takes fewer points per segment
         (:func:`points_for`, :meth:`points_needed`: coefficients dropped below a tenth of it,
-        points added above it, from 8 points up), for speed. On the rat's pad, 1e-9 moved the
-        base wrenches by ~2e-12 of their largest value, 1e-8 by ~2e-11, with the same events
-        (doc/benchmarks.md).
+        points added above it, from 8 points up), for speed. On the rat's pad whisking against
+        a peg, 1e-9 and 1e-8 moved the base wrenches by ~3e-11 of their largest value, with
+        the same events (doc/benchmarks.md).
 
     Attributes
     ----------
@@ -1042,7 +1053,7 @@ class RodSolver:
         n = self.points_of(modes, vec)
         tau = _operators(n).tau
         kinds = self._kinds_of(modes)
-        vec = np.ascontiguousarray(vec, dtype=float)
+        vec = _kernel_array(vec)
         T = self._template(k, n)
         geometry = self._geometry_of(modes)
         if geometry is not None:
@@ -1493,7 +1504,7 @@ class RodSolver:
              tail_depth, depth, where, checked, error, change, least, det, s_c, f_c, loads,
              total, moment, above, clear) = _jit.trusted_step(
                 lu0, piv0, start.sens @ rate, forces, start.vec, max_change,
-                np.ascontiguousarray(guess, dtype=float), pose.q, pose.p, n, config.kinds,
+                _kernel_array(guess), pose.q, pose.p, n, config.kinds,
                 tau, self._jit_sp, T, self._jit_shape, self._jit_grid, self._jit_table,
                 self._nu1, geometry[0], geometry[1], limit, config.touched[1], TAIL_SAMPLES,
                 shape.parabola or 0.0, _TOL, _TRUSTED_STEP, _TRUSTED_CHORD, _CHORD_TOL,
@@ -1724,7 +1735,7 @@ class RodSolver:
             The points per segment to solve it with (the current count where it may stay).
 
         """
-        vec = np.ascontiguousarray(vec, dtype=float)
+        vec = _kernel_array(vec)
         n = self.points_of(modes, vec)
         lo = self._ladder[0] - 2
         if _fewest_points(n, self.n, self._ladder):
@@ -1970,8 +1981,8 @@ class RodSolver:
 
     def _centerline_compiled(self, modes, vec, pose, s):
         """:meth:`centerline` (with contacts) by the compiled kernels."""
-        vec = np.ascontiguousarray(vec, dtype=float)
-        s = np.ascontiguousarray(s)
+        vec = _kernel_array(vec)
+        s = _kernel_array(s)
         breaks, w, r_nodes, frames = self._nodes(modes, vec, pose)
         n = self.points_of(modes, vec)
         int_matrix = _operators(n).int_matrix
@@ -2029,8 +2040,7 @@ class RodSolver:
             return None
         breaks, w, r_nodes, _ = self._nodes(modes, vec, pose)
         n = self.points_of(modes, vec)
-        value = _jit.tip_gap(np.ascontiguousarray(s, dtype=float),
-                             np.ascontiguousarray(vec, dtype=float), n, breaks, w, r_nodes,
+        value = _jit.tip_gap(_kernel_array(s), _kernel_array(vec), n, breaks, w, r_nodes,
                              self._jit_sp, _operators(n).int_matrix, geometry[0][-1],
                              geometry[1][-1])
         return None if value == -math.inf else float(value)
@@ -2048,7 +2058,7 @@ class RodSolver:
         if not _jit.WARM:
             _jit.warm_up()
         modes = tuple(modes)
-        vec = np.ascontiguousarray(vec, dtype=float)
+        vec = _kernel_array(vec)
         last = self._nodes_cache
         if (last is not None and last[1] == pose and last[2] == modes
                 and _same(last[0], vec)):
@@ -2070,7 +2080,7 @@ class RodSolver:
         """
         if not _jit.ENABLED or not modes:
             return None
-        vec = np.ascontiguousarray(vec, dtype=float)
+        vec = _kernel_array(vec)
         last = self._accepted_cache
         # (asked for several times per step, with the same tuple of modes and the same pose:
         # identity first, then equality)

@@ -75,7 +75,9 @@ _H_MIN = 1e-12
 _OFF_BRANCH = 1e-3
 #: a solution is moved to other points per segment only where every event value exceeds this
 _RESOLVE_MARGIN = 1e-6
-#: and only where the new solution, resampled back, lies this close to the old one
+#: and only where the new solution, resampled back, lies this close to the old one (or within
+#: ten times the solver's points_tolerance, where that is more: two discretizations of a
+#: coarse one differ by about it)
 _RESOLVE_JUMP = 1e-8
 _EVENT_XTOL = 1e-14
 _MAX_EVENTS = 64
@@ -886,6 +888,17 @@ class RodTracker:
         vec = self.solver.guess((mode,), breaks, [0.0],
                                 lambda ss: self.solver.free_quaternions(pose, ss))
         solved = self.solver.solve((mode,), pose, vec)
+        if solved.vec[-1] < -_BORN_ZERO and t_star < t_b:
+            # the contact pulls where the unloaded whisker touches: the discretization's
+            # whisker (its points_tolerance) touches a little later, where its force reaches 0;
+            # or not within this free sub-step, and it goes on unloaded (within that tolerance
+            # of the obstacle), instead of a contact released at once and touched again
+            later = self._discrete_touch(path, t_star, t_b, mode, solved)
+            if later is None:
+                return t_b
+            t_star, solved = later
+            pose = path.pose(t_star)
+            breaks = [1.0 if kind == "tip" else float(solved.vec[-2])]
         self._check_features((mode,), solved.vec, pose)
         self._modes = (mode,)
         self._fold_prev = self._fold_before = None  # (as for any change of the contacts)
@@ -894,6 +907,33 @@ class RodTracker:
         self._pose = pose
         events.append(RodEvent("touch", pose, k, breaks[0], 0, 1))
         return t_star
+
+    def _discrete_touch(self, path: _Path, t_a: float, t_b: float, mode, solved):
+        """
+        Return (t, solution) where a contact just made bears load on the discrete whisker.
+
+        The touch is located on the unloaded whisker as it is (:meth:`_free_gap`), the contact
+        solved on the collocation's points: the two differ by about the solver's
+        ``points_tolerance``, so at a coarse one the contact's force at the touch can come out
+        a little below 0 (-2e-10 at 1e-8). Followed from there, a grazing contact would be
+        released at once and touched again at the same pose, without end. Its force's zero on
+        the contact's branch in [t_a, t_b] (:meth:`_locate_linear`) is where the discrete
+        whisker touches; None where the force at t_b is still not above 0 (the whisker goes on
+        unloaded through this free sub-step, as near the obstacle as the discretization can
+        tell). Where the zero cannot be located, the contact at t_a as before.
+        """
+        modes, vec0, pose0 = self._modes, self._vec, self._pose
+        self._modes = (mode,)
+        try:
+            end = self._solve_at(path, t_a, t_b, solved)
+            if end.vec[-1] <= 0.0:
+                return None
+            found = self._locate_linear(path, t_a, t_b, solved, solved.vec.size - 1, 0.0)
+        except ConvergenceError:
+            found = None
+        finally:
+            self._modes, self._vec, self._pose = modes, vec0, pose0
+        return found if found is not None else (t_a, solved)
 
     # -- contact continuation -----------------------------------------------------------------
     def _accept(self, solved, pose):
@@ -1329,8 +1369,9 @@ class RodTracker:
                 return False
             if not finer:
                 jump = float(np.max(np.abs(sol.resample(modes, solved.vec, n_now) - vec)))
-                if jump > _RESOLVE_JUMP or self._contact_gap(path, 1.0, solved.vec)[0] < min(
-                        _RESOLVE_MARGIN, self._contact_gap(path, 1.0, vec)[0]):
+                if (jump > max(_RESOLVE_JUMP, 10.0 * sol.points_tolerance)
+                        or self._contact_gap(path, 1.0, solved.vec)[0] < min(
+                            _RESOLVE_MARGIN, self._contact_gap(path, 1.0, vec)[0])):
                     return False
                 self._check_tail(modes, solved.vec, self._pose)
                 self._check_between(modes, solved.vec, self._pose)
@@ -2214,8 +2255,8 @@ class RodTracker:
         New touches are looked for on the other obstacles (and behind a tip contact); a further
         contact on an obstacle already touched is not modelled, so the loaded part of the
         whisker is checked against each obstacle it touches at its collocation nodes (16 or more
-        per segment, so densely between two close contacts): refused rather than returned cutting
-        the obstacle.
+        per segment at the default points_tolerance, 8 or more at a coarse one, so densely
+        between two close contacts): refused rather than returned cutting the obstacle.
         """
         depth, where, k_cut = self._touched_depth(modes, vec, pose)
         if depth >= _TAIL_CUT:
@@ -2238,9 +2279,10 @@ class RodTracker:
         Return (depth, s, obstacle): the least distance to an obstacle touched, at the nodes.
 
         The nodes are the collocation points of the loaded part (the solution's points per
-        segment, 16 or more, a segment between each two contacts: their positions are kept from
-        the solve, so this costs one distance evaluation per obstacle touched); beyond the last
-        contact the tail's own check samples it.
+        segment, 16 or more, 8 or more at a coarse points_tolerance, a segment between each two
+        contacts: their positions are kept from the solve, so this costs one distance
+        evaluation per obstacle touched); beyond the last contact the tail's own check samples
+        it.
         """
         depth, j_cut, k_cut = math.inf, -1, -1
         post = self.solver._accepted(modes, vec, pose)
