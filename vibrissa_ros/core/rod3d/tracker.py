@@ -95,7 +95,7 @@ _FREE_HALF_SPACING = 0.5 / 320.0
 _NEAR = 0.05
 #: the compiled sampled value behind a tip contact (RodSolver.tip_gap) above _NEAR by this is
 #: above it as _gap_behind_tip samples it too (the same points and distances, summed in
-#: another order: ~1e-16 apart)
+#: another order: at most 2.8e-13 apart over ~120,000 checks of the soaks)
 _TIP_GAP_MARGIN = 1e-9
 _NUMERICAL_ERRORS = (ArithmeticError, ValueError, np.linalg.LinAlgError)
 #: where the unloaded tail beyond a side contact is checked (fractions of its length)
