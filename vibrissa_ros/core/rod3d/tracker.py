@@ -918,9 +918,10 @@ class RodTracker:
         a little below 0 (-2e-10 at 1e-8). Followed from there, a grazing contact would be
         released at once and touched again at the same pose, without end. Its force's zero on
         the contact's branch in [t_a, t_b] (:meth:`_locate_linear`) is where the discrete
-        whisker touches; None where the force at t_b is still not above 0 (the whisker goes on
-        unloaded through this free sub-step, as near the obstacle as the discretization can
-        tell). Where the zero cannot be located, the contact at t_a as before.
+        whisker touches (where the bordered Newton does not settle, Brent's search on the
+        force); None where the force at t_b is still not above 0 (the whisker goes on unloaded
+        through this free sub-step, as near the obstacle as the discretization can tell).
+        Where neither finds it (a solve fails), the contact at t_a as before.
         """
         modes, vec0, pose0 = self._modes, self._vec, self._pose
         self._modes = (mode,)
@@ -929,6 +930,20 @@ class RodTracker:
             if end.vec[-1] <= 0.0:
                 return None
             found = self._locate_linear(path, t_a, t_b, solved, solved.vec.size - 1, 0.0)
+            if found is None:
+                # Brent's search on the force instead, each value a solve from the touch
+                cache = {t_b: end}
+
+                def force(tau):
+                    if tau == t_a:
+                        return float(solved.vec[-1])
+                    if tau not in cache:
+                        cache[tau] = self._solve_at(path, t_a, tau, solved)
+                    return float(cache[tau].vec[-1])
+
+                t_f = self._root(force, t_a, t_b)
+                force(t_f)
+                found = (t_f, cache[t_f])
         except ConvergenceError:
             found = None
         finally:
