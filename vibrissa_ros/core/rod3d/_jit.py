@@ -1035,18 +1035,7 @@ def tip_gap(s, vec, n, breaks, w, r, sp, cheb, code, prm):
     least = math.inf
     for p in range(s.size):
         x = s[p]
-        c = 0
-        while c < k and breaks[c] < x:
-            c += 1
-        if c > k - 1:
-            c = k - 1
-        a = 0.0 if c == 0 else breaks[c - 1]
-        b = breaks[c]
-        if sp <= 0.0:
-            tau = (x - a) / (b - a)
-        else:
-            tau = math.log((sp - x) / (sp - a)) / math.log((sp - b) / (sp - a))
-        z = min(max(2.0 * tau - 1.0, -1.0), 1.0)
+        c, z = _segment_of(x, breaks, sp)
         before, now = 1.0, z
         a0 = coef[c, 0, 0] + z * coef[c, 1, 0]
         a1 = coef[c, 0, 1] + z * coef[c, 1, 1]
@@ -1525,6 +1514,24 @@ def parabola_tip(end, A, grid, table):
 
 
 @_kernel
+def _segment_of(x, breaks, sp):
+    """Return the segment of arc length x and its coordinate z in [-1, 1] (_Layout.locate)."""
+    k = breaks.size
+    c = 0
+    while c < k and breaks[c] < x:
+        c += 1
+    if c > k - 1:
+        c = k - 1
+    a = 0.0 if c == 0 else breaks[c - 1]
+    b = breaks[c]
+    if sp <= 0.0:
+        tau = (x - a) / (b - a)
+    else:
+        tau = math.log((sp - x) / (sp - a)) / math.log((sp - b) / (sp - a))
+    return c, min(max(2.0 * tau - 1.0, -1.0), 1.0)
+
+
+@_kernel
 def sample(s, vec, n, breaks, w, r, sp, cheb):
     """
     Return the centerline (m, 3) at arc lengths ``s`` inside the segments (s <= the last break).
@@ -1533,24 +1540,12 @@ def sample(s, vec, n, breaks, w, r, sp, cheb):
     as model._Layout.locate) and the segment's tangents are integrated from its first node by
     the Chebyshev integration matrix ``cheb`` ((n + 1) x n, nodal values -> integral from -1).
     """
-    k = breaks.size
     m = s.size
     out = np.empty((m, 3))
     T = np.empty(n + 1)
     for p in range(m):
         x = s[p]
-        c = 0
-        while c < k and breaks[c] < x:
-            c += 1
-        if c > k - 1:
-            c = k - 1
-        a = 0.0 if c == 0 else breaks[c - 1]
-        b = breaks[c]
-        if sp <= 0.0:
-            tau = (x - a) / (b - a)
-        else:
-            tau = math.log((sp - x) / (sp - a)) / math.log((sp - b) / (sp - a))
-        z = min(max(2.0 * tau - 1.0, -1.0), 1.0)
+        c, z = _segment_of(x, breaks, sp)
         T[0] = 1.0
         T[1] = z
         for d in range(2, n + 1):

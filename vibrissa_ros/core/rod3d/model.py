@@ -2038,9 +2038,10 @@ class RodSolver:
         geometry = self._geometry_of(modes)
         if geometry is None:
             return None
+        vec = _kernel_array(vec)
         breaks, w, r_nodes, _ = self._nodes(modes, vec, pose)
         n = self.points_of(modes, vec)
-        value = _jit.tip_gap(_kernel_array(s), _kernel_array(vec), n, breaks, w, r_nodes,
+        value = _jit.tip_gap(_kernel_array(s), vec, n, breaks, w, r_nodes,
                              self._jit_sp, _operators(n).int_matrix, geometry[0][-1],
                              geometry[1][-1])
         return None if value == -math.inf else float(value)

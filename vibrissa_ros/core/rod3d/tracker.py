@@ -1029,12 +1029,17 @@ class RodTracker:
         if behind and (cleared or len(self.obstacles) == 1):
             # behind a tip contact (the other obstacles cleared): _gap_behind_tip's sampled
             # value, compiled; clearly above _NEAR, it is what _contact_gap returns (no touch)
-            lo = self.solver.breaks_of(modes, vec)[-2] if len(modes) > 1 else 0.0
-            first = int(np.searchsorted(_SAMPLES, lo, side="right"))
+            first = self._first_behind_tip(vec)
             least = self.solver.tip_gap(modes, vec, path.pose(t), _SAMPLES[first:-1])
             if least is not None and least > _NEAR + _TIP_GAP_MARGIN:
                 return False
         return self._contact_gap(path, t, vec)[0] < _CUT
+
+    def _first_behind_tip(self, vec) -> int:
+        """Return the first of the _SAMPLES behind a tip contact: past the contact before it."""
+        modes = self._modes
+        lo = self.solver.breaks_of(modes, vec)[-2] if len(modes) > 1 else 0.0
+        return int(np.searchsorted(_SAMPLES, lo, side="right"))
 
     def _gap_behind_tip(self, pose, vec, pts, point_at, exact):
         """
@@ -1052,8 +1057,7 @@ class RodTracker:
         modes = self._modes
         k = modes[-1].obstacle
         ob = self.obstacles[k]
-        lo = self.solver.breaks_of(modes, vec)[-2] if len(modes) > 1 else 0.0
-        first = int(np.searchsorted(_SAMPLES, lo, side="right"))
+        first = self._first_behind_tip(vec)
         if first >= _SAMPLES.size - 1:
             return (math.inf, -1, 0.0)
         d = ob.signed_distance(pts[first:-1])
