@@ -113,7 +113,7 @@ _MINIMUM_ITERATIONS = 12
 _FOLDS = "the equilibrium branch folds (no solution beyond this pose)"
 #: Newton iterations of the fold's extended system (:meth:`RodTracker._locate_fold`)
 _FOLD_ITERATIONS = 8
-#: the step of its central differences along the null vector (max norm)
+#: the step of its forward differences along the null vector (max norm)
 _FOLD_EPS = 1e-6
 #: an event value this small and negative at a sub-step's start is a zero's rounding
 _BORN_ZERO = 1e-12
@@ -1538,12 +1538,14 @@ class RodTracker:
         [[J, psi], [phi^T, 0]] [w; g] = [0; 1] (phi, psi: the right and left null vectors of
         the Jacobian here, by inverse iteration), zero exactly where J is singular. Its
         derivatives are g_z = -u^T J_z w (u from the transposed bordered system); u^T J_v w
-        and u^T J_t w are central differences of u^T J and u^T dR/dt along w (J's symmetric
-        second derivative). From the square root's guess (t + left, v + 2 left dv/dt) it
-        converges quadratically to the fold, regular for this system, in 3-5 iterations of
-        three evaluations and two factorizations each, where the sub-steps closing in on it by
-        a factor 10 each and the failed steps locating it to _H_MIN took ~120 evaluations
-        (``bench/bench_array.py``'s snaps).
+        and u^T J_t w are forward differences of u^T J and u^T dR/dt along w from z, whose J
+        and dR/dt Newton has (J's symmetric second derivative; central ones took one more
+        evaluation per iteration for the same iterations on the rat's pads, and the located
+        fold only guides the sub-step). From the square root's guess (t + left,
+        v + 2 left dv/dt) it converges quadratically to the fold, regular for this system, in
+        3-5 iterations of two evaluations and two factorizations each, where the sub-steps
+        closing in on it by a factor 10 each and the failed steps locating it to _H_MIN took
+        ~120 evaluations (``bench/bench_array.py``'s snaps).
 
         Taken only where Newton settles, within this step and the sub-step's bounds (t < t_f
         <= 1, not closer than 2 _H_MIN, t_f - t at most ``reach``: the sub-step the bounds on
@@ -1566,7 +1568,7 @@ class RodTracker:
         last_border = {}
 
         def border(z, pose, J, dR_dt, rate):
-            # g of the bordered system at (z, t) and its derivatives by central differences
+            # g of the bordered system at (z, t) and its derivatives by forward differences
             M[:n, :n] = J
             bordered = _lu_factor(M)
             wg = _lu_solve(bordered, unit)
@@ -1574,11 +1576,9 @@ class RodTracker:
             u = _lu_solve(bordered, unit, trans=1)[:n]
             eps = _FOLD_EPS / max(float(np.max(np.abs(w))), 1e-300)
             _, J_plus, sens_plus = sol.residual(modes, z + eps * w, pose, pose_sensitivity=True)
-            _, J_minus, sens_minus = sol.residual(modes, z - eps * w, pose,
-                                                  pose_sensitivity=True)
             last_border.update(u=u, dR_dt=dR_dt)
-            return (g, (u @ J_minus - u @ J_plus) / (2.0 * eps),
-                    float(u @ (sens_minus @ rate) - u @ (sens_plus @ rate)) / (2.0 * eps))
+            return (g, (u @ J - u @ J_plus) / eps,
+                    float(u @ dR_dt - u @ (sens_plus @ rate)) / eps)
 
         try:
             phi = _null_vector(self._solved.lu)
