@@ -13,7 +13,7 @@ from vibrissa_ros.core.arrays import CosineWhisk, WhiskerArray, rat_array
 from vibrissa_ros.core.arrays.tracker import ArrayTracker
 from vibrissa_ros.core.rod3d import BasePose, Cylinder, Scene3D
 from vibrissa_ros.scan.array_file import dump_array
-from vibrissa_ros.scan.array_scan import ARRAY_COLUMNS
+from vibrissa_ros.scan.array_scan import ARRAY_COLUMNS, POINTS_TOLERANCE_KEY
 
 #: the right pad's whiskers that hit the peg while whisking (RB1, RC1) and two that do not
 NAMES = ("RB1", "RC1", "RC2", "RC5")
@@ -240,11 +240,16 @@ def test_a_bad_array_file_names_the_file_whisker_and_key(tmp_path, files, capsys
 def test_a_coarser_points_tolerance_gives_the_rows_to_its_error(tmp_path, files):
     # the same whisk at --points-tolerance 1e-8: the same contacts, the base wrenches within
     # ~1e-9 of the default run's largest
-    out = str(tmp_path / "coarse.csv")
+    out = str(tmp_path / "coarse.parquet")
     assert main(["scan", "--array", files["array"], "--scene", files["scene"], *WHISK,
                  "--points-tolerance", "1e-8", "--out", out]) == 0
-    rows, exact = _rows(out), _rows(files["csv"])
-    assert [r["contacts"] for r in rows] == [r["contacts"] for r in exact]
+    table = pq.read_table(out)
+    # the file says how it was computed (the default's too)
+    assert table.schema.metadata[POINTS_TOLERANCE_KEY.encode()] == b"1e-08"
+    default = pq.read_table(files["parquet"]).schema.metadata
+    assert default[POINTS_TOLERANCE_KEY.encode()] == b"1e-11"
+    rows, exact = table.to_pylist(), _rows(files["csv"])
+    assert [str(r["contacts"]) for r in rows] == [r["contacts"] for r in exact]
     keys = ("fx", "fy", "fz", "mx", "my", "mz")
     got = np.array([[float(r[k]) for k in keys] for r in rows])
     want = np.array([[float(r[k]) for k in keys] for r in exact])
@@ -257,7 +262,7 @@ def test_array_options_need_an_array(capsys):
     assert "--side applies to a whisker array" in capsys.readouterr().err
     assert main(["scan", "--profile", "parabola", "--param", "p0=0.3", "--from", "1", "--to",
                  "-1", "--step", "0.5", "--csv", "-", "--points-tolerance", "1e-8"]) == 2
-    assert "--points-tolerance applies to a whisker array" in capsys.readouterr().err
+    assert "--points-tolerance applies to the 3D whisker" in capsys.readouterr().err
     assert main(["scan", "--profile", "parabola", "--param", "p0=0.3", "--from", "1", "--to",
                  "-1", "--step", "0.5"]) == 2
     assert "--csv" in capsys.readouterr().err

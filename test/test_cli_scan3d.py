@@ -138,6 +138,27 @@ def test_the_planar_special_case_gives_the_planar_scan(tmp_path, text, sweep):
         assert (e["y"], e["z"], e["qx"], e["qy"]) == (0.0, 0.0, 0.0, 0.0)
 
 
+def test_a_coarser_points_tolerance_moves_the_rows_within_it(tmp_path):
+    """--points-tolerance: the same contacts and events, the loads within the tolerance."""
+    scene = _write(tmp_path, "ball.yaml", BALL)
+    poses = _poses3d(tmp_path / "p.csv", _sweep(0.3, -0.3, 25))
+    keys = ("fx", "fy", "fz", "mx", "my", "mz", "tip_x", "tip_y", "tip_z")
+    runs = {}
+    for tolerance in ("1e-11", "1e-6"):
+        out, ev = str(tmp_path / f"{tolerance}.csv"), str(tmp_path / f"{tolerance}.json")
+        assert main(["scan", "--scene", scene, "--poses", poses, "--csv", out, "--events", ev,
+                     "--points-tolerance", tolerance]) == 0
+        rows = _dicts(out)
+        runs[tolerance] = ([r["contacts"] for r in rows],
+                           [[float(r[k]) for k in keys] for r in rows],
+                           [e["kind"] for e in json.loads(open(ev).read())])
+    (contacts, exact, events), (coarse_contacts, coarse, coarse_events) = runs.values()
+    assert coarse_contacts == contacts and coarse_events == events == ["touch", "release"]
+    largest = max(abs(v) for row in exact for v in row[:6])
+    error = max(abs(a - b) for r, q in zip(exact, coarse) for a, b in zip(r, q))
+    assert 0.0 < error < 1e-6 * largest
+
+
 def _run(args, capsys):
     try:
         code = main(["scan", *args])
@@ -167,6 +188,8 @@ def _run(args, capsys):
     (BALL, ["0.3,0,0,1,0,0,0"], ["--curvature=1,0", "--parabola", "0.5"],
      ["--curvature", "--parabola", "not both"]),
     (BALL, ["0.3,0,0,1,0,0,0"], ["--poisson", "0.7"], ["--poisson", "[0, 0.5]"]),
+    (BALL, ["0.3,0,0,1,0,0,0"], ["--points-tolerance", "1e-4"],
+     ["points_tolerance = 0.0001", "1e-12 to 1e-06"]),
     # options of the planar scan
     (BALL, ["0.3,0,0,1,0,0,0"], ["--from", "0", "--to", "1", "--step", "0.1"], ["--from"]),
     (BALL, ["0.3,0,0,1,0,0,0"], ["--model", "rigid"], ["--model elastica"]),
@@ -188,6 +211,8 @@ def test_bad_input_exits_2_with_one_line(tmp_path, capsys, scene, rows, extra, n
     (["--profile", "peg", "--param", "x=0", "--param", "y=0.5", "--param", "r=0.1",
       "--poses", "P3"], ["3D poses", "--scene"]),
     (["--scene", "S", "--poses", "P2", "--parabola", "0.5"], ["--parabola", "3D run"]),
+    (["--scene", "S", "--poses", "P2", "--points-tolerance", "1e-8"],
+     ["--points-tolerance applies to the 3D whisker"]),
     # a poses file with some 3D columns names the missing ones
     (["--scene", "S", "--poses", "PQ"], ["missing column(s) qz"]),
     # a 3D scene with planar poses says how to run it

@@ -188,13 +188,16 @@ def test_rod3d_configuration_round_trips_through_its_record_without_the_file(tmp
     scene = tmp_path / "sphere.yaml"
     scene.write_text(SPHERE_M.read_text())
     cfg = build_config(dict(ROD3D, **{"obstacle.scene_file": str(scene),
-                                      "whisker.poisson": 0.3}))
+                                      "whisker.poisson": 0.3, "solver.points_tolerance": 1e-8}))
     record = json.loads(json.dumps(cfg.record_values))  # as the log stores it
     scene.unlink()
     again = build_config(record)
     assert again.scene3d == cfg.scene3d and again.rod_shape == cfg.rod_shape
     assert again.units == cfg.units and again.roll == cfg.roll
-    assert again.values == cfg.values
+    assert again.values == cfg.values and again.values["solver.points_tolerance"] == 1e-8
+    # a log written before the parameter existed: the default, the resolution it ran at
+    del record["solver.points_tolerance"]
+    assert build_config(record).values["solver.points_tolerance"] == 1e-11
 
 
 @pytest.mark.parametrize(
@@ -214,6 +217,11 @@ def test_rod3d_configuration_round_trips_through_its_record_without_the_file(tmp
         ({"model": "elastica"}, ["whisker.parabola = 10.0 1/m", "needs model 'rod3d'"]),
         ({"model": "elastica", "whisker.parabola": 0.0}, ["whisker.roll = 0.5 rad",
                                                           "needs model 'rod3d'"]),
+        ({"model": "elastica", "whisker.parabola": 0.0, "whisker.roll": 0.0,
+          "solver.points_tolerance": 1e-8}, ["solver.points_tolerance = 1e-08",
+                                             "needs model 'rod3d'"]),
+        ({"solver.points_tolerance": 1e-5}, ["solver.points_tolerance", "1e-06"]),
+        ({"solver.points_tolerance": 1e-13}, ["solver.points_tolerance", "1e-12"]),
     ],
 )
 def test_bad_rod3d_parameters_are_refused_with_one_clear_message(values, words):

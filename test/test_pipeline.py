@@ -169,6 +169,40 @@ def test_a_6dof_sweep_equals_the_rod_tracker_in_si_with_the_roll_composed():
     assert reading.phase == 1 and len(state.contacts) == 1 and sensed[2] != 0.0
 
 
+def test_rod3d_points_tolerance_reaches_the_rod_tracker_and_moves_the_wrench_within_it():
+    """solver.points_tolerance: the tracker of that tolerance's answers; near the default's."""
+    def sweep(tolerance):
+        pipe = PosePipeline(build_config(dict(ROD3D, **{"solver.points_tolerance": tolerance})))
+        wrenches = []
+        for i in range(21):
+            p, q = _tilted(0.0005 * i, i)
+            state, _ = pipe.handle("world", i, p, q)
+            wrenches.append(pipe.reading(state)[1])
+        return pipe, np.array(wrenches)
+
+    _, exact = sweep(1e-11)
+    pipe, coarse = sweep(1e-6)
+    cfg = pipe.config
+    assert pipe.tracker.solver.points_tolerance == 1e-6
+    assert "points_tolerance=1e-06 L" in cfg.describe()
+    tracker = None
+    for i in range(21):
+        p, (qx, qy, qz, qw) = _tilted(0.0005 * i, i)
+        core_q = quat_multiply((qw, qx, qy, qz), quat_about((1, 0, 0), 0.5))
+        pose = BasePose(tuple(v / 0.03 for v in p), tuple(core_q))
+        if tracker is None:
+            tracker = RodTracker(cfg.scene3d, pose, shape=cfg.rod_shape, points_tolerance=1e-6)
+        else:
+            tracker.step(pose)
+    want = pipe.reading(tracker.state)[1]
+    assert coarse[-1] == pytest.approx(want, rel=1e-12, abs=1e-20)
+    # in contact at the end; every component within a few tolerances of the default's largest
+    largest = np.abs(exact).max(axis=0)
+    assert np.all(largest > 0.0)
+    error = np.abs(coarse - exact).max(axis=0) / largest
+    assert np.all(error < 1e-6) and np.any(error > 1e-12)
+
+
 def test_rod3d_takes_any_orientation_but_drops_a_non_unit_quaternion_keeping_the_state():
     pipe = PosePipeline(build_config(ROD3D))
     pipe.handle("world", 1, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0))

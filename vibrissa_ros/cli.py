@@ -246,6 +246,11 @@ def build_parser() -> argparse.ArgumentParser:
         "x,y,z,qw,qx,qy,qz (base position, unit quaternion scalar first) make a 3D run",
     )
     scan.add_argument("--back", action="store_true", help="append the sweep back to --from")
+    scan.add_argument("--points-tolerance", type=float, metavar="TOL",
+                      help="the 3D whisker (an array's run, or --scene with 3D --poses): each "
+                      "whisker's discretization error asked for, in its own length, 1e-12 to "
+                      "1e-6 (default 1e-11: resolved to the solver's convergence; coarser: fewer "
+                      "points per segment, faster)")
     scan.add_argument("--csv", help="output CSV ('-' for standard output); required, except "
                       "with --array (--out)")
     scan.add_argument("--events", help="output events JSON")
@@ -277,10 +282,6 @@ def build_parser() -> argparse.ArgumentParser:
     arr.add_argument("--out", metavar="OUT.parquet",
                      help="the rows (one per whisker and tick): Parquet for *.parquet (needs "
                      "pyarrow), else CSV ('-' for standard output)")
-    arr.add_argument("--points-tolerance", type=float, metavar="TOL",
-                     help="each whisker's discretization error asked for, in its own length, "
-                     "1e-12 to 1e-6 (default 1e-11: resolved to the solver's convergence; "
-                     "coarser: fewer points per segment, faster)")
     arr.add_argument("--plot-tick", type=_nonnegative, metavar="T",
                      help="the time [s] whose whisker shapes --plot draws (default: the first "
                      "tick with the most whiskers in contact)")
@@ -644,8 +645,7 @@ def _is_3d_run(args) -> bool:
 
 
 #: the options of an array run only
-_ARRAY_OPTIONS = ("side", "duration", "rate", "head", "velocity", "out", "plot_tick",
-                  "points_tolerance")
+_ARRAY_OPTIONS = ("side", "duration", "rate", "head", "velocity", "out", "plot_tick")
 
 
 def _cmd_scan(args) -> int:
@@ -669,6 +669,10 @@ def _cmd_scan(args) -> int:
         if not three_d and (args.parabola is not None or args.poisson is not None):
             raise VibrissaError("--parabola and --poisson apply to a 3D run (--scene with --poses "
                                 "of columns x,y,z,qw,qx,qy,qz)")
+        if not three_d and args.points_tolerance is not None:
+            raise VibrissaError("--points-tolerance applies to the 3D whisker (--array, or "
+                                "--scene with --poses of columns x,y,z,qw,qx,qy,qz); the planar "
+                                "models are exact or solved to their own tolerance")
     except VibrissaError as exc:
         print(f"vibrissa scan: error: {exc}", file=sys.stderr)
         return 2
@@ -870,7 +874,9 @@ def _cmd_scan3d(args) -> int:
         k0, k1 = args.curvature or (0.0, 0.0)
         shape = RodShape(1.0 if args.taper is None else args.taper, k0, k1, args.parabola,
                          DEFAULT_POISSON if args.poisson is None else args.poisson)
-        plan = plan_scene_scan3d(scene, poses.poses, shape, poses.where)
+        plan = plan_scene_scan3d(scene, poses.poses, shape, poses.where,
+                                 **({} if args.points_tolerance is None
+                                    else {"points_tolerance": args.points_tolerance}))
     except VibrissaError as exc:
         print(f"vibrissa scan: error: {exc}", file=sys.stderr)
         return 2

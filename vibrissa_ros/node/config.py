@@ -17,6 +17,7 @@ from ..core.general.model import GeneralWhiskerModel, WhiskerShape
 from ..core.exact.models import make_model
 from ..core.profiles import ConvexProfile, Peg, make_profile
 from ..core.rod3d import DEFAULT_POISSON, RodShape, Scene3D
+from ..core.rod3d.model import POINTS_TOLERANCE, POINTS_TOLERANCE_RANGE
 from ..core.scenes.scene import Scene
 from .edge import NS_PER_S, Units
 from .parameters import ParameterSpec, nonnegative, positive, validate
@@ -81,6 +82,11 @@ _WHISKER_3D = (
     ParameterSpec("whisker.roll", 0.0, "rod3d: the whisker's rotation about its own axis (base "
                   "frame +x): its plane of curvature is the base frame's x-y plane rolled by this "
                   "angle", "rad", minimum=-2.0 * math.pi, maximum=2.0 * math.pi),
+    ParameterSpec("solver.points_tolerance", POINTS_TOLERANCE, "rod3d: the discretization "
+                  "error asked of the whisker, in whisker lengths: 1e-11 resolves it to the "
+                  "solver's own convergence; coarser takes fewer points, faster (array_node's "
+                  "parameter of the same name)", minimum=POINTS_TOLERANCE_RANGE[0],
+                  maximum=POINTS_TOLERANCE_RANGE[1]),
 )
 _FRAMES = (
     _frame("world_frame", "world", "frame of the foot poses, the obstacle and the contact point"),
@@ -373,10 +379,14 @@ class WhiskerConfig:
         else:
             curve = (f"k0={v['whisker.curvature_k0']!r} 1/m, "
                      f"k1={v['whisker.curvature_k1']!r} 1/m^2")
+        tolerance = v["solver.points_tolerance"]
+        coarse = (f", points_tolerance={tolerance!r} L" if tolerance != POINTS_TOLERANCE
+                  else "")
         return (f"rod3d whisker L={v['whisker.length']!r} m, taper={v['whisker.taper']!r}, "
                 f"{curve}, roll={v['whisker.roll']!r} rad, EI={ei!r} N m^2, "
-                f"nu={shape.poisson!r}, obstacle.scene_file {v['obstacle.scene_file']!r}: "
-                f"{self.scene3d.describe()} (lengths in L) in '{v['world_frame']}'")
+                f"nu={shape.poisson!r}{coarse}, obstacle.scene_file "
+                f"{v['obstacle.scene_file']!r}: {self.scene3d.describe()} (lengths in L) in "
+                f"'{v['world_frame']}'")
 
     def _describe_whisker(self) -> str:
         v = self.values
@@ -504,13 +514,19 @@ def _own_share(package: str) -> Optional[str]:
 
 
 def _check_planar(values: Mapping[str, Any]) -> None:
-    """Refuse the 3D whisker's shape parameters with a planar model (they would be ignored)."""
+    """Refuse the 3D whisker's own parameters with a planar model (they would be ignored)."""
     for name, unit in (("whisker.parabola", "1/m"), ("whisker.roll", "rad")):
         if values[name] != 0.0:
             raise ParameterError(
                 f"{name} = {values[name]!r} {unit} is a parameter of the 3D whisker: it needs "
                 f"model 'rod3d' (model is {values['model']!r}; the planar whisker bends in its "
                 "base frame's x-y plane with the curvature curvature_k0 + curvature_k1 s)")
+    tolerance = values["solver.points_tolerance"]
+    if tolerance != POINTS_TOLERANCE:
+        raise ParameterError(
+            f"solver.points_tolerance = {tolerance!r} is a parameter of the 3D whisker: it "
+            f"needs model 'rod3d' (model is {values['model']!r}; the planar models are exact "
+            f"closed forms or solved to their own tolerance; leave it at {POINTS_TOLERANCE!r})")
 
 
 def _scene_text(values: Mapping[str, Any], recorded: Optional[str]) -> str:

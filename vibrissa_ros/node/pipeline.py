@@ -228,7 +228,8 @@ class PosePipeline:
         """Return a new tracker with the whisker unloaded at ``pose`` (it must be free there)."""
         cfg = self.config
         if cfg.rod3d:
-            return RodTracker(cfg.scene3d, pose, shape=cfg.rod_shape, recover=True)
+            return RodTracker(cfg.scene3d, pose, shape=cfg.rod_shape, recover=True,
+                              points_tolerance=cfg.values["solver.points_tolerance"])
         if cfg.multi_contact:
             return SceneTracker(list(cfg.scene), pose, shape=cfg.shape, friction=cfg.friction)
         return QuasistaticTracker(cfg.profile, pose, model=cfg.fresh_model())

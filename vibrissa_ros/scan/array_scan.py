@@ -65,6 +65,8 @@ ARRAY_COLUMNS = (
 #: the columns of text (the others are numbers; tick, column and contacts integers)
 TEXT_COLUMNS = ("whisker", "side", "row", "kind", "obstacle", "error")
 INT_COLUMNS = ("tick", "column", "contacts")
+#: the Parquet schema's metadata key of the whiskers' discretization error (points_tolerance)
+POINTS_TOLERANCE_KEY = "vibrissa_ros.points_tolerance"
 #: the largest number of ticks of one run
 MAX_TICKS = 10_000_000
 
@@ -372,7 +374,8 @@ class ArrayScan:
                 best = self._keep(tracker, i, shape_tick, shape_points, best)
             if progress is not None:
                 progress(i)
-        return ArrayScanResult(self.array, self.path.times, tuple(steps), best[1], best[2])
+        return ArrayScanResult(self.array, self.path.times, tuple(steps), best[1], best[2],
+                               self.points_tolerance)
 
     @staticmethod
     def _keep(tracker, i, wanted, n, best):
@@ -457,6 +460,8 @@ class ArrayScanResult:
         The tick whose centerlines are kept.
     shapes : numpy.ndarray or None
         (k, n, 3) every whisker's centerline at ``shape_tick`` [m].
+    points_tolerance : float, optional
+        The discretization error the whiskers were solved to, in their lengths.
 
     """
 
@@ -465,6 +470,7 @@ class ArrayScanResult:
     steps: Tuple[ArrayStep, ...]
     shape_tick: Optional[int] = None
     shapes: Optional[np.ndarray] = None
+    points_tolerance: float = POINTS_TOLERANCE
 
     @property
     def errors(self) -> int:
@@ -582,6 +588,9 @@ def array_scan_table(result: ArrayScanResult):
     """
     Return the run's rows as a pyarrow Table (:func:`arrow_schema`; free fields null).
 
+    The schema's metadata records how the rows were computed: ``vibrissa_ros.points_tolerance``
+    (the whiskers' discretization error, ``repr`` of the float).
+
     Parameters
     ----------
     result : ArrayScanResult
@@ -595,7 +604,8 @@ def array_scan_table(result: ArrayScanResult):
     """
     import pyarrow as pa
 
-    return pa.Table.from_pydict(array_scan_columns(result), schema=arrow_schema())
+    table = pa.Table.from_pydict(array_scan_columns(result), schema=arrow_schema())
+    return table.replace_schema_metadata({POINTS_TOLERANCE_KEY: repr(result.points_tolerance)})
 
 
 def _text(value) -> str:
@@ -696,6 +706,7 @@ def write_array_events_json(result: ArrayScanResult, stream: IO[str]) -> None:
     stream.write("\n")
 
 
-__all__ = ["ARRAY_COLUMNS", "ArrayScan", "ArrayScanResult", "HeadPath", "array_event_records",
-           "array_scan_columns", "array_scan_table", "head_pose", "plan_array_scan",
-           "read_head_poses_csv", "timed_path", "write_array_events_json", "write_array_scan"]
+__all__ = ["ARRAY_COLUMNS", "POINTS_TOLERANCE_KEY", "ArrayScan", "ArrayScanResult", "HeadPath",
+           "array_event_records", "array_scan_columns", "array_scan_table", "head_pose",
+           "plan_array_scan", "read_head_poses_csv", "timed_path", "write_array_events_json",
+           "write_array_scan"]

@@ -20,6 +20,7 @@ from typing import Callable, Optional, Sequence, Tuple
 
 from ..core.errors import InvalidPoseError, ParameterError, VibrissaError
 from ..core.rod3d import BasePose, RodShape, RodTracker, Scene3D
+from ..core.rod3d.model import POINTS_TOLERANCE, _points_tolerance
 
 
 def _pose_number(index: int) -> str:
@@ -76,6 +77,9 @@ class SceneScan3D:
         The whisker's taper, intrinsic curvature and Poisson ratio.
     where : callable
         ``where(i)`` names pose ``i`` in error messages (e.g. its file and line).
+    points_tolerance : float, optional
+        The discretization error asked of the whisker, in its length (the
+        :class:`RodTracker`'s; default 1e-11, resolved to the solver's convergence).
 
     """
 
@@ -83,6 +87,7 @@ class SceneScan3D:
     poses: Tuple[BasePose, ...]
     shape: RodShape
     where: Callable[[int], str] = _pose_number
+    points_tolerance: float = POINTS_TOLERANCE
 
     def tracker(self) -> RodTracker:
         """
@@ -101,7 +106,8 @@ class SceneScan3D:
 
         """
         try:
-            return RodTracker(self.scene, self.poses[0], shape=self.shape, recover=True)
+            return RodTracker(self.scene, self.poses[0], shape=self.shape, recover=True,
+                              points_tolerance=self.points_tolerance)
         except VibrissaError as exc:
             raise _located(exc, self.where(0)) from None
 
@@ -136,7 +142,8 @@ class SceneScan3D:
 
 def plan_scene_scan3d(scene: Scene3D, poses: Sequence[BasePose],
                       shape: Optional[RodShape] = None,
-                      where: Optional[Callable[[int], str]] = None) -> SceneScan3D:
+                      where: Optional[Callable[[int], str]] = None,
+                      points_tolerance: float = POINTS_TOLERANCE) -> SceneScan3D:
     """
     Check a 3D scene scan before it runs: at least one pose, the whisker clear at the first.
 
@@ -150,6 +157,9 @@ def plan_scene_scan3d(scene: Scene3D, poses: Sequence[BasePose],
         The whisker; None: the paper's (uniform, straight, Poisson ratio 0.38).
     where : callable, optional
         ``where(i)`` names pose ``i`` in error messages; default ``pose i``.
+    points_tolerance : float, optional
+        The discretization error asked of the whisker, in its length, 1e-12 to 1e-6 (default
+        1e-11: resolved to the solver's convergence; coarser: fewer points, faster).
 
     Returns
     -------
@@ -159,7 +169,7 @@ def plan_scene_scan3d(scene: Scene3D, poses: Sequence[BasePose],
     Raises
     ------
     ParameterError
-        When there is no pose.
+        When there is no pose, or ``points_tolerance`` is out of its range.
     InvalidPoseError
         When a pose is not a :class:`BasePose`, or the unloaded whisker cuts an obstacle at the
         first pose (the message starts with ``where(0)``).
@@ -186,6 +196,6 @@ def plan_scene_scan3d(scene: Scene3D, poses: Sequence[BasePose],
         if not isinstance(pose, BasePose):
             raise InvalidPoseError(f"{(where or _pose_number)(i)}: {pose!r} is not a BasePose")
     plan = SceneScan3D(scene, poses, RodShape() if shape is None else shape,
-                       where or _pose_number)
+                       where or _pose_number, _points_tolerance(points_tolerance))
     plan.tracker()
     return plan
