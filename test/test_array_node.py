@@ -666,3 +666,22 @@ def test_the_cloud_layout_round_trips_by_field_name():
     assert [f.name for f in cloud.fields] == list(ARRAY_DTYPE.names)
     for name in ARRAY_DTYPE.names:
         assert np.array_equal(back[name], rows[name]), name
+
+
+def test_finite_checks_every_float_field_of_every_row_and_no_other():
+    from vibrissa_ros.node.array import ARRAY_DTYPE, ARRAY_FIELDS, finite
+
+    rows = np.zeros(30, dtype=ARRAY_DTYPE)
+    rows["index"], rows["kind"], rows["contacts"] = 2**32 - 1, 255, 7  # no float: ignored
+    assert finite(rows) and finite(rows[:0]) and finite(rows[::3])
+    floats = [name for name, kind, _, _ in ARRAY_FIELDS if kind == "<f8"]
+    assert len(floats) == 19
+    for name in floats:
+        for bad in (math.nan, math.inf, -math.inf):
+            for i in (0, 13, 29):
+                broken = rows.copy()
+                broken[name][i] = bad
+                assert not finite(broken), (name, bad, i)
+                # as a received cloud's rows are: read-only, from the message's bytes
+                assert not finite(np.frombuffer(broken.tobytes(), dtype=ARRAY_DTYPE))
+                assert not finite(broken[i:i + 1]) and finite(np.delete(broken, i))

@@ -90,13 +90,23 @@ def test_cosine_whisk():
 
 
 def test_vectorized_quaternions_equal_the_scalar_ones():
+    from vibrissa_ros.core.arrays.tracker import _quats_numpy
+
     rng = np.random.default_rng(3)
     q = rng.normal(size=(200, 4))
     q /= np.linalg.norm(q, axis=1)[:, None]
-    R = np.array([BasePose((0, 0, 0), tuple(v)).rotation for v in q])
-    got = quats_from_matrices(R)
+    # and the ties of the four candidates: the identity, half turns about the axes and a
+    # diagonal (the first of the tied candidates is taken)
+    R = np.array([BasePose((0, 0, 0), tuple(v)).rotation for v in q]
+                 + [np.eye(3), np.diag((1.0, -1.0, -1.0)), np.diag((-1.0, 1.0, -1.0)),
+                    np.diag((-1.0, -1.0, 1.0)), np.array(((0.0, 1.0, 0.0), (1.0, 0.0, 0.0),
+                                                          (0.0, 0.0, -1.0)))])
     want = np.array([quat_from_matrix(r) for r in R])
-    assert np.abs(got - want).max() < 1e-15
+    # compiled where numba is (read-only input, as a tick's frames are): the same operations
+    frozen = R.copy()
+    frozen.flags.writeable = False
+    assert np.array_equal(quats_from_matrices(frozen), want)
+    assert np.abs(_quats_numpy(R) - want).max() < 1e-15
 
 
 def test_whisking_key_of_the_array_file():

@@ -47,6 +47,24 @@ def test_the_contacts_cloud_decodes_as_the_builders_cloud(n):
     assert m.decode_contacts(got) == m.decode_contacts(want)
 
 
+@pytest.mark.parametrize("k", [0, 1, 30, 60])
+def test_the_array_wrenches_cloud_decodes_as_the_builders_cloud(k):
+    import numpy as np
+
+    from vibrissa_ros.node.array import ARRAY_DTYPE
+    from vibrissa_ros.ros import array_messages as am
+
+    rng = np.random.default_rng(k)
+    rows = np.zeros(k, dtype=ARRAY_DTYPE)
+    for name in ARRAY_DTYPE.names:
+        rows[name] = (rng.normal(size=k) * 1e-3 if ARRAY_DTYPE[name].kind == "f"
+                      else rng.integers(0, 3, size=k))
+    want = am.wrenches_cloud(PointCloud2(), STAMP, "world", rows)
+    got = deserialize_message(am.wrenches_cdr(STAMP, "world", rows), PointCloud2)
+    _same(got, want)
+    assert np.array_equal(am.decode_cloud(got), rows)
+
+
 def test_scalars_decode_as_the_builders_messages():
     for value in (0.0, -1.5, 1e-300, float("inf")):
         _same(deserialize_message(cdr.float_cdr(value), Float64), m.float_msg(value))

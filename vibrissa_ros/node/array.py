@@ -383,6 +383,10 @@ ARRAY_FIELDS: Tuple[Tuple[str, str, str, str], ...] = (
 )
 KINDS = {"": 0, "side": 1, "tip": 2}
 ARRAY_DTYPE = np.dtype([(name, kind) for name, kind, _, _ in ARRAY_FIELDS])
+#: the float fields lead the row, packed: their bytes are one block of float64s (finite's view)
+_FLOATS = sum(1 for _, kind, _, _ in ARRAY_FIELDS if kind == "<f8")
+assert all(ARRAY_DTYPE.fields[name][1] == 8 * i and kind == "<f8"
+           for i, (name, kind, _, _) in enumerate(ARRAY_FIELDS[:_FLOATS]))
 #: the wrench columns compared by ``vibrissa resim``
 WRENCH_FIELDS = ("fx", "fy", "fz", "mx", "my", "mz")
 
@@ -440,8 +444,11 @@ def finite(rows: np.ndarray) -> bool:
         True when no value is NaN or infinite.
 
     """
-    return all(np.isfinite(rows[name]).all() for name, kind, _, _ in ARRAY_FIELDS
-               if kind == "<f8")
+    rows = np.ascontiguousarray(rows, dtype=ARRAY_DTYPE)
+    # the float fields' bytes of every row, as (k, _FLOATS) float64s: one isfinite call
+    # (~3 us for 30 whiskers, where a call per field took ~30 us)
+    raw = rows.view(np.uint8).reshape(len(rows), ARRAY_DTYPE.itemsize)
+    return bool(np.isfinite(raw[:, :8 * _FLOATS].view("<f8")).all())
 
 
 # -- the pipeline ---------------------------------------------------------------------------------

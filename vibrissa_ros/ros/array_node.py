@@ -104,7 +104,6 @@ class ArrayNode(Node):
         self._last_rows = None
         self._last_step = None
         # publishers
-        self._cloud = PointCloud2()
         self._pub = {
             "wrenches": self.create_publisher(PointCloud2, "~/wrenches", OUTPUT),
             "events": self.create_publisher(String, "~/events", OUTPUT),
@@ -184,6 +183,16 @@ class ArrayNode(Node):
     def _send(self, key: str, msg) -> None:
         """Record, then publish: all the node published is in its log, even after a signal."""
         self._record(key, msg)
+        self._publish(key, msg)
+
+    def _send_serialized(self, key: str, data: bytes) -> None:
+        """:meth:`_send` of a message already serialized (the same bytes recorded and sent)."""
+        recorder = self._recorder
+        if recorder is not None and recorder.error is None:
+            recorder.write_serialized(key, data, self._next_log_ns())
+        self._publish(key, data)
+
+    def _publish(self, key: str, msg) -> None:
         try:
             self._pub[key].publish(msg)
         except RCLError:
@@ -289,7 +298,7 @@ class ArrayNode(Node):
             self._errors[i] += 1
             self._last_error[i] = error.message
         self._last_rows, self._last_step = rows, step
-        self._send("wrenches", am.wrenches_cloud(self._cloud, stamp, self._world, rows))
+        self._send_serialized("wrenches", am.wrenches_cdr(stamp, self._world, rows))
         for event in step.events:
             if event.kind == "touch":
                 self._touches[step.index(event.whisker)] += 1

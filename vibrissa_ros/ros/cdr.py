@@ -140,13 +140,20 @@ def uint8_cdr(value: int) -> bytes:
     return bytes(out)
 
 
-class _Cloud:
-    """The ~/contacts PointCloud2 of one frame: stamp, width, row_step and data change."""
+class CloudEncoder:
+    """
+    A PointCloud2 of fixed fields and frame (one row): stamp, width, row_step and data change.
+
+    Parameters
+    ----------
+    msg : sensor_msgs.msg.PointCloud2
+        The template: its frame, fields, point_step and flags (no points; height 1, dense).
+
+    """
 
     _MARK_WIDTH, _MARK_ROW = 0x3C4D5E6F, 0x4D5E6F70
 
-    def __init__(self, frame: str):
-        msg = contacts_cloud(Time(), frame, ())
+    def __init__(self, msg):
         msg.width, msg.row_step = self._MARK_WIDTH, self._MARK_ROW
         data, self._stamp_at = _stamped_template(msg)
         self._width_at = _find(data, struct.pack("<I", self._MARK_WIDTH))
@@ -155,6 +162,24 @@ class _Cloud:
         self._tail = data[row_at + 8:]  # is_dense and what follows
 
     def encode(self, stamp, n: int, points: bytes) -> bytes:
+        """
+        Return the cloud of ``n`` points: ``points`` are their bytes (n times point_step).
+
+        Parameters
+        ----------
+        stamp : builtin_interfaces.msg.Time
+            The header's stamp.
+        n : int
+            The number of points (width; row_step is the data's length).
+        points : bytes
+            The points' data.
+
+        Returns
+        -------
+        bytes
+            The serialized message (what ``publisher.publish`` takes).
+
+        """
         head = bytearray(self._head)
         _STAMP.pack_into(head, self._stamp_at, stamp.sec, stamp.nanosec)
         struct.pack_into("<I", head, self._width_at, n)
@@ -162,8 +187,8 @@ class _Cloud:
 
 
 @lru_cache(maxsize=None)
-def _cloud(frame: str) -> _Cloud:
-    return _Cloud(frame)
+def _cloud(frame: str) -> CloudEncoder:
+    return CloudEncoder(contacts_cloud(Time(), frame, ()))
 
 
 def contacts_cdr(stamp, frame: str, contacts: Sequence[ContactRecord]) -> bytes:

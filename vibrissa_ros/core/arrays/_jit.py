@@ -117,6 +117,37 @@ def clearance(R, p, R_prev, p_prev, length, free, stride, reach, codes, prm):
 
 
 @_kernel
+def _quaternion(R, i, quat, j):
+    """Write the quaternion of R[i] into quat[j] (quat_from_matrix's operations)."""
+    r00, r01, r02 = R[i, 0, 0], R[i, 0, 1], R[i, 0, 2]
+    r10, r11, r12 = R[i, 1, 0], R[i, 1, 1], R[i, 1, 2]
+    r20, r21, r22 = R[i, 2, 0], R[i, 2, 1], R[i, 2, 2]
+    t = r00 + r11 + r22
+    c0, c1, c2, c3 = 1.0 + t, 1.0 + 2 * r00 - t, 1.0 + 2 * r11 - t, 1.0 + 2 * r22 - t
+    k = 0
+    best = c0
+    if c1 > best:
+        k, best = 1, c1
+    if c2 > best:
+        k, best = 2, c2
+    if c3 > best:
+        k, best = 3, c3
+    r = 0.5 * math.sqrt(max(best, 0.0))
+    f = 0.25 / r
+    if k == 0:
+        q0, q1, q2, q3 = r, (r21 - r12) * f, (r02 - r20) * f, (r10 - r01) * f
+    elif k == 1:
+        q0, q1, q2, q3 = (r21 - r12) * f, r, (r01 + r10) * f, (r02 + r20) * f
+    elif k == 2:
+        q0, q1, q2, q3 = (r02 - r20) * f, (r01 + r10) * f, r, (r12 + r21) * f
+    else:
+        q0, q1, q2, q3 = (r10 - r01) * f, (r02 + r20) * f, (r12 + r21) * f, r
+    if not q0 >= 0.0:
+        q0, q1, q2, q3 = -q0, -q1, -q2, -q3
+    quat[j, 0], quat[j, 1], quat[j, 2], quat[j, 3] = q0, q1, q2, q3
+
+
+@_kernel
 def poses(R, p, length, which):
     """
     Return the whiskers ``which``'s base positions p / L (m, 3) and quaternions (m, 4).
@@ -133,33 +164,23 @@ def poses(R, p, length, which):
         i = which[j]
         for a in range(3):
             pos[j, a] = p[i, a] / length[i]
-        r00, r01, r02 = R[i, 0, 0], R[i, 0, 1], R[i, 0, 2]
-        r10, r11, r12 = R[i, 1, 0], R[i, 1, 1], R[i, 1, 2]
-        r20, r21, r22 = R[i, 2, 0], R[i, 2, 1], R[i, 2, 2]
-        t = r00 + r11 + r22
-        c0, c1, c2, c3 = 1.0 + t, 1.0 + 2 * r00 - t, 1.0 + 2 * r11 - t, 1.0 + 2 * r22 - t
-        k = 0
-        best = c0
-        if c1 > best:
-            k, best = 1, c1
-        if c2 > best:
-            k, best = 2, c2
-        if c3 > best:
-            k, best = 3, c3
-        r = 0.5 * math.sqrt(max(best, 0.0))
-        f = 0.25 / r
-        if k == 0:
-            q0, q1, q2, q3 = r, (r21 - r12) * f, (r02 - r20) * f, (r10 - r01) * f
-        elif k == 1:
-            q0, q1, q2, q3 = (r21 - r12) * f, r, (r01 + r10) * f, (r02 + r20) * f
-        elif k == 2:
-            q0, q1, q2, q3 = (r02 - r20) * f, (r01 + r10) * f, r, (r12 + r21) * f
-        else:
-            q0, q1, q2, q3 = (r10 - r01) * f, (r02 + r20) * f, (r12 + r21) * f, r
-        if not q0 >= 0.0:
-            q0, q1, q2, q3 = -q0, -q1, -q2, -q3
-        quat[j, 0], quat[j, 1], quat[j, 2], quat[j, 3] = q0, q1, q2, q3
+        _quaternion(R, i, quat, j)
     return pos, quat
+
+
+@_kernel
+def quaternions(R):
+    """
+    Return the unit quaternion of each rotation matrix R[i], q0 >= 0: (k, 3, 3) in, (k, 4) out.
+
+    :func:`.tracker.quats_from_matrices`'s, with the same operations (the tick's rows take
+    their base frames so: ~50 us in numpy for 30 whiskers).
+    """
+    k = R.shape[0]
+    quat = np.empty((k, 4))
+    for i in range(k):
+        _quaternion(R, i, quat, i)
+    return quat
 
 
 @_kernel

@@ -239,6 +239,17 @@ def quats_from_matrices(R) -> np.ndarray:
         :func:`~vibrissa_ros.core.rod3d.pose.quat_from_matrix` row by row.
 
     """
+    if _arrays_jit.ENABLED:
+        # one compiled loop, the same operations (~2 us for 30 whiskers, ~50 us in numpy);
+        # a writable C-ordered copy: one compiled version of the kernel for every caller
+        if not _jit.WARM:
+            _jit.warm_up()
+        return _arrays_jit.quaternions(np.array(R, dtype=float, order="C").reshape(-1, 3, 3))
+    return _quats_numpy(R)
+
+
+def _quats_numpy(R) -> np.ndarray:
+    """:func:`quats_from_matrices` in numpy (the reference its test compares with)."""
     R = np.asarray(R, dtype=float).reshape(-1, 3, 3)
     t = R[:, 0, 0] + R[:, 1, 1] + R[:, 2, 2]
     cands = np.stack((1.0 + t, 1.0 + 2 * R[:, 0, 0] - t, 1.0 + 2 * R[:, 1, 1] - t,

@@ -103,6 +103,7 @@ def warm_up() -> None:
                                  np.zeros((1, 7)))
             arrays_jit.poses(np.tile(np.eye(3), (2, 1, 1)), np.zeros((2, 3)), np.ones(2),
                              np.zeros(1, np.int64))
+            arrays_jit.quaternions(np.tile(np.eye(3), (2, 1, 1)))
             arrays_jit.collect(np.tile(np.eye(3), (2, 1, 1)), np.zeros((2, 3)), np.zeros((2, 3)),
                                np.ones(2), np.ones(2), np.ones(2), np.zeros(1, np.int64),
                                np.zeros((1, 10)), np.zeros(1, np.int64), np.zeros((1, 11)))
