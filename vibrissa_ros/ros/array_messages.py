@@ -10,14 +10,16 @@ fields of :data:`~vibrissa_ros.node.array.ARRAY_FIELDS` (:func:`wrenches_cloud`,
 from __future__ import annotations
 
 import json
+import struct
 from functools import lru_cache
-from typing import Mapping, Sequence
+from typing import Mapping, Sequence, Tuple
 
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticStatus
 from geometry_msgs.msg import Point, WrenchStamped
 from sensor_msgs.msg import JointState, PointCloud2, PointField
 from builtin_interfaces.msg import Time
+from rclpy.serialization import serialize_message
 from std_msgs.msg import String
 from visualization_msgs.msg import Marker, MarkerArray
 
@@ -197,6 +199,104 @@ def shapes_markers(stamp, frame: str, names: Sequence[str], lines: np.ndarray,
         marker.points = [Point(x=float(x), y=float(y), z=float(z)) for x, y, z in lines[i]]
         array.markers.append(marker)
     return array
+
+
+class _ShapesEncoder:
+    """:func:`shapes_markers`' MarkerArray of fixed whiskers and points, serialized by template."""
+
+    def __init__(self, frame: str, names: Tuple[str, ...], n: int, width: float):
+        k = len(names)
+        # every value the encoder writes is a marker value nobody else writes: the stamp, each
+        # whisker's first point and its colour
+        lines = np.zeros((k, n, 3))
+        lines[:, 0, 0] = -1.2345678901234e-290 * (np.arange(k) + 1.0)
+        template = shapes_markers(Time(sec=_MARK_SEC, nanosec=_MARK_NSEC), frame, names, lines,
+                                  np.zeros(k), width)
+        for i, marker in enumerate(template.markers):
+            c = marker.color
+            c.r, c.g, c.b, c.a = (float(np.float32(v)) for v in (0.123, 0.456, 0.789, i + 0.5))
+        data = serialize_message(template)
+        stamp = _STAMP.pack(_MARK_SEC, _MARK_NSEC)
+        self._stamps = [at for at in _all(data, stamp)]
+        self._points = [_find(data, struct.pack("<d", lines[i, 0, 0])) for i in range(k)]
+        self._colors = [_find(data, _COLOR.pack(0.123, 0.456, 0.789, i + 0.5)) for i in range(k)]
+        if len(self._stamps) != k or any(data[at - 4:at] != struct.pack("<I", n)
+                                         and data[at - 8:at - 4] != struct.pack("<I", n)
+                                         for at in self._points):
+            raise RuntimeError("the serialized MarkerArray does not have the expected layout")
+        self._template = data
+        self._n = n
+
+    def encode(self, stamp, lines: np.ndarray, contacts) -> bytes:
+        out = bytearray(self._template)
+        for at in self._stamps:
+            _STAMP.pack_into(out, at, stamp.sec, stamp.nanosec)
+        lines = np.ascontiguousarray(lines, dtype="<f8")
+        size = 24 * self._n
+        for i, (at, color) in enumerate(zip(self._points, self._colors)):
+            out[at:at + size] = lines[i].tobytes()
+            _COLOR.pack_into(out, color, *(CONTACT_COLOR if contacts[i] else FREE_COLOR))
+        return bytes(out)
+
+
+_MARK_SEC, _MARK_NSEC = 0x1A2B3C4D, 0x2B3C4D5E  # a stamp no other field holds
+_STAMP = struct.Struct("<iI")
+_COLOR = struct.Struct("<4f")
+
+
+def _find(data: bytes, marker: bytes) -> int:
+    """Return where ``marker`` lies in a template, once and only once."""
+    at = data.find(marker)
+    if at < 0 or data.find(marker, at + 1) >= 0:
+        raise RuntimeError("the serialized template does not have the expected layout")
+    return at
+
+
+def _all(data: bytes, marker: bytes):
+    at = data.find(marker)
+    while at >= 0:
+        yield at
+        at = data.find(marker, at + 1)
+
+
+@lru_cache(maxsize=8)
+def _shapes_encoder(frame: str, names: Tuple[str, ...], n: int, width: float) -> _ShapesEncoder:
+    return _ShapesEncoder(frame, names, n, width)
+
+
+def shapes_cdr(stamp, frame: str, names: Sequence[str], lines: np.ndarray, contacts: np.ndarray,
+               width: float = 1e-4) -> bytes:
+    """
+    Return :func:`shapes_markers`' MarkerArray serialized, from a template (what publish takes).
+
+    Building 30 markers of 21 points as message objects and serializing them took ~2.5 ms, a
+    stall of the solving thread at every display tick; this packs the stamps, the points and
+    the colours into a copy of the serialized template (~30 us).
+
+    Parameters
+    ----------
+    stamp : builtin_interfaces.msg.Time
+        The stamp of every marker.
+    frame : str
+        The world frame.
+    names : sequence of str
+        The whiskers' names (each marker's text).
+    lines : numpy.ndarray
+        (k, n, 3) the centerlines in the world frame [m].
+    contacts : numpy.ndarray
+        (k,) each whisker's number of contacts (drawn red where > 0, else grey).
+    width : float, optional
+        The line width [m].
+
+    Returns
+    -------
+    bytes
+        The serialized visualization_msgs/MarkerArray.
+
+    """
+    lines = np.asarray(lines, dtype=float)
+    encoder = _shapes_encoder(frame, tuple(names), int(lines.shape[1]), float(width))
+    return encoder.encode(stamp, lines, contacts)
 
 
 CONTACT_DTYPE = np.dtype([("x", "<f8"), ("y", "<f8"), ("z", "<f8"), ("fx", "<f8"),

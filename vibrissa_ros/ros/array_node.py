@@ -330,8 +330,8 @@ class ArrayNode(Node):
                 np.vstack(([head.quaternion], step.base_quaternion))), self._next_log_ns())
         if recording or self._pub["shapes"].get_subscription_count():
             lines = self._pipeline.tracker.centerlines(int(self.config.values["display.points"]))
-            self._send("shapes", am.shapes_markers(stamp, self._world, self._names, lines,
-                                                   step.contacts))
+            self._send_serialized("shapes", am.shapes_cdr(stamp, self._world, self._names,
+                                                          lines, step.contacts))
         if recording or self._pub["contacts"].get_subscription_count():
             self._send("contacts", am.contacts_cloud(stamp, self._world, step, rows))
 

@@ -384,6 +384,8 @@ class ArrayTracker:
         # True: skipped by the clearance test since the tick before the last (its tracker sits
         # at an older pose; the previous tick's pose is certified clear)
         self._stale = np.zeros(len(rods), bool)
+        # the unloaded centerlines in the base frames, by point count (centerlines)
+        self._free_cache: Dict[int, np.ndarray] = {}
         self._state = self._collect(head, self._protraction(protraction), R, p,
                                     np.ones(len(rods), bool), (), ())
 
@@ -642,16 +644,25 @@ class ArrayTracker:
         n = int(n)
         if n < 2:
             raise ParameterError(f"centerline points n = {n}: need at least 2")
-        s = np.linspace(0.0, 1.0, n)
         out = np.empty((len(self._rods), n, 3))
+        free = self._free_lines(n)
         for i, tracker in enumerate(self._trackers):
             st = tracker.state
             if st.contacts and not self._stale[i]:
                 out[i] = st.centerline(n) * self._length[i]
             else:
-                free = self._rods[i].shape.free_centerline(s) * self._length[i]
-                out[i] = self._p[i] + free @ self._R[i].T
+                out[i] = self._p[i] + free[i] @ self._R[i].T
         return out
+
+    def _free_lines(self, n: int) -> np.ndarray:
+        """Return every unloaded whisker's centerline in its base frame (k, n, 3) [m], kept."""
+        lines = self._free_cache.get(n)
+        if lines is None:
+            s = np.linspace(0.0, 1.0, n)
+            lines = np.array([rod.shape.free_centerline(s) * length
+                              for rod, length in zip(self._rods, self._length)])
+            self._free_cache = {n: lines}  # (the display's one count)
+        return lines
 
     def reset(self) -> ArrayStep:
         """
