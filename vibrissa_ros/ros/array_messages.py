@@ -16,7 +16,7 @@ from typing import Mapping, Sequence, Tuple
 
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticStatus
-from geometry_msgs.msg import Point, WrenchStamped
+from geometry_msgs.msg import Point
 from sensor_msgs.msg import JointState, PointCloud2, PointField
 from builtin_interfaces.msg import Time
 from rclpy.serialization import serialize_message
@@ -328,15 +328,6 @@ def contacts_cloud(stamp, frame: str, step: ArrayStep, rows: np.ndarray) -> Poin
     cloud.row_step = CONTACT_DTYPE.itemsize * len(points)
     cloud.data = points.tobytes()
     return cloud
-
-
-def fill_wrench(msg: WrenchStamped, stamp, frame: str, row) -> WrenchStamped:
-    """Write one whisker's row (fx ... mz, base frame) into a reused WrenchStamped."""
-    msg.header.stamp, msg.header.frame_id = stamp, frame
-    f, t = msg.wrench.force, msg.wrench.torque
-    f.x, f.y, f.z = float(row["fx"]), float(row["fy"]), float(row["fz"])
-    t.x, t.y, t.z = float(row["mx"]), float(row["my"]), float(row["mz"])
-    return msg
 
 
 def whisker_status(node_name: str, name: str, values: Mapping[str, object],

@@ -53,6 +53,7 @@ from ..node.edge import BadInput
 from ..node.pipeline import drop_reason, interrupted
 from . import array_messages as am
 from . import messages as m
+from .cdr import wrench_cdr
 from .params import NodeParameters
 from .recorder import Recorder
 from .run import RCLError, run_node
@@ -125,7 +126,6 @@ class ArrayNode(Node):
             self._sub["whisk"] = self.create_subscription(JointState, "~/whisk", self._on_whisk,
                                                           INPUTS)
         self._wrench_pubs = []
-        self._wrench_msg = WrenchStamped()
         self._wrench_period = 0.0
         self._last_wrench = -math.inf
         if cfg.values["wrench.rate"] > 0.0:
@@ -312,10 +312,18 @@ class ArrayNode(Node):
             self._display(stamp, step, rows)
         if self._wrench_pubs and now - self._last_wrench >= self._wrench_period:
             self._last_wrench = now
+            recorder = self._recorder
+            if recorder is not None and recorder.error is not None:
+                recorder = None
             for i, pub in enumerate(self._wrench_pubs):
-                msg = am.fill_wrench(self._wrench_msg, stamp, self._frames[i], rows[i])
-                self._record(f"wrench/{self._names[i]}", msg)
-                pub.publish(msg)
+                # serialized from a template, as ~/wrenches (~3 us a whisker, ~30 as an object)
+                row = rows[i]
+                data = wrench_cdr(stamp, self._frames[i], (row["fx"], row["fy"], row["fz"]),
+                                  (row["mx"], row["my"], row["mz"]))
+                if recorder is not None:
+                    recorder.write_serialized(f"wrench/{self._names[i]}", data,
+                                              self._next_log_ns())
+                pub.publish(data)
 
     def _display(self, stamp, step, rows) -> None:
         recording = self._recorder is not None
