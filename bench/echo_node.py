@@ -16,7 +16,7 @@ from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState, PointCloud2
 
 from vibrissa_ros.node.array import ARRAY_DTYPE
-from vibrissa_ros.ros.array_messages import wrenches_cloud
+from vibrissa_ros.ros.array_messages import wrenches_cdr
 from vibrissa_ros.ros.run import run_node
 
 
@@ -43,12 +43,12 @@ class ArrayEchoNode(Node):
         outputs = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100,
                              reliability=ReliabilityPolicy.RELIABLE)
         self._rows = np.zeros(whiskers, dtype=ARRAY_DTYPE)
-        self._cloud = PointCloud2()
         self._pub = self.create_publisher(PointCloud2, "~/wrenches", outputs)
         self.create_subscription(JointState, "~/whisk", self._on_whisk, inputs)
 
     def _on_whisk(self, msg):
-        self._pub.publish(wrenches_cloud(self._cloud, msg.header.stamp, "world", self._rows))
+        # serialized from the template, as array_node's (the floor of the same work)
+        self._pub.publish(wrenches_cdr(msg.header.stamp, "world", self._rows))
 
 
 def main():

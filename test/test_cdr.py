@@ -110,3 +110,32 @@ def test_the_other_ros2_decoder_reads_them_too():
     cloud = decode("sensor_msgs/msg/PointCloud2", cdr.contacts_cdr(STAMP, "world", CONTACTS))
     assert cloud.width == 2 and cloud.point_step == m.CONTACT_POINT_STEP and cloud.is_dense
     assert decode("std_msgs/msg/UInt8", cdr.uint8_cdr(2)).data == 2
+
+
+def test_a_name_holding_a_markers_bytes_gets_the_builders_message():
+    """A frame or whisker name with a template's marker bytes: serialized from the builder."""
+    import numpy as np
+    from visualization_msgs.msg import MarkerArray
+
+    from vibrissa_ros.node.array import ARRAY_DTYPE
+    from vibrissa_ros.ros import array_messages as am
+
+    odd = "M<+\x1a^M<+"  # the stamp marker's bytes (a contrived but allowed name)
+    force, torque = (1.0, -2.0, 3.0), (4.0, 5.0, -6.0)
+    want = m.fill_wrench6(WrenchStamped(), STAMP, odd, force, torque)
+    _same(deserialize_message(cdr.wrench_cdr(STAMP, odd, force, torque), WrenchStamped), want)
+    _same(deserialize_message(cdr.contacts_cdr(STAMP, odd, CONTACTS), PointCloud2),
+          m.contacts_cloud(STAMP, odd, CONTACTS))
+    rows = np.zeros(3, dtype=ARRAY_DTYPE)
+    rows["fx"] = (1.0, 2.0, 3.0)
+    got = deserialize_message(am.wrenches_cdr(STAMP, odd, rows), PointCloud2)
+    assert got.header.frame_id == odd and np.array_equal(am.decode_cloud(got), rows)
+    lines = np.arange(2 * 4 * 3, dtype=float).reshape(2, 4, 3)
+    for frame, names in ((odd, ["A", "B"]), ("world", ["A", odd])):
+        got = deserialize_message(am.shapes_cdr(STAMP, frame, names, lines, [0, 1]),
+                                  MarkerArray)
+        want = am.shapes_markers(STAMP, frame, names, lines, [0, 1])
+        assert repr(got) == repr(deserialize_message(serialize_message(want), MarkerArray))
+    # lines that do not match the names are refused, not cut
+    with pytest.raises(ValueError, match="3 whiskers"):
+        am.shapes_cdr(STAMP, "world", ["A", "B", "C"], lines, [0, 1, 0])

@@ -199,7 +199,7 @@ ROW0 = "0,0,0,0,1,0,0,0\n"
     (None, ["--whisk=8,-20,20", "--rate", "0"], ["--rate", "0"]),
     (None, ["--whisk=8,-20,20", "--taper", "0.5"], ["--taper", "array file"]),
     (None, ["--whisk=8,-20,20", "--points-tolerance", "1e-3"],
-     ["points_tolerance = 0.001", "1e-12 to 1e-06"]),
+     ["--points-tolerance 0.001: need a number", "1e-12 to 1e-06"]),
 ])
 def test_bad_input_exits_2_with_one_line(tmp_path, files, capsys, make, args, words):
     args = list(args)

@@ -189,7 +189,7 @@ def _run(args, capsys):
      ["--curvature", "--parabola", "not both"]),
     (BALL, ["0.3,0,0,1,0,0,0"], ["--poisson", "0.7"], ["--poisson", "[0, 0.5]"]),
     (BALL, ["0.3,0,0,1,0,0,0"], ["--points-tolerance", "1e-4"],
-     ["points_tolerance = 0.0001", "1e-12 to 1e-06"]),
+     ["--points-tolerance 0.0001: need a number", "1e-12 to 1e-06"]),
     # options of the planar scan
     (BALL, ["0.3,0,0,1,0,0,0"], ["--from", "0", "--to", "1", "--step", "0.1"], ["--from"]),
     (BALL, ["0.3,0,0,1,0,0,0"], ["--model", "rigid"], ["--model elastica"]),

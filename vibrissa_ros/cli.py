@@ -837,8 +837,24 @@ def _cmd_scan_scene(args) -> int:
     return 0
 
 
+def _check_points_tolerance(args) -> None:
+    """Refuse a --points-tolerance out of its range, naming the option (one line)."""
+    from .core.rod3d.model import POINTS_TOLERANCE, POINTS_TOLERANCE_RANGE, _points_tolerance
+
+    if args.points_tolerance is None:
+        return
+    try:
+        _points_tolerance(args.points_tolerance)
+    except VibrissaError:
+        lo, hi = POINTS_TOLERANCE_RANGE
+        raise VibrissaError(f"--points-tolerance {args.points_tolerance!r}: need a number from "
+                            f"{lo:g} to {hi:g} (the discretization error asked of each whisker, "
+                            f"in its length; default {POINTS_TOLERANCE:g})") from None
+
+
 def _check_scan3d_options(args) -> None:
     """Refuse the options a 3D run does not take, saying why (one line)."""
+    _check_points_tolerance(args)
     if args.profile is not None or args.param or args.place != (0.0, 0.0, 0.0):
         raise VibrissaError("--scene replaces --profile, --param and --place (the scene file "
                             "places its obstacles)")
@@ -914,6 +930,7 @@ def _cmd_scan3d(args) -> int:
 
 def _check_array_options(args) -> None:
     """Refuse what an array run does not take, saying why (one line)."""
+    _check_points_tolerance(args)
     if args.scene is None:
         raise VibrissaError("--array needs --scene SCENE.yaml (the obstacles, in metres)")
     if args.profile is not None or args.param or args.place != (0.0, 0.0, 0.0):

@@ -12,7 +12,7 @@ from __future__ import annotations
 import json
 import struct
 from functools import lru_cache
-from typing import Mapping, Sequence, Tuple
+from typing import Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticStatus
@@ -82,8 +82,12 @@ def wrenches_cloud(msg: PointCloud2, stamp, frame: str, rows: np.ndarray) -> Poi
 
 
 @lru_cache(maxsize=None)
-def _wrenches_encoder(frame: str) -> CloudEncoder:
-    return CloudEncoder(wrenches_cloud(PointCloud2(), Time(), frame, np.zeros(0, ARRAY_DTYPE)))
+def _wrenches_encoder(frame: str) -> Optional[CloudEncoder]:
+    try:
+        return CloudEncoder(wrenches_cloud(PointCloud2(), Time(), frame,
+                                           np.zeros(0, ARRAY_DTYPE)))
+    except RuntimeError:  # a frame name holding a marker's bytes: the builder's message
+        return None
 
 
 def wrenches_cdr(stamp, frame: str, rows: np.ndarray) -> bytes:
@@ -111,7 +115,10 @@ def wrenches_cdr(stamp, frame: str, rows: np.ndarray) -> bytes:
 
     """
     rows = np.ascontiguousarray(rows, dtype=ARRAY_DTYPE)
-    return _wrenches_encoder(frame).encode(stamp, len(rows), rows.tobytes())
+    encoder = _wrenches_encoder(frame)
+    if encoder is None:
+        return serialize_message(wrenches_cloud(PointCloud2(), stamp, frame, rows))
+    return encoder.encode(stamp, len(rows), rows.tobytes())
 
 
 def decode_cloud(cloud) -> np.ndarray:
@@ -260,8 +267,12 @@ def _all(data: bytes, marker: bytes):
 
 
 @lru_cache(maxsize=8)
-def _shapes_encoder(frame: str, names: Tuple[str, ...], n: int, width: float) -> _ShapesEncoder:
-    return _ShapesEncoder(frame, names, n, width)
+def _shapes_encoder(frame: str, names: Tuple[str, ...], n: int,
+                    width: float) -> Optional[_ShapesEncoder]:
+    try:
+        return _ShapesEncoder(frame, names, n, width)
+    except RuntimeError:  # a name or frame holding a marker's bytes: the builder's message
+        return None
 
 
 def shapes_cdr(stamp, frame: str, names: Sequence[str], lines: np.ndarray, contacts: np.ndarray,
@@ -295,7 +306,12 @@ def shapes_cdr(stamp, frame: str, names: Sequence[str], lines: np.ndarray, conta
 
     """
     lines = np.asarray(lines, dtype=float)
+    if lines.ndim != 3 or lines.shape[0] != len(names) or lines.shape[2] != 3:
+        raise ValueError(f"lines of shape {lines.shape} for {len(names)} whiskers: (k, n, 3) "
+                         "is needed, k the number of names")
     encoder = _shapes_encoder(frame, tuple(names), int(lines.shape[1]), float(width))
+    if encoder is None:
+        return serialize_message(shapes_markers(stamp, frame, names, lines, contacts, width))
     return encoder.encode(stamp, lines, contacts)
 
 

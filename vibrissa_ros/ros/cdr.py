@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import struct
 from functools import lru_cache
-from typing import Sequence, Tuple
+from typing import Optional, Sequence, Tuple
 
 from geometry_msgs.msg import PointStamped, Vector3Stamped, WrenchStamped
 from rclpy.serialization import serialize_message
@@ -21,7 +21,7 @@ from builtin_interfaces.msg import Time
 from std_msgs.msg import Float64, UInt8
 
 from ..node.edge import ContactRecord
-from .messages import contact_points, contacts_cloud
+from .messages import contact_points, contacts_cloud, fill_wrench6, point_stamped, vector_stamped
 
 _STAMP = struct.Struct("<iI")
 _MARK_SEC, _MARK_NSEC = 0x1A2B3C4D, 0x2B3C4D5E  # a stamp no other field holds
@@ -81,25 +81,38 @@ def _set_data(msg, v):
     msg.data = v[0]
 
 
+def _or_none(make):
+    """
+    Return the template ``make()`` builds, or None where its layout is not found.
+
+    A frame name that holds a marker's bytes (a contrived name; frames and whisker names are
+    otherwise free) leaves no unique marker: the encoder then serializes the builder's message.
+    """
+    try:
+        return make()
+    except RuntimeError:
+        return None
+
+
 @lru_cache(maxsize=None)
-def _wrench(frame: str) -> _Doubles:
+def _wrench(frame: str) -> Optional[_Doubles]:
     msg = WrenchStamped()
     msg.header.frame_id = frame
-    return _Doubles(msg, _set_wrench, 6)
+    return _or_none(lambda: _Doubles(msg, _set_wrench, 6))
 
 
 @lru_cache(maxsize=None)
-def _vector(frame: str) -> _Doubles:
+def _vector(frame: str) -> Optional[_Doubles]:
     msg = Vector3Stamped()
     msg.header.frame_id = frame
-    return _Doubles(msg, _set_vector, 3)
+    return _or_none(lambda: _Doubles(msg, _set_vector, 3))
 
 
 @lru_cache(maxsize=None)
-def _point(frame: str) -> _Doubles:
+def _point(frame: str) -> Optional[_Doubles]:
     msg = PointStamped()
     msg.header.frame_id = frame
-    return _Doubles(msg, _set_point, 3)
+    return _or_none(lambda: _Doubles(msg, _set_point, 3))
 
 
 _FLOAT = _Doubles(Float64(), _set_data, 1, stamped=False)
@@ -115,17 +128,27 @@ def _xyz(v: Sequence[float]) -> Tuple[float, float, float]:
 
 def wrench_cdr(stamp, frame: str, force: Sequence[float], torque: Sequence[float]) -> bytes:
     """Return a geometry_msgs/WrenchStamped: force (x, y, z) [N], torque (x, y, z) [N m]."""
-    return _wrench(frame).encode(stamp, (*_xyz(force), *_xyz(torque)))
+    encoder = _wrench(frame)
+    if encoder is None:
+        return serialize_message(fill_wrench6(WrenchStamped(), stamp, frame, _xyz(force),
+                                              _xyz(torque)))
+    return encoder.encode(stamp, (*_xyz(force), *_xyz(torque)))
 
 
 def vector_cdr(stamp, frame: str, xy: Sequence[float]) -> bytes:
     """Return a geometry_msgs/Vector3Stamped of (x, y) (z = 0) or (x, y, z), as vector_stamped."""
-    return _vector(frame).encode(stamp, _xyz(xy))
+    encoder = _vector(frame)
+    if encoder is None:
+        return serialize_message(vector_stamped(stamp, frame, _xyz(xy)))
+    return encoder.encode(stamp, _xyz(xy))
 
 
 def point_cdr(stamp, frame: str, xy: Sequence[float]) -> bytes:
     """Return a geometry_msgs/PointStamped of (x, y) (z = 0) or (x, y, z), as point_stamped."""
-    return _point(frame).encode(stamp, _xyz(xy))
+    encoder = _point(frame)
+    if encoder is None:
+        return serialize_message(point_stamped(stamp, frame, _xyz(xy)))
+    return encoder.encode(stamp, _xyz(xy))
 
 
 def float_cdr(value: float) -> bytes:
@@ -187,11 +210,14 @@ class CloudEncoder:
 
 
 @lru_cache(maxsize=None)
-def _cloud(frame: str) -> CloudEncoder:
-    return CloudEncoder(contacts_cloud(Time(), frame, ()))
+def _cloud(frame: str) -> Optional[CloudEncoder]:
+    return _or_none(lambda: CloudEncoder(contacts_cloud(Time(), frame, ())))
 
 
 def contacts_cdr(stamp, frame: str, contacts: Sequence[ContactRecord]) -> bytes:
     """Return the ``~/contacts`` sensor_msgs/PointCloud2 of :func:`.messages.contacts_cloud`."""
+    encoder = _cloud(frame)
+    if encoder is None:
+        return serialize_message(contacts_cloud(stamp, frame, contacts))
     points = contact_points(contacts) if contacts else b""
-    return _cloud(frame).encode(stamp, len(contacts), points)
+    return encoder.encode(stamp, len(contacts), points)

@@ -605,7 +605,8 @@ def array_scan_table(result: ArrayScanResult):
     import pyarrow as pa
 
     table = pa.Table.from_pydict(array_scan_columns(result), schema=arrow_schema())
-    return table.replace_schema_metadata({POINTS_TOLERANCE_KEY: repr(result.points_tolerance)})
+    return table.replace_schema_metadata(
+        {POINTS_TOLERANCE_KEY: repr(float(result.points_tolerance))})
 
 
 def _text(value) -> str:
