@@ -12,9 +12,8 @@ from vibrissa_ros.core.rod3d.pose import quat_about, quat_matrix, quat_multiply
 from vibrissa_ros.node.edge import (BadInput, decode_event, encode_event, event_record,
                                     sensor_reading, yaw_quaternion)
 from vibrissa_ros.node.config import build_config
-from vibrissa_ros.node.pipeline import (
-    DROP_REASONS, PosePipeline, PoseStats, drop_reason, interrupted,
-)
+from vibrissa_ros.core.errors import interrupted
+from vibrissa_ros.node.pipeline import DROP_REASONS, PosePipeline, PoseStats, drop_reason
 
 HALF_PI = math.pi / 2
 CATENARY = {"obstacle.type": "catenary", "obstacle.c": 0.06, "obstacle.apex_y": 0.05}

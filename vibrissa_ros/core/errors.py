@@ -28,3 +28,20 @@ class ModelAssumptionError(VibrissaError):
 
 class ConvergenceError(VibrissaError):
     """The equilibrium could not be followed numerically; the tracker keeps its previous state."""
+
+
+def interrupted(exc: BaseException) -> bool:
+    """
+    Tell whether an exception is a Ctrl-C in disguise.
+
+    A KeyboardInterrupt that arrives while a compiled kernel runs comes out of it as a
+    SystemError ("returned a result with an exception set") caused by the interrupt: a caller
+    that catches errors to keep going (the array's whiskers, the nodes) must stop on it.
+    """
+    seen = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, KeyboardInterrupt):
+            return True
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return False

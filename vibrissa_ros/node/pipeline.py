@@ -56,23 +56,6 @@ def drop_reason(exc: BaseException) -> str:
     return "internal_error"
 
 
-def interrupted(exc: BaseException) -> bool:
-    """
-    Tell whether an exception is a Ctrl-C in disguise.
-
-    A KeyboardInterrupt that arrives while a compiled kernel runs comes out of it as a
-    SystemError ("returned a result with an exception set") caused by the interrupt: the node
-    must stop on it, not drop a pose as an internal error.
-    """
-    seen = set()
-    while exc is not None and id(exc) not in seen:
-        if isinstance(exc, KeyboardInterrupt):
-            return True
-        seen.add(id(exc))
-        exc = exc.__cause__ or exc.__context__
-    return False
-
-
 #: the reason a ``reset`` event carries when the whisker was reset on request (``~/reset``)
 RESET_ON_REQUEST = "reset on request"
 

@@ -50,7 +50,8 @@ from ..node.array import (
     output_rows,
 )
 from ..node.edge import BadInput
-from ..node.pipeline import drop_reason, interrupted
+from ..core.errors import interrupted
+from ..node.pipeline import drop_reason
 from . import array_messages as am
 from . import messages as m
 from .cdr import wrench_cdr

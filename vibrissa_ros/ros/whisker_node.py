@@ -33,7 +33,8 @@ from ..core.rod3d.model import warm_up
 from ..node.edge import contact_records, event_record, header_ns, rod_phase
 from ..logs.mcap_log import LogError
 from ..node.config import PARAMETERS, WhiskerConfig, build_config
-from ..node.pipeline import PosePipeline, PoseStats, drop_reason, interrupted
+from ..core.errors import interrupted
+from ..node.pipeline import PosePipeline, PoseStats, drop_reason
 from . import cdr
 from . import messages as m
 from .backlog import PoseBacklog

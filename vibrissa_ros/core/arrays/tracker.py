@@ -35,7 +35,7 @@ from typing import Dict, List, Optional, Tuple
 
 import numpy as np
 
-from ..errors import InvalidPoseError, ParameterError, VibrissaError
+from ..errors import InvalidPoseError, ParameterError, VibrissaError, interrupted
 from ..rod3d import _jit
 from ..rod3d.model import POINTS_TOLERANCE, _points_tolerance, kernel_obstacles
 from ..rod3d.pose import BasePose, quat_from_matrix, quat_matrix
@@ -566,6 +566,14 @@ class ArrayTracker:
                 result = tracker.step(poses[i])
             except VibrissaError as exc:
                 errors.append(WhiskerError(self.names[i], str(exc)))
+                continue
+            except Exception as exc:  # noqa: BLE001 - one whisker never stops the others
+                if interrupted(exc):  # (a Ctrl-C inside a compiled kernel: stop the tick)
+                    raise
+                # an error of the code itself (the tracker restores its state on any): said
+                # as such, and the other whiskers go on
+                errors.append(WhiskerError(self.names[i], f"internal error ({type(exc).__name__}"
+                                           f": {exc}); the whisker keeps its state"))
                 continue
             self._events(i, result, events)
         self._stale[~solved] = True  # (certified free and unloaded: not stepped)

@@ -931,12 +931,11 @@ class RodTracker:
                 return None
             found = self._locate_linear(path, t_a, t_b, solved, solved.vec.size - 1, 0.0)
             if found is None:
-                # Brent's search on the force instead, each value a solve from the touch
-                cache = {t_b: end}
+                # Brent's search on the force instead, each value a solve from the touch (its
+                # zero may be the bracket's end itself: a force of exactly 0 at the touch)
+                cache = {t_a: solved, t_b: end}
 
                 def force(tau):
-                    if tau == t_a:
-                        return float(solved.vec[-1])
                     if tau not in cache:
                         cache[tau] = self._solve_at(path, t_a, tau, solved)
                     return float(cache[tau].vec[-1])
