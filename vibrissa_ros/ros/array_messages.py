@@ -25,7 +25,7 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from ..core.arrays import ArrayStep, WhiskerArray
 from ..node.array import ALL_JOINT, ARRAY_DTYPE
-from .cdr import CloudEncoder
+from .cdr import MARK_NSEC, MARK_SEC, STAMP, CloudEncoder, find_marker
 from .messages import diagnostic_status
 
 _DATATYPES = {"<f8": PointField.FLOAT64, "<u4": PointField.UINT32, "|u1": PointField.UINT8}
@@ -217,16 +217,18 @@ class _ShapesEncoder:
         # whisker's first point and its colour
         lines = np.zeros((k, n, 3))
         lines[:, 0, 0] = -1.2345678901234e-290 * (np.arange(k) + 1.0)
-        template = shapes_markers(Time(sec=_MARK_SEC, nanosec=_MARK_NSEC), frame, names, lines,
+        template = shapes_markers(Time(sec=MARK_SEC, nanosec=MARK_NSEC), frame, names, lines,
                                   np.zeros(k), width)
         for i, marker in enumerate(template.markers):
             c = marker.color
             c.r, c.g, c.b, c.a = (float(np.float32(v)) for v in (0.123, 0.456, 0.789, i + 0.5))
         data = serialize_message(template)
-        stamp = _STAMP.pack(_MARK_SEC, _MARK_NSEC)
+        stamp = STAMP.pack(MARK_SEC, MARK_NSEC)
         self._stamps = [at for at in _all(data, stamp)]
-        self._points = [_find(data, struct.pack("<d", lines[i, 0, 0])) for i in range(k)]
-        self._colors = [_find(data, _COLOR.pack(0.123, 0.456, 0.789, i + 0.5)) for i in range(k)]
+        self._points = [find_marker(data, struct.pack("<d", lines[i, 0, 0]))
+                        for i in range(k)]
+        self._colors = [find_marker(data, _COLOR.pack(0.123, 0.456, 0.789, i + 0.5))
+                        for i in range(k)]
         if len(self._stamps) != k or any(data[at - 4:at] != struct.pack("<I", n)
                                          and data[at - 8:at - 4] != struct.pack("<I", n)
                                          for at in self._points):
@@ -237,7 +239,7 @@ class _ShapesEncoder:
     def encode(self, stamp, lines: np.ndarray, contacts) -> bytes:
         out = bytearray(self._template)
         for at in self._stamps:
-            _STAMP.pack_into(out, at, stamp.sec, stamp.nanosec)
+            STAMP.pack_into(out, at, stamp.sec, stamp.nanosec)
         lines = np.ascontiguousarray(lines, dtype="<f8")
         size = 24 * self._n
         for i, (at, color) in enumerate(zip(self._points, self._colors)):
@@ -246,17 +248,7 @@ class _ShapesEncoder:
         return bytes(out)
 
 
-_MARK_SEC, _MARK_NSEC = 0x1A2B3C4D, 0x2B3C4D5E  # a stamp no other field holds
-_STAMP = struct.Struct("<iI")
 _COLOR = struct.Struct("<4f")
-
-
-def _find(data: bytes, marker: bytes) -> int:
-    """Return where ``marker`` lies in a template, once and only once."""
-    at = data.find(marker)
-    if at < 0 or data.find(marker, at + 1) >= 0:
-        raise RuntimeError("the serialized template does not have the expected layout")
-    return at
 
 
 def _all(data: bytes, marker: bytes):

@@ -23,13 +23,20 @@ from std_msgs.msg import Float64, UInt8
 from ..node.edge import ContactRecord
 from .messages import contact_points, contacts_cloud, fill_wrench6, point_stamped, vector_stamped
 
-_STAMP = struct.Struct("<iI")
-_MARK_SEC, _MARK_NSEC = 0x1A2B3C4D, 0x2B3C4D5E  # a stamp no other field holds
+#: a header's stamp (builtin_interfaces/Time) as CDR lays it out
+STAMP = struct.Struct("<iI")
+#: the stamp a template carries, to be found in its bytes: no other field holds it
+MARK_SEC, MARK_NSEC = 0x1A2B3C4D, 0x2B3C4D5E
 _MARKS = (1.0e-301, 2.0e-302, 3.0e-303, 4.0e-304, 5.0e-305, 6.0e-306)  # values nobody writes
 
 
-def _find(data: bytes, marker: bytes) -> int:
-    """Return where ``marker`` lies in a template, once and only once."""
+def find_marker(data: bytes, marker: bytes) -> int:
+    """
+    Return where ``marker`` lies in a serialized template, once and only once.
+
+    Raises RuntimeError where it is not there, or more than once (the template's layout is not
+    the one expected).
+    """
     at = data.find(marker)
     if at < 0 or data.find(marker, at + 1) >= 0:
         raise RuntimeError("the serialized template does not have the expected layout")
@@ -38,9 +45,9 @@ def _find(data: bytes, marker: bytes) -> int:
 
 def _stamped_template(msg) -> Tuple[bytes, int]:
     """Serialize ``msg`` (its stamp set to the markers); return it and the stamp's offset."""
-    msg.header.stamp.sec, msg.header.stamp.nanosec = _MARK_SEC, _MARK_NSEC
+    msg.header.stamp.sec, msg.header.stamp.nanosec = MARK_SEC, MARK_NSEC
     data = serialize_message(msg)
-    return data, _find(data, _STAMP.pack(_MARK_SEC, _MARK_NSEC))
+    return data, find_marker(data, STAMP.pack(MARK_SEC, MARK_NSEC))
 
 
 class _Doubles:
@@ -53,13 +60,13 @@ class _Doubles:
         else:
             data, self._stamp_at = serialize_message(msg), -1
         self._values = struct.Struct(f"<{n}d")
-        self._values_at = _find(data, self._values.pack(*_MARKS[:n]))
+        self._values_at = find_marker(data, self._values.pack(*_MARKS[:n]))
         self._template = data
 
     def encode(self, stamp, values: Sequence[float]) -> bytes:
         out = bytearray(self._template)
         if self._stamp_at >= 0:
-            _STAMP.pack_into(out, self._stamp_at, stamp.sec, stamp.nanosec)
+            STAMP.pack_into(out, self._stamp_at, stamp.sec, stamp.nanosec)
         self._values.pack_into(out, self._values_at, *values)
         return bytes(out)
 
@@ -179,8 +186,9 @@ class CloudEncoder:
     def __init__(self, msg):
         msg.width, msg.row_step = self._MARK_WIDTH, self._MARK_ROW
         data, self._stamp_at = _stamped_template(msg)
-        self._width_at = _find(data, struct.pack("<I", self._MARK_WIDTH))
-        row_at = _find(data, struct.pack("<II", self._MARK_ROW, 0))  # row_step, data length 0
+        self._width_at = find_marker(data, struct.pack("<I", self._MARK_WIDTH))
+        # row_step, then the data's length 0
+        row_at = find_marker(data, struct.pack("<II", self._MARK_ROW, 0))
         self._head = data[:row_at]
         self._tail = data[row_at + 8:]  # is_dense and what follows
 
@@ -204,7 +212,7 @@ class CloudEncoder:
 
         """
         head = bytearray(self._head)
-        _STAMP.pack_into(head, self._stamp_at, stamp.sec, stamp.nanosec)
+        STAMP.pack_into(head, self._stamp_at, stamp.sec, stamp.nanosec)
         struct.pack_into("<I", head, self._width_at, n)
         return b"".join((head, struct.pack("<II", len(points), len(points)), points, self._tail))
 
