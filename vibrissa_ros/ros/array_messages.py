@@ -25,7 +25,7 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from ..core.arrays import ArrayStep, WhiskerArray
 from ..node.array import ALL_JOINT, ARRAY_DTYPE
-from .cdr import MARK_NSEC, MARK_SEC, STAMP, CloudEncoder, find_marker
+from .cdr import MARK_NSEC, MARK_SEC, STAMP, CloudEncoder, find_marker, template_or_none
 from .messages import diagnostic_status
 
 _DATATYPES = {"<f8": PointField.FLOAT64, "<u4": PointField.UINT32, "|u1": PointField.UINT8}
@@ -83,11 +83,8 @@ def wrenches_cloud(msg: PointCloud2, stamp, frame: str, rows: np.ndarray) -> Poi
 
 @lru_cache(maxsize=None)
 def _wrenches_encoder(frame: str) -> Optional[CloudEncoder]:
-    try:
-        return CloudEncoder(wrenches_cloud(PointCloud2(), Time(), frame,
-                                           np.zeros(0, ARRAY_DTYPE)))
-    except RuntimeError:  # a frame name holding a marker's bytes: the builder's message
-        return None
+    return template_or_none(lambda: CloudEncoder(wrenches_cloud(PointCloud2(), Time(), frame,
+                                                                np.zeros(0, ARRAY_DTYPE))))
 
 
 def wrenches_cdr(stamp, frame: str, rows: np.ndarray) -> bytes:
@@ -261,10 +258,7 @@ def _all(data: bytes, marker: bytes):
 @lru_cache(maxsize=8)
 def _shapes_encoder(frame: str, names: Tuple[str, ...], n: int,
                     width: float) -> Optional[_ShapesEncoder]:
-    try:
-        return _ShapesEncoder(frame, names, n, width)
-    except RuntimeError:  # a name or frame holding a marker's bytes: the builder's message
-        return None
+    return template_or_none(lambda: _ShapesEncoder(frame, names, n, width))
 
 
 def shapes_cdr(stamp, frame: str, names: Sequence[str], lines: np.ndarray, contacts: np.ndarray,

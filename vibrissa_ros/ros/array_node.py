@@ -126,13 +126,15 @@ class ArrayNode(Node):
         else:
             self._sub["whisk"] = self.create_subscription(JointState, "~/whisk", self._on_whisk,
                                                           INPUTS)
-        self._wrench_pubs = []
+        #: the keys of the per-whisker ~/<name>/wrench publishers in _pub (none: off)
+        self._wrench_keys = []
         self._wrench_period = 0.0
         self._last_wrench = -math.inf
         if cfg.values["wrench.rate"] > 0.0:
             self._wrench_period = 1.0 / cfg.values["wrench.rate"]
-            self._wrench_pubs = [self.create_publisher(WrenchStamped, f"~/{n}/wrench", 10)
-                                 for n in self._names]
+            self._wrench_keys = [f"wrench/{n}" for n in self._names]
+            for key, n in zip(self._wrench_keys, self._names):
+                self._pub[key] = self.create_publisher(WrenchStamped, f"~/{n}/wrench", 10)
         rate = cfg.values["display.rate"]
         self._display_period = 1.0 / rate if rate > 0.0 else math.inf
         self._last_display = -math.inf
@@ -155,8 +157,7 @@ class ArrayNode(Node):
             return
         # and, recorded only: the frames (tf2_msgs has no wheel here, so no /tf is published)
         # and every whisker's WrenchStamped, where they are published
-        endpoints = {**self._pub, **self._sub, "tf": TF_SPEC,
-                     **{f"wrench/{n}": pub for n, pub in zip(self._names, self._wrench_pubs)}}
+        endpoints = {**self._pub, **self._sub, "tf": TF_SPEC}
         try:
             self._recorder = Recorder(path, endpoints, self.config.record_values,
                                       self.get_fully_qualified_name(), self._recording_failed)
@@ -311,20 +312,14 @@ class ArrayNode(Node):
         if now - self._last_display >= self._display_period:
             self._last_display = now
             self._display(stamp, step, rows)
-        if self._wrench_pubs and now - self._last_wrench >= self._wrench_period:
+        if self._wrench_keys and now - self._last_wrench >= self._wrench_period:
             self._last_wrench = now
-            recorder = self._recorder
-            if recorder is not None and recorder.error is not None:
-                recorder = None
-            for i, pub in enumerate(self._wrench_pubs):
+            for i, key in enumerate(self._wrench_keys):
                 # serialized from a template, as ~/wrenches (~3 us a whisker, ~30 as an object)
                 row = rows[i]
-                data = wrench_cdr(stamp, self._frames[i], (row["fx"], row["fy"], row["fz"]),
-                                  (row["mx"], row["my"], row["mz"]))
-                if recorder is not None:
-                    recorder.write_serialized(f"wrench/{self._names[i]}", data,
-                                              self._next_log_ns())
-                pub.publish(data)
+                self._send_serialized(key, wrench_cdr(
+                    stamp, self._frames[i], (row["fx"], row["fy"], row["fz"]),
+                    (row["mx"], row["my"], row["mz"])))
 
     def _display(self, stamp, step, rows) -> None:
         recording = self._recorder is not None

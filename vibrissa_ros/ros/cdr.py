@@ -88,7 +88,7 @@ def _set_data(msg, v):
     msg.data = v[0]
 
 
-def _or_none(make):
+def template_or_none(make):
     """
     Return the template ``make()`` builds, or None where its layout is not found.
 
@@ -105,21 +105,21 @@ def _or_none(make):
 def _wrench(frame: str) -> Optional[_Doubles]:
     msg = WrenchStamped()
     msg.header.frame_id = frame
-    return _or_none(lambda: _Doubles(msg, _set_wrench, 6))
+    return template_or_none(lambda: _Doubles(msg, _set_wrench, 6))
 
 
 @lru_cache(maxsize=None)
 def _vector(frame: str) -> Optional[_Doubles]:
     msg = Vector3Stamped()
     msg.header.frame_id = frame
-    return _or_none(lambda: _Doubles(msg, _set_vector, 3))
+    return template_or_none(lambda: _Doubles(msg, _set_vector, 3))
 
 
 @lru_cache(maxsize=None)
 def _point(frame: str) -> Optional[_Doubles]:
     msg = PointStamped()
     msg.header.frame_id = frame
-    return _or_none(lambda: _Doubles(msg, _set_point, 3))
+    return template_or_none(lambda: _Doubles(msg, _set_point, 3))
 
 
 _FLOAT = _Doubles(Float64(), _set_data, 1, stamped=False)
@@ -219,7 +219,7 @@ class CloudEncoder:
 
 @lru_cache(maxsize=None)
 def _cloud(frame: str) -> Optional[CloudEncoder]:
-    return _or_none(lambda: CloudEncoder(contacts_cloud(Time(), frame, ())))
+    return template_or_none(lambda: CloudEncoder(contacts_cloud(Time(), frame, ())))
 
 
 def contacts_cdr(stamp, frame: str, contacts: Sequence[ContactRecord]) -> bytes:
