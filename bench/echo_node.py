@@ -3,8 +3,8 @@ The baseline for bench_node.py and bench_array_node.py: a trivial node that answ
 
 Default: each foot pose with an empty wrench (whisker_node's topics). ``--array``: each JointState
 on /array_node/whisk with a PointCloud2 of 30 zero rows of array_node's layout on
-/array_node/wrenches (array_node's topics and QoS). Same executor as the nodes, no mechanics:
-what rclpy and DDS cost on their own.
+/array_node/wrenches (array_node's topics and QoS). Same executor and publishers
+(``output_publisher``) as the nodes, no mechanics: what rclpy and DDS cost on their own.
 """
 
 import sys
@@ -18,6 +18,7 @@ from sensor_msgs.msg import JointState, PointCloud2
 from vibrissa_ros.node.array import ARRAY_DTYPE
 from vibrissa_ros.ros.array_messages import wrenches_cdr
 from vibrissa_ros.ros.run import run_node
+from vibrissa_ros.ros.topics import output_publisher
 
 
 class EchoNode(Node):
@@ -25,7 +26,7 @@ class EchoNode(Node):
         super().__init__("whisker_node")
         qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000,
                          reliability=ReliabilityPolicy.RELIABLE)
-        self._pub = self.create_publisher(WrenchStamped, "~/wrench", qos)
+        self._pub = output_publisher(self, WrenchStamped, "~/wrench", qos)
         self.create_subscription(PoseStamped, "~/foot_pose", self._on_pose, qos)
 
     def _on_pose(self, msg):
@@ -43,7 +44,7 @@ class ArrayEchoNode(Node):
         outputs = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100,
                              reliability=ReliabilityPolicy.RELIABLE)
         self._rows = np.zeros(whiskers, dtype=ARRAY_DTYPE)
-        self._pub = self.create_publisher(PointCloud2, "~/wrenches", outputs)
+        self._pub = output_publisher(self, PointCloud2, "~/wrenches", outputs)
         self.create_subscription(JointState, "~/whisk", self._on_whisk, inputs)
 
     def _on_whisk(self, msg):

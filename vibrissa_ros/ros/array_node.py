@@ -59,7 +59,7 @@ from .params import NodeParameters
 from .recorder import Recorder
 from .run import RCLError, run_node
 from .transforms import TF_SPEC, tf_message_cdr
-from .topics import LATCHED
+from .topics import LATCHED, output_publisher
 
 LOG_THROTTLE_S = 1.0  # seconds between two log lines of the same drop reason
 #: inputs: keep the last few (a slow tick never builds an unbounded backlog; older ones are
@@ -107,18 +107,18 @@ class ArrayNode(Node):
         self._last_step = None
         # publishers
         self._pub = {
-            "wrenches": self.create_publisher(PointCloud2, "~/wrenches", OUTPUT),
-            "events": self.create_publisher(String, "~/events", OUTPUT),
-            "whiskers": self.create_publisher(String, "~/whiskers", LATCHED),
-            "obstacles": self.create_publisher(MarkerArray, "~/obstacles", LATCHED),
-            "shapes": self.create_publisher(MarkerArray, "~/shapes", 10),
-            "contacts": self.create_publisher(PointCloud2, "~/contacts", 10),
-            "diagnostics": self.create_publisher(DiagnosticArray, "/diagnostics", 10),
+            "wrenches": output_publisher(self, PointCloud2, "~/wrenches", OUTPUT),
+            "events": output_publisher(self, String, "~/events", OUTPUT),
+            "whiskers": output_publisher(self, String, "~/whiskers", LATCHED),
+            "obstacles": output_publisher(self, MarkerArray, "~/obstacles", LATCHED),
+            "shapes": output_publisher(self, MarkerArray, "~/shapes", 10),
+            "contacts": output_publisher(self, PointCloud2, "~/contacts", 10),
+            "diagnostics": output_publisher(self, DiagnosticArray, "/diagnostics", 10),
         }
         self._sub = {"head_pose": self.create_subscription(PoseStamped, "~/head_pose",
                                                            self._on_head, INPUTS)}
         if cfg.builtin:
-            self._pub["protraction"] = self.create_publisher(JointState, "~/protraction", OUTPUT)
+            self._pub["protraction"] = output_publisher(self, JointState, "~/protraction", OUTPUT)
             self._period_ns = int(round(1e9 / cfg.values["rate"]))
             self._start_ns = time.monotonic_ns()
             self._k = 0
@@ -134,7 +134,7 @@ class ArrayNode(Node):
             self._wrench_period = 1.0 / cfg.values["wrench.rate"]
             self._wrench_keys = [f"wrench/{n}" for n in self._names]
             for key, n in zip(self._wrench_keys, self._names):
-                self._pub[key] = self.create_publisher(WrenchStamped, f"~/{n}/wrench", 10)
+                self._pub[key] = output_publisher(self, WrenchStamped, f"~/{n}/wrench", 10)
         rate = cfg.values["display.rate"]
         self._display_period = 1.0 / rate if rate > 0.0 else math.inf
         self._last_display = -math.inf

@@ -30,6 +30,7 @@ from ..node.reconstruction import estimate_from_wrench
 from . import messages as m
 from .params import NodeParameters
 from .run import run_node
+from .topics import output_publisher
 
 POSES_KEPT = 10000  # recent poses kept for pairing
 WRENCHES_WAITING = 1000  # wrenches kept waiting for the pose of their stamp
@@ -50,8 +51,8 @@ class ContourNode(Node):
         self._points: List[Tuple[float, float, int]] = []
         self._dirty = False
         self.estimates = 0
-        self._pub_point = self.create_publisher(PointStamped, "~/contact_point", QOS)
-        self._pub_contour = self.create_publisher(Marker, "~/contour", 10)
+        self._pub_point = output_publisher(self, PointStamped, "~/contact_point", QOS)
+        self._pub_contour = output_publisher(self, Marker, "~/contour", 10)
         self._sub_pose = self.create_subscription(PoseStamped, "~/foot_pose", self._on_pose, QOS)
         self._sub_wrench = self.create_subscription(WrenchStamped, "~/wrench", self._on_wrench,
                                                     QOS)

@@ -41,7 +41,7 @@ from .backlog import PoseBacklog
 from .params import NodeParameters
 from .recorder import Recorder
 from .run import RCLError, run_node
-from .topics import OPTIONAL, OUTPUTS, POSES
+from .topics import OPTIONAL, OUTPUTS, POSES, output_publisher
 
 LOG_THROTTLE_S = 1.0  # seconds between two log lines of the same drop reason
 BATCH = 100  # poses processed per executor callback at most (timers and services get a turn)
@@ -62,9 +62,9 @@ class WhiskerNode(Node):
         self._last_centerline = -math.inf
         self._listened: Dict[str, bool] = {}
         self._listened_at = -math.inf
-        self._pub = {key: self.create_publisher(kind, f"~/{key}", qos)
+        self._pub = {key: output_publisher(self, kind, f"~/{key}", qos)
                      for key, (kind, qos) in OUTPUTS.items()}
-        self._pub["diagnostics"] = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
+        self._pub["diagnostics"] = output_publisher(self, DiagnosticArray, "/diagnostics", 10)
         # raw: the poses arrive serialized, as they are recorded (deserialized once, here)
         self._sub = self.create_subscription(PoseStamped, "~/foot_pose", self._on_pose, POSES,
                                              raw=True)
