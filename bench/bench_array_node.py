@@ -21,6 +21,7 @@ bottleneck) and ``free`` (a ball far away: every whisker is certified free, the 
 
 Run: OPENBLAS_NUM_THREADS=1 python bench/bench_array_node.py [--seconds 20] [--rate 1000]
      [--scenes peg,free] [--nodes array,events,recording,echo,builtin] [--points-tolerance T]
+     [--rounds K]   (K rounds in turn: each node's median over them, ratios to each round's echo)
 """
 
 from __future__ import annotations
@@ -215,6 +216,10 @@ def main(argv=None):
     parser.add_argument("--points-tolerance", type=float, default=None, metavar="T",
                         help="array_node's solver.points_tolerance (default: the node's, 1e-11)")
     parser.add_argument("--nodes", default="array,events,recording,echo,builtin")
+    parser.add_argument("--rounds", type=int, default=1,
+                        help="measure everything this many times, in turn (a noisy machine: "
+                        "the summary gives each node's median over the rounds, and its ratios "
+                        "to the echo node of the same round)")
     parser.add_argument("--role", choices=["sender", "receiver"], help=argparse.SUPPRESS)
     parser.add_argument("--work", help=argparse.SUPPRESS)
     parser.add_argument("--send", type=int, default=1, help=argparse.SUPPRESS)
@@ -225,18 +230,23 @@ def main(argv=None):
         return sender(Path(args.work), args.rate, args.seconds, bool(args.send))
     os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
     results = []
+    rounds = max(1, args.rounds)
     with tempfile.TemporaryDirectory() as tmp:
-        for scene in args.scenes.split(","):
-            for kind in args.nodes.split(","):
-                if kind == "echo" and scene != args.scenes.split(",")[0]:
-                    continue  # the echo has no scene
-                print(f"{kind} ({scene}): {args.rate:.0f} Hz for {args.seconds:.0f} s ...",
-                      flush=True)
-                results.append(measure(kind, scene, args, Path(tmp) / f"{scene}_{kind}"))
+        for k in range(rounds):
+            for scene in args.scenes.split(","):
+                for kind in args.nodes.split(","):
+                    if kind == "echo" and scene != args.scenes.split(",")[0]:
+                        continue  # the echo has no scene
+                    print(f"{kind} ({scene}): {args.rate:.0f} Hz for {args.seconds:.0f} s"
+                          f"{f' (round {k + 1} of {rounds})' if rounds > 1 else ''} ...",
+                          flush=True)
+                    r = measure(kind, scene, args, Path(tmp) / f"{scene}_{kind}_{k}")
+                    r["round"] = k
+                    results.append(r)
     print()
     print(f"{'node':10s} {'scene':5s} {'sent':>6s} {'lost':>6s} {'ticks/s':>8s} "
           f"{'median':>9s} {'p99':>9s} {'contact':>8s}  node's diagnostics")
-    echo = next((r for r in results if r["kind"] == "echo"), None)
+    echoes = {r["round"]: r for r in results if r["kind"] == "echo" and not r["silent"]}
     for r in results:
         s = r["status"]
         if r["silent"]:
@@ -252,11 +262,31 @@ def main(argv=None):
         print(f"{r['kind']:10s} {r['scene']:5s} {r['sent']:6d} {r['lost']:6d} "
               f"{r['ticks_per_s']:8.0f} {r['median']:7.2f}ms {r['p99']:7.2f}ms "
               f"{r['contact']:7.0%}  {diag if r['kind'] != 'echo' else ''}")
-    if echo is not None:
-        for r in results:
-            if r["kind"] in ("array", "events", "recording") and r.get("answered"):
-                print(f"{r['kind']}/echo ({r['scene']}): median latency "
-                      f"{r['median'] / echo['median']:.2f}x, p99 {r['p99'] / echo['p99']:.2f}x")
+    for r in results:
+        echo = echoes.get(r["round"])
+        if (echo is not None and r["kind"] in ("array", "events", "recording")
+                and r.get("answered")):
+            print(f"{r['kind']}/echo ({r['scene']}): median latency "
+                  f"{r['median'] / echo['median']:.2f}x, p99 {r['p99'] / echo['p99']:.2f}x")
+    if rounds > 1:
+        print(f"over the {rounds} rounds, medians (the ratios to the echo node of each round):")
+        for key in dict.fromkeys((r["kind"], r["scene"]) for r in results):
+            runs = [r for r in results if (r["kind"], r["scene"]) == key and not r["silent"]
+                    and r["kind"] != "builtin"]
+            if not runs:
+                continue
+            line = (f"  {key[0]:10s} {key[1]:5s} latency median "
+                    f"{np.median([r['median'] for r in runs]):.2f} ms, p99 "
+                    f"{np.median([r['p99'] for r in runs]):.2f} ms (range "
+                    f"{min(r['p99'] for r in runs):.2f}-{max(r['p99'] for r in runs):.2f}); "
+                    f"lost {sum(r['lost'] for r in runs)} of {sum(r['sent'] for r in runs)}")
+            ratios = [(r["median"] / echoes[r["round"]]["median"],
+                       r["p99"] / echoes[r["round"]]["p99"])
+                      for r in runs if r["round"] in echoes and r["kind"] != "echo"]
+            if ratios:
+                line += (f"; /echo median {np.median([a for a, _ in ratios]):.2f}x, p99 "
+                         f"{np.median([b for _, b in ratios]):.2f}x")
+            print(line)
     for r in results:
         if "log_bytes" in r and r.get("answered"):
             print(f"recording ({r['scene']}): {r['log_bytes'] / 1e6:.1f} MB for "

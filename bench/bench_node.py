@@ -9,9 +9,12 @@ bench/echo_node.py): stream poses for --seconds at --rate (the paper's catenary 
 forth: x runs 0.15 -> -0.15 -> 0.15 m every 10 s), then ramp the rate (--ramp) for --ramp-seconds
 each; report the highest rate that loses nothing. Prints medians and p99 with the ratios to the
 echo node measured in the same run, the CPU time each node (with its log writer) used per pose,
-and the recording's log size.
+and the recording's log size. ``--rounds K`` measures the nodes K times in turn and adds each
+node's median over the rounds (its p99 varies between runs on a shared machine as much as
+between nodes), with the ratios to the echo node of the same round.
 
 Run: python bench/bench_node.py [--seconds 60] [--rate 1000] [--ramp 1000,2000,3000,4000]
+     [--rounds K]
 """
 
 from __future__ import annotations
@@ -249,6 +252,10 @@ def main(argv=None):
     parser.add_argument("--amplitude", type=float, default=0.15,
                         help="the foot sweeps x between +-amplitude [m] (0.15 for the catenary; "
                         "0.012 for rat_pole.yaml)")
+    parser.add_argument("--rounds", type=int, default=1,
+                        help="measure the nodes this many times, in turn (a noisy machine: the "
+                        "summary gives each node's median over the rounds, and its ratios to "
+                        "the echo node of the same round)")
     parser.add_argument("--role", choices=["sender", "receiver"], help=argparse.SUPPRESS)
     parser.add_argument("--work", help=argparse.SUPPRESS)
     parser.add_argument("--segments", help=argparse.SUPPRESS)
@@ -259,27 +266,50 @@ def main(argv=None):
         return sender(Path(args.work), json.loads(args.segments), args.amplitude)
     os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
     os.environ.setdefault("ROS_DOMAIN_ID", "57")  # away from other ROS work on the machine
-    results = {}
+    kinds = args.nodes.split(",")
+    rounds = []
     with tempfile.TemporaryDirectory() as tmp:
-        for kind in args.nodes.split(","):
-            print(f"{kind}: {args.rate:.0f} Hz for {args.seconds:.0f} s ...", flush=True)
-            results[kind] = measure(kind, args, Path(tmp) / kind)
+        for k in range(max(1, args.rounds)):
+            results = {}
+            for kind in kinds:
+                print(f"{kind}: {args.rate:.0f} Hz for {args.seconds:.0f} s"
+                      f"{f' (round {k + 1} of {args.rounds})' if args.rounds > 1 else ''} ...",
+                      flush=True)
+                results[kind] = measure(kind, args, Path(tmp) / f"{kind}_{k}")
+            rounds.append(results)
     print()
     print(f"{'node':9s} {'sent':>7s} {'lost':>5s} {'median':>9s} {'p99':>9s} {'max':>9s} "
           f"{'sustained':>10s} {'CPU/pose':>9s}")
-    for kind, r in results.items():
-        lat = r["lat"]
-        sustained = f"{int(r['sustained'])}Hz" if kind != "recording" and args.ramp else "-"
-        print(f"{kind:9s} {r['sent']:7d} {r['lost']:5d} {np.median(lat) / 1e3:7.3f}ms "
-              f"{np.percentile(lat, 99) / 1e3:7.3f}ms {lat.max() / 1e3:7.2f}ms {sustained:>10s} "
-              f"{r['cpu_per_pose'] * 1e6:7.0f}us")
+    for results in rounds:
+        for kind, r in results.items():
+            lat = r["lat"]
+            sustained = f"{int(r['sustained'])}Hz" if kind != "recording" and args.ramp else "-"
+            print(f"{kind:9s} {r['sent']:7d} {r['lost']:5d} {np.median(lat) / 1e3:7.3f}ms "
+                  f"{np.percentile(lat, 99) / 1e3:7.3f}ms {lat.max() / 1e3:7.2f}ms "
+                  f"{sustained:>10s} {r['cpu_per_pose'] * 1e6:7.0f}us")
     for kind in ("whisker", "recording"):
-        if kind in results and "echo" in results:
-            w, e = results[kind]["lat"], results["echo"]["lat"]
-            print(f"{kind}/echo: median {np.median(w) / np.median(e):.2f}x, "
-                  f"p99 {np.percentile(w, 99) / np.percentile(e, 99):.2f}x")
-    if "recording" in results and "log_bytes" in results["recording"]:
-        size = results["recording"]["log_bytes"]
+        if kind not in kinds or "echo" not in kinds:
+            continue
+        median = [np.median(r[kind]["lat"]) / np.median(r["echo"]["lat"]) for r in rounds]
+        p99 = [np.percentile(r[kind]["lat"], 99) / np.percentile(r["echo"]["lat"], 99)
+               for r in rounds]
+        print(f"{kind}/echo: median {np.median(median):.2f}x, p99 {np.median(p99):.2f}x"
+              + (f" (medians over {len(rounds)} rounds; p99 ratios {min(p99):.2f}-"
+                 f"{max(p99):.2f}x)" if len(rounds) > 1 else ""))
+    if len(rounds) > 1:
+        print(f"over the {len(rounds)} rounds, each node's median of:")
+        for kind in kinds:
+            runs = [r[kind] for r in rounds]
+            print(f"  {kind:9s} latency median "
+                  f"{np.median([np.median(r['lat']) for r in runs]) / 1e3:.3f} ms, p99 "
+                  f"{np.median([np.percentile(r['lat'], 99) for r in runs]) / 1e3:.3f} ms "
+                  f"(range {min(np.percentile(r['lat'], 99) for r in runs) / 1e3:.2f}-"
+                  f"{max(np.percentile(r['lat'], 99) for r in runs) / 1e3:.2f}); lost "
+                  f"{sum(r['lost'] for r in runs)} of {sum(r['sent'] for r in runs)}; CPU "
+                  f"{np.median([r['cpu_per_pose'] for r in runs]) * 1e6:.0f} us per pose")
+    last = rounds[-1]
+    if "recording" in last and "log_bytes" in last["recording"]:
+        size = last["recording"]["log_bytes"]
         print(f"recording: a {args.seconds:.0f} s log at {args.rate:.0f} Hz is "
               f"{size / 1e6:.1f} MB ({size / args.seconds / args.rate:.0f} bytes per pose, zstd)")
 
