@@ -296,6 +296,53 @@ def tolerance_lockstep(side: str, cycles: float, tolerance: float, dt: float = 1
               f"(median {np.median(rm):.1e}), over {int(touched.sum())} whiskers")
 
 
+def workers_lockstep(side: str, cycles: float, workers: int, dt: float = 1e-3) -> None:
+    """
+    Print the array in one process against the same array in ``workers`` parts, in lockstep.
+
+    An ArrayTracker and a PartitionedArrayTracker on the same ticks, stepped one after the
+    other in alternating order: their tick times, and whether every tick's result is the same
+    to the last bit.
+    """
+    from vibrissa_ros.core.arrays.partition import PartitionedArrayTracker
+
+    _jit.warm_up()
+    array, scene, whisk = _setup(side)
+    t0 = time.perf_counter()
+    many = PartitionedArrayTracker(array, scene, HEAD, whisk.angle(0.0), workers=workers)
+    start = time.perf_counter() - t0
+    runs = [ArrayTracker(array, scene, HEAD, whisk.angle(0.0)), many]
+    ticks = int(round(cycles / whisk.frequency / dt))
+    times = [[], []]
+    differ = 0
+    try:
+        for k in range(1, ticks + 1):
+            steps = [None, None]
+            for j in ((0, 1) if k % 2 else (1, 0)):
+                t0 = time.perf_counter()
+                steps[j] = runs[j].step(HEAD, whisk.angle(k * dt))
+                times[j].append(time.perf_counter() - t0)
+            a, b = steps
+            differ += not (all(np.array_equal(getattr(a, f), getattr(b, f)) for f in
+                               ("force", "moment", "force_base", "moment_base", "tip",
+                                "contacts", "contact_point", "contact_s", "contact_f"))
+                           and a.events == b.events and a.errors == b.errors)
+    finally:
+        many.close()
+    times = [np.array(t) for t in times]
+    print(f"\n== {side} side(s): {len(array)} whiskers, {ticks} ticks of 1 ms in lockstep, one "
+          f"process against {workers} parts (workers started in {start:.1f} s)")
+    for j, label in enumerate(("one process", f"{workers} parts")):
+        t = times[j]
+        print(f"   {label:>11s}: tick median {np.median(t) * 1e3:.3f} ms "
+              f"({1.0 / np.median(t):,.0f} ticks/s), mean {t.mean() * 1e3:.3f}, p99 "
+              f"{_pct(t, 99):.2f}")
+    ratio = times[1] / times[0]
+    print(f"   {workers} parts / one: per-tick ratio median {np.median(ratio):.3f}; medians "
+          f"{np.median(times[1]) / np.median(times[0]):.3f}; means "
+          f"{times[1].mean() / times[0].mean():.3f}; ticks whose results differ: {differ}")
+
+
 def plain_steps(names, cycles: float, repeats: int, dt: float = 1e-3) -> None:
     """
     Print what a plain step of one whisker in contact costs, its tracker replayed alone.
@@ -352,7 +399,14 @@ def main(argv=None) -> int:
     parser.add_argument("--points-tolerance", type=float, default=None, metavar="T",
                         help="instead: the default discretization tolerance against T, two "
                              "arrays in lockstep (speed, and the base wrenches' difference)")
+    parser.add_argument("--workers", type=int, default=None, metavar="W",
+                        help="instead: the array in one process against W parts "
+                             "(PartitionedArrayTracker, W - 1 worker processes), in lockstep")
     args = parser.parse_args(argv)
+    if args.workers is not None:
+        for side in ((args.side,) if args.side else ("right", "both")):
+            workers_lockstep(side, args.cycles, args.workers)
+        return 0
     if args.points_tolerance is not None:
         for side in ((args.side,) if args.side else ("right", "both")):
             tolerance_lockstep(side, args.cycles, args.points_tolerance)

@@ -4,8 +4,9 @@ Whisker arrays: many 3D whiskers placed on a head (the mystacial pad), whisking,
 ``array`` holds the data (:class:`WhiskerSpec`, :class:`WhiskerArray`) in SI units in the head
 frame; ``rat`` generates the rat's array from the published morphology (Belli et al. 2018,
 Towal et al. 2011); ``whisking`` turns protraction angles into base frames; ``tracker`` advances
-every whisker of an array to a new head pose and whisk in one call (:class:`ArrayTracker`). No
-ROS import: part of the mechanics core.
+every whisker of an array to a new head pose and whisk in one call (:class:`ArrayTracker`);
+``partition`` does it with the whiskers dealt to several processes
+(:class:`~.partition.PartitionedArrayTracker`). No ROS import: part of the mechanics core.
 """
 
 from .array import WhiskerArray, WhiskerRod, WhiskerSpec

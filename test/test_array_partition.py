@@ -1,0 +1,107 @@
+"""The whisker array across processes: the same results as in one, and clear failures."""
+
+import math
+import os
+import signal
+from dataclasses import fields
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from vibrissa_ros.core.arrays import WhiskerArray
+from vibrissa_ros.core.arrays.partition import PartitionedArrayTracker
+from vibrissa_ros.core.arrays.rat import rat_array
+from vibrissa_ros.core.arrays.tracker import ArrayTracker
+from vibrissa_ros.core.arrays.whisking import CosineWhisk
+from vibrissa_ros.core.errors import ConvergenceError, InvalidPoseError, ParameterError
+from vibrissa_ros.core.rod3d import BasePose, Scene3D, Sphere
+from vibrissa_ros.scan.array_file import load_array
+
+from rat_pad import HEAD, PEG, SOAK_PEGS, WHISK, soak_head
+
+
+def _same(a, b):
+    """Every field of two ArraySteps equal to the last bit (arrays read-only, same dtype)."""
+    for f in fields(a):
+        x, y = getattr(a, f.name), getattr(b, f.name)
+        if isinstance(x, np.ndarray):
+            assert x.dtype == y.dtype and x.shape == y.shape, f.name
+            assert np.array_equal(x, y), f.name
+            assert not y.flags.writeable, f.name
+        elif f.name == "head":
+            assert np.array_equal(x.position, y.position) and np.array_equal(x.q, y.q)
+        else:
+            assert x == y, f.name
+
+
+@pytest.mark.parametrize("workers", [2, 3])
+def test_the_partitioned_array_equals_one_process_to_the_last_bit(workers):
+    array = rat_array("right")
+    one = ArrayTracker(array, Scene3D((PEG,)), HEAD, WHISK.angle(0.0))
+    with PartitionedArrayTracker(array, Scene3D((PEG,)), HEAD, WHISK.angle(0.0),
+                                 workers=workers) as many:
+        assert many.workers == workers and len(many) == len(array)
+        _same(one.state, many.state)
+        events = 0
+        for k in range(1, 121):  # RB1 and its column touch, slide and snap off
+            theta = WHISK.angle(k * 1e-3)
+            a, b = one.step(HEAD, theta), many.step(HEAD, theta)
+            _same(a, b)
+            events += len(a.events)
+        assert events >= 4 and one.state.in_contact >= 1
+        assert np.array_equal(one.centerlines(9), many.centerlines(9))
+        _same(one.reset(), many.reset())
+        theta = np.linspace(-0.2, 0.1, len(array))  # one angle per whisker
+        _same(one.step(HEAD, theta), many.step(HEAD, theta))
+
+
+def test_the_partitioned_array_in_the_soak_scene_with_a_moving_head():
+    # bench/soak_array.py's pegs scene: both pads, the head wandering, at a coarse tolerance
+    array = load_array(Path(__file__).resolve().parents[1] / "config" / "rat_array.yaml")
+    whisk = CosineWhisk(8.0, -math.radians(30.0), math.radians(25.0))
+    one = ArrayTracker(array, SOAK_PEGS, soak_head(0.0), whisk.angle(0.0),
+                       points_tolerance=1e-8)
+    with PartitionedArrayTracker(array, SOAK_PEGS, soak_head(0.0), whisk.angle(0.0),
+                                 workers=2, points_tolerance=1e-8) as many:
+        touched = 0
+        for k in range(1, 81):
+            a = one.step(soak_head(k * 1e-3), whisk.angle(k * 1e-3))
+            _same(a, many.step(soak_head(k * 1e-3), whisk.angle(k * 1e-3)))
+            touched = max(touched, a.in_contact)
+        assert touched >= 2
+
+
+def test_bad_arguments_are_refused_with_what_is_allowed():
+    array = rat_array("right")
+    for workers in (0, 31, 2.0, True, "2"):
+        with pytest.raises(ParameterError, match="workers"):
+            PartitionedArrayTracker(array, Scene3D((PEG,)), HEAD, 0.0, workers=workers)
+    with PartitionedArrayTracker(array, Scene3D((PEG,)), HEAD, WHISK.angle(0.0)) as many:
+        with pytest.raises(ParameterError, match="protraction has shape"):
+            many.step(HEAD, np.zeros(7))
+        many.step(HEAD, WHISK.angle(1e-3))  # the state is kept: it goes on
+
+
+def test_a_whisker_cutting_an_obstacle_at_the_start_is_named_from_its_worker():
+    array = WhiskerArray(tuple(rat_array("right"))[:4])
+    on_rb = Scene3D((Sphere(tuple(array[1].base_position), 0.0003, "bead"),))
+    with pytest.raises(InvalidPoseError, match=array.names[1]):
+        PartitionedArrayTracker(array, on_rb, HEAD, 0.0, workers=2)
+
+
+def test_a_worker_that_ends_makes_every_later_tick_fail_naming_its_whiskers():
+    array = rat_array("right")
+    many = PartitionedArrayTracker(array, Scene3D((PEG,)), BasePose((0.0, 0.0, 0.0)),
+                                   WHISK.angle(0.0), workers=2)
+    try:
+        many.step(HEAD, WHISK.angle(1e-3))
+        os.kill(many._procs[0].pid, signal.SIGKILL)
+        many._procs[0].wait()
+        for _ in range(2):
+            with pytest.raises(ConvergenceError, match=r"worker process 1 \(whiskers RA1, "):
+                many.step(HEAD, WHISK.angle(2e-3))
+    finally:
+        many.close()
+    with pytest.raises(ConvergenceError, match="worker process 1"):
+        many.step(HEAD, WHISK.angle(3e-3))
