@@ -105,3 +105,15 @@ def test_a_worker_that_ends_makes_every_later_tick_fail_naming_its_whiskers():
         many.close()
     with pytest.raises(ConvergenceError, match="worker process 1"):
         many.step(HEAD, WHISK.angle(3e-3))
+
+
+def test_the_workers_end_with_the_tracker_even_unclosed():
+    import gc
+
+    many = PartitionedArrayTracker(rat_array("right"), Scene3D((PEG,)), HEAD, WHISK.angle(0.0),
+                                   workers=3)
+    procs = list(many._procs)
+    assert all(p.poll() is None for p in procs)
+    del many
+    gc.collect()
+    assert all(p.poll() is not None for p in procs)

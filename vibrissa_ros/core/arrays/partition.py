@@ -35,6 +35,7 @@ import signal
 import socket
 import subprocess
 import sys
+import weakref
 from dataclasses import fields
 from multiprocessing.connection import Connection
 from typing import List, Optional, Sequence
@@ -108,6 +109,25 @@ def serve(fd: int) -> None:
         conn.send(("ok", answer))
 
 
+def _end_workers(conns: List[Connection], procs: List[subprocess.Popen]) -> None:
+    """Ask each worker to end, wait a few seconds, kill those still running; empty the lists."""
+    for conn in conns:
+        try:
+            conn.send(("close",))
+        except (OSError, ValueError):
+            pass
+    for proc in procs:
+        try:
+            proc.wait(5.0)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+    for conn in conns:
+        conn.close()
+    conns.clear()
+    procs.clear()
+
+
 class PartitionedArrayTracker:
     """
     Every whisker of an array against one scene, its whiskers stepped in several processes.
@@ -156,8 +176,11 @@ class PartitionedArrayTracker:
                                          for j in range(int(workers))]
         self._order = np.argsort(np.concatenate(self._parts), kind="stable")
         self._rank = {n: i for i, n in enumerate(self.names)}
-        self._conns = []
-        self._procs = []
+        self._conns: List[Connection] = []
+        self._procs: List[subprocess.Popen] = []
+        # the workers end with this object even when nobody closes it (a finalizer holds the
+        # lists, not the object)
+        self._finalizer = weakref.finalize(self, _end_workers, self._conns, self._procs)
         self._failed: Optional[str] = None
         first = self._parts[0]
         try:
@@ -317,20 +340,7 @@ class PartitionedArrayTracker:
 
     def close(self) -> None:
         """End the worker processes (at once if they do not end within a few seconds)."""
-        for conn in self._conns:
-            try:
-                conn.send(("close",))
-            except (OSError, ValueError):
-                pass
-        for proc in self._procs:
-            try:
-                proc.wait(5.0)
-            except subprocess.TimeoutExpired:
-                proc.kill()
-                proc.wait()
-        for conn in self._conns:
-            conn.close()
-        self._conns, self._procs = [], []
+        self._finalizer()
         if self._failed is None and len(self._parts) > 1:
             self._failed = "the array's worker processes were closed"
 
