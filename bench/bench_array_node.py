@@ -21,6 +21,7 @@ bottleneck) and ``free`` (a ball far away: every whisker is certified free, the 
 
 Run: OPENBLAS_NUM_THREADS=1 python bench/bench_array_node.py [--seconds 20] [--rate 1000]
      [--scenes peg,free] [--nodes array,events,recording,echo,builtin] [--points-tolerance T]
+     [--workers W]
      [--rounds K]   (K rounds in turn: each node's median over them, ratios to each round's echo)
 """
 
@@ -165,6 +166,8 @@ def start_node(kind: str, scene: str, args, work: Path) -> subprocess.Popen:
         cmd += ["-p", f"record.path:={work / 'run.mcap'}"]
     if args.points_tolerance is not None:
         cmd += ["-p", f"solver.points_tolerance:={args.points_tolerance!r}"]
+    if args.workers is not None:
+        cmd += ["-p", f"solver.workers:={args.workers}"]
     return subprocess.Popen(cmd, start_new_session=True)
 
 
@@ -215,6 +218,8 @@ def main(argv=None):
     parser.add_argument("--scenes", default="peg,free")
     parser.add_argument("--points-tolerance", type=float, default=None, metavar="T",
                         help="array_node's solver.points_tolerance (default: the node's, 1e-11)")
+    parser.add_argument("--workers", type=int, default=None, metavar="W",
+                        help="array_node's solver.workers (default: the node's, 1)")
     parser.add_argument("--nodes", default="array,events,recording,echo,builtin")
     parser.add_argument("--rounds", type=int, default=1,
                         help="measure everything this many times, in turn (a noisy machine: "

@@ -132,8 +132,11 @@ def external(installed, ros_env, rcl_context, tmp_path_factory):
     """Run the shipped configuration with whisking from outside: a protraction sweep, bad input."""
     tmp = tmp_path_factory.mktemp("array_ext")
     log = tmp / "external.mcap"
+    # solver.workers: every whisker's results equal one process's to the last bit, so this run,
+    # its reset, display and recording go through two processes (and resim runs in one)
     values = dict(_shipped(), **{"whisk.source": "external", "record.path": str(log),
-                                 "diagnostics.period": 0.3, "wrench.rate": 500.0})
+                                 "diagnostics.period": 0.3, "wrench.rate": 500.0,
+                                 "solver.workers": 2})
     proc = start_installed_node(installed, write_params(tmp / "p.yaml", values), ros_env,
                                 namespace="/ext", executable="array_node")
     probe = ArrayProbe(rcl_context, "/ext/array_node")
@@ -175,11 +178,35 @@ def external(installed, ros_env, rcl_context, tmp_path_factory):
         probe.spin_until(lambda: probe.got["whiskers"] and probe.got["obstacles"], 10.0)
         got = {k: list(v) for k, v in probe.got.items()}
         alive = proc.poll() is None
+        workers = _children(proc.pid)
     finally:
         probe.destroy()
         code = stop(proc)
     return dict(values=values, got=got, inputs=inputs, bad=bad, status=status, alive=alive,
-                code=code, log=log, reset=reset, reset_stamp=reset_stamp)
+                code=code, log=log, reset=reset, reset_stamp=reset_stamp, workers=workers)
+
+
+def _children(pid):
+    """Return (pid, command line) of a process's children (Linux's /proc)."""
+    out = []
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            try:
+                stat = (entry / "stat").read_text()
+                if int(stat.rsplit(")", 1)[1].split()[1]) == pid:
+                    cmdline = (entry / "cmdline").read_bytes().decode(errors="replace")
+                    out.append((int(entry.name), cmdline))
+            except OSError:  # (gone meanwhile)
+                continue
+    return out
+
+
+def test_the_node_deals_the_whiskers_to_worker_processes_that_end_with_it(external):
+    assert external["values"]["solver.workers"] == 2 and external["code"] == 0
+    workers = [pid for pid, cmdline in external["workers"]
+               if "vibrissa_ros.core.arrays.partition" in cmdline]
+    assert len(workers) == 1
+    assert not Path(f"/proc/{workers[0]}").exists()
 
 
 def _reference(values):
@@ -621,6 +648,9 @@ def test_joint_names_rows_and_whisk_map_to_whiskers():
     ({"solver.adapt_points": "yes"}, "solver.adapt_points"),
     ({"solver.points_tolerance": 1e-3}, "solver.points_tolerance"),
     ({"solver.points_tolerance": 0.0}, "solver.points_tolerance"),
+    ({"solver.workers": 0}, "solver.workers"),
+    ({"solver.workers": 61}, "solver.workers = 61 is not allowed; the array has"),
+    ({"solver.workers": 1.5}, "solver.workers"),
 ])
 def test_a_bad_configuration_is_one_line_naming_the_parameter(change, words):
     from vibrissa_ros.core.errors import ParameterError

@@ -182,6 +182,8 @@ def resimulate_array(configs: List[Tuple[int, Dict[str, object]]], messages: Ite
     node = values.pop("node", "/array_node")
     recorded = {ARRAY_TEXT: values.pop(ARRAY_TEXT), SCENE_TEXT: values.pop(SCENE_TEXT, "")}
     values = {k: v for k, v in values.items() if k not in ("vibrissa_ros_version", "resets")}
+    # in this process: the run's worker processes, if it had any, gave the same results
+    values["solver.workers"] = 1
     try:
         config = build_array_config(values, recorded)
         pipeline = ArrayPipeline(config)

@@ -202,6 +202,7 @@ class ArrayNode(Node):
                 raise
 
     def destroy_node(self):
+        self._pipeline.close()
         recorder, self._recorder = self._recorder, None
         if recorder is not None:
             recorder.close()
