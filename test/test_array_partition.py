@@ -78,16 +78,55 @@ def test_bad_arguments_are_refused_with_what_is_allowed():
         with pytest.raises(ParameterError, match="workers"):
             PartitionedArrayTracker(array, Scene3D((PEG,)), HEAD, 0.0, workers=workers)
     with PartitionedArrayTracker(array, Scene3D((PEG,)), HEAD, WHISK.angle(0.0)) as many:
-        with pytest.raises(ParameterError, match="protraction has shape"):
-            many.step(HEAD, np.zeros(7))
-        many.step(HEAD, WHISK.angle(1e-3))  # the state is kept: it goes on
+        one = ArrayTracker(array, Scene3D((PEG,)), HEAD, WHISK.angle(0.0))
+        for k in range(1, 40):  # RB1 in contact
+            _same(one.step(HEAD, WHISK.angle(k * 1e-3)), many.step(HEAD, WHISK.angle(k * 1e-3)))
+        assert many.state.in_contact
+        for bad in (np.zeros(7), np.r_[math.nan, np.zeros(len(array) - 1)]):
+            # refused before any part moves (a part whose angles are fine would have stepped)
+            with pytest.raises(ParameterError) as want:
+                one.step(HEAD, bad)
+            with pytest.raises(ParameterError) as err:
+                many.step(HEAD, bad)
+            assert str(err.value) == str(want.value)
+            assert "one finite angle [rad] or 30 of them" in str(err.value)
+        _same(one.step(HEAD, WHISK.angle(0.04)), many.step(HEAD, WHISK.angle(0.04)))
 
 
 def test_a_whisker_cutting_an_obstacle_at_the_start_is_named_from_its_worker():
     array = WhiskerArray(tuple(rat_array("right"))[:4])
     on_rb = Scene3D((Sphere(tuple(array[1].base_position), 0.0003, "bead"),))
-    with pytest.raises(InvalidPoseError, match=array.names[1]):
+    with pytest.raises(InvalidPoseError, match=f"^whisker {array.names[1]}:"):
         PartitionedArrayTracker(array, on_rb, HEAD, 0.0, workers=2)
+    # two cut (one in this process's part, one in the worker's): the first is named, as by one
+    beads = Scene3D((Sphere(tuple(array[1].base_position), 0.0003, "bead_1"),
+                     Sphere(tuple(array[2].base_position), 0.0003, "bead_2")))
+    with pytest.raises(InvalidPoseError) as want:
+        ArrayTracker(array, beads, HEAD, 0.0)
+    with pytest.raises(InvalidPoseError) as got:
+        PartitionedArrayTracker(array, beads, HEAD, 0.0, workers=2)
+    assert str(got.value) == str(want.value) and str(got.value).startswith("whisker RA1:")
+
+
+def test_an_interrupted_tick_leaves_no_answer_to_the_next_call(monkeypatch):
+    # a Ctrl-C in this process's part while the worker steps: the worker's answer to that
+    # tick is skipped, and every later call gets its own answer
+    array = rat_array("right")
+    with PartitionedArrayTracker(array, Scene3D((PEG,)), HEAD, WHISK.angle(0.0),
+                                 workers=2) as many:
+        many.step(HEAD, WHISK.angle(1e-3))
+
+        def ctrl_c(*args):
+            raise KeyboardInterrupt
+
+        monkeypatch.setattr(many._local, "step", ctrl_c)
+        with pytest.raises(KeyboardInterrupt):
+            many.step(HEAD, WHISK.angle(2e-3))
+        monkeypatch.undo()
+        for k in range(3, 8):
+            step = many.step(HEAD, WHISK.angle(k * 1e-3))
+            assert np.all(step.protraction == WHISK.angle(k * 1e-3))
+        assert many.centerlines(5).shape == (len(array), 5, 3)
 
 
 def test_a_worker_that_ends_makes_every_later_tick_fail_naming_its_whiskers():

@@ -202,13 +202,15 @@ class ArrayNode(Node):
                 raise
 
     def destroy_node(self):
-        self._pipeline.close()
         recorder, self._recorder = self._recorder, None
-        if recorder is not None:
-            recorder.close()
-            if recorder.error is None and self.context.ok():
-                self.get_logger().info(f"recording finished: {recorder.path} "
-                                       f"({recorder.written} messages)")
+        try:
+            if recorder is not None:  # the log first: it is what a second Ctrl-C would cost
+                recorder.close()
+                if recorder.error is None and self.context.ok():
+                    self.get_logger().info(f"recording finished: {recorder.path} "
+                                           f"({recorder.written} messages)")
+        finally:
+            self._pipeline.close()  # the worker processes, if any
         return super().destroy_node()
 
     # -- input ------------------------------------------------------------------------------------

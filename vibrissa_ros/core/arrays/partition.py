@@ -22,9 +22,14 @@ tick and a snap milliseconds, while a free array's tick (~0.1 ms) gets slower
 (doc/benchmarks.md, "The array across processes").
 
 A worker ignores SIGINT and SIGTERM (the caller decides when the run ends) and ends when the
-caller closes it (:meth:`PartitionedArrayTracker.close`) or is gone. An error of a whisker is
-that whisker's, as in one process; a worker that ends otherwise makes every later tick raise
-:class:`~vibrissa_ros.core.errors.ConvergenceError`, naming its whiskers.
+caller closes it (:meth:`PartitionedArrayTracker.close`), the tracker is garbage, or the
+caller is gone. An error of a whisker is that whisker's, as in one process; a worker that ends
+otherwise, or does not answer within two minutes, makes every later tick raise
+:class:`~vibrissa_ros.core.errors.ConvergenceError`, naming its whiskers. The protraction is
+checked before any part moves. A Ctrl-C during a tick leaves the parts at different ticks, as
+it leaves an ArrayTracker's whiskers (every command's answer carries its tag, so an answer left
+unread is skipped); one that comes while an answer is being read (a few microseconds of a tick)
+ends the array as a worker's end does.
 
 No rclpy here.
 """
@@ -35,6 +40,7 @@ import signal
 import socket
 import subprocess
 import sys
+import time
 import weakref
 from dataclasses import fields
 from multiprocessing.connection import Connection
@@ -42,10 +48,10 @@ from typing import List, Optional, Sequence
 
 import numpy as np
 
-from ..errors import ConvergenceError, ParameterError
+from ..errors import ConvergenceError, InvalidPoseError, ParameterError
 from ..rod3d.pose import BasePose
 from .array import WhiskerArray
-from .tracker import ArrayStep, ArrayTracker, _as_head
+from .tracker import ArrayStep, ArrayTracker, _as_head, _scene_in_metres
 
 #: the most worker processes (parts) an array is split into
 MAX_WORKERS = 64
@@ -56,6 +62,9 @@ _TUPLES = ("names", "contact_kind", "contact_obstacle")
 #: how long a worker may take to build its trackers (its first start compiles or loads the
 #: kernels) [s]
 _START_TIMEOUT = 600.0
+#: how long a worker may take to answer a tick (each whisker's step is bounded by its budget
+#: of evaluations: ~seconds at the very worst) [s]
+_ANSWER_TIMEOUT = 120.0
 
 
 # the worker process: it ignores SIGINT and SIGTERM before anything else (its imports take a
@@ -79,41 +88,51 @@ def serve(fd: int) -> None:
         signal.signal(sig, signal.SIG_IGN)
     conn = Connection(fd)
     try:
-        whiskers, description, scene, head, protraction, options = conn.recv()
-        tracker = ArrayTracker(WhiskerArray(whiskers, description), scene, head, protraction,
-                               **options)
-    except (EOFError, OSError):  # the caller is gone
-        return
-    except Exception as exc:  # noqa: BLE001 - the caller raises it
-        conn.send(("error", exc))
-        return
-    conn.send(("ok", tracker.state))
-    while True:
         try:
-            command = conn.recv()
+            whiskers, description, scene, head, protraction, options = conn.recv()
+            tracker = ArrayTracker(WhiskerArray(whiskers, description), scene, head,
+                                   protraction, **options)
         except (EOFError, OSError):  # the caller is gone
             return
-        kind = command[0]
-        if kind == "close":
+        except Exception as exc:  # noqa: BLE001 - the caller raises it
+            _send_error(conn, 0, exc)
             return
-        try:
-            if kind == "step":
-                answer = tracker.step(command[1], command[2])
-            elif kind == "reset":
-                answer = tracker.reset()
-            else:  # "centerlines"
-                answer = tracker.centerlines(command[1])
-        except Exception as exc:  # noqa: BLE001 - the caller raises it, as in one process
-            conn.send(("error", exc))
-            continue
-        conn.send(("ok", answer))
+        conn.send((0, "ok", tracker.state))
+        while True:
+            command = conn.recv()
+            tag, kind = command[0], command[1]
+            if kind == "close":
+                return
+            try:
+                if kind == "step":
+                    answer = tracker.step(command[2], command[3])
+                elif kind == "reset":
+                    answer = tracker.reset()
+                else:  # "centerlines"
+                    answer = tracker.centerlines(command[2])
+            except Exception as exc:  # noqa: BLE001 - the caller raises it, as in one process
+                _send_error(conn, tag, exc)
+                continue
+            conn.send((tag, "ok", answer))
+    except (EOFError, OSError):  # the caller is gone (closed, or killed): end quietly
+        return
+
+
+def _send_error(conn: Connection, tag: int, exc: Exception) -> None:
+    """Send an error to the caller; one that cannot be pickled as a ConvergenceError saying it."""
+    try:
+        conn.send((tag, "error", exc))
+    except (OSError, EOFError):
+        raise
+    except Exception:  # noqa: BLE001 - not picklable: its type and message
+        conn.send((tag, "error", ConvergenceError(f"{type(exc).__name__}: {exc}")))
 
 
 def _end_workers(conns: List[Connection], procs: List[subprocess.Popen]) -> None:
     """Ask each worker to end, wait a few seconds, kill those still running; empty the lists."""
     for conn in conns:
         try:
-            conn.send(("close",))
+            conn.send((0, "close"))
         except (OSError, ValueError):
             pass
     for proc in procs:
@@ -170,6 +189,7 @@ class PartitionedArrayTracker:
                                  f"most {MAX_WORKERS})")
         self.array = array
         self.names = array.names
+        scene = _scene_in_metres(scene)  # (once: an iterable of obstacles is taken as one)
         head = _as_head(head)
         theta = self._protraction(protraction)
         self._parts: List[np.ndarray] = [np.arange(j, k, int(workers))
@@ -182,6 +202,8 @@ class PartitionedArrayTracker:
         # lists, not the object)
         self._finalizer = weakref.finalize(self, _end_workers, self._conns, self._procs)
         self._failed: Optional[str] = None
+        self._tag = 0  # the last command's tag (0: the start)
+        self._reading = False  # inside a connection's recv
         first = self._parts[0]
         try:
             for part in self._parts[1:]:
@@ -198,11 +220,21 @@ class PartitionedArrayTracker:
                 self._procs.append(proc)
                 self._conns[-1].send((tuple(array.whiskers[i] for i in part),
                                       array.description, scene, head, theta[part], options))
-            self._local = ArrayTracker(WhiskerArray(tuple(array.whiskers[i] for i in first),
-                                                    array.description), scene, head,
-                                       theta[first], **options)
-            states = [self._local.state] + [self._answer(j, _START_TIMEOUT)
-                                            for j in range(len(self._conns))]
+            failures, states = [], []
+            try:
+                self._local = ArrayTracker(
+                    WhiskerArray(tuple(array.whiskers[i] for i in first), array.description),
+                    scene, head, theta[first], **options)
+                states.append(self._local.state)
+            except InvalidPoseError as exc:
+                failures.append(exc)
+            for j in range(len(self._conns)):
+                try:
+                    states.append(self._answer(j, _START_TIMEOUT))
+                except InvalidPoseError as exc:
+                    failures.append(exc)
+            if failures:  # the whisker nearest the array's start, as one process names it
+                raise min(failures, key=self._first_named)
         except BaseException:
             self.close()
             raise
@@ -210,26 +242,49 @@ class PartitionedArrayTracker:
 
     # -- the parts ------------------------------------------------------------------------------
     def _protraction(self, protraction) -> np.ndarray:
-        theta = np.asarray(protraction, dtype=float)
+        """Return the angles, one per whisker, checked before any part moves (Whisking's words)."""
         k = len(self.array)
+        theta = np.array(protraction, dtype=float)
         if theta.ndim == 0:
-            return np.full(k, float(theta))
-        if theta.shape != (k,):
-            raise ParameterError(f"protraction has shape {theta.shape}; need one angle or one "
-                                 f"per whisker ({k})")
-        return theta.copy()
+            theta = np.full(k, float(theta))
+        if theta.shape != (k,) or not np.all(np.isfinite(theta)):
+            raise ParameterError(f"protraction = {np.asarray(protraction).tolist()!r} is not "
+                                 f"allowed; it is one finite angle [rad] or {k} of them, one "
+                                 "per whisker")
+        return theta
+
+    def _first_named(self, exc: Exception) -> int:
+        """Return the index of the whisker an error names ("whisker RC2: ..."), else the end."""
+        text = str(exc)
+        for i, name in enumerate(self.names):
+            if text.startswith(f"whisker {name}:"):
+                return i
+        return len(self.names)
 
     def _where(self, j: int) -> str:
         names = [self.names[i] for i in self._parts[j + 1]]
         return f"the array's worker process {j + 1} (whiskers {', '.join(names)})"
 
-    def _answer(self, j: int, timeout: Optional[float] = None):
-        """Return worker j's answer, or raise its error (a failure for good: ConvergenceError)."""
+    def _answer(self, j: int, timeout: float, tag: int = 0):
+        """
+        Return worker j's answer to the command ``tag``, or raise its error.
+
+        Answers to earlier commands (left unread by an interrupt) are skipped. A failure for
+        good (the worker gone, or silent for ``timeout`` s) is a ConvergenceError.
+        """
         conn = self._conns[j]
+        deadline = time.monotonic() + timeout
         try:
-            if timeout is not None and not conn.poll(timeout):
-                raise ConvergenceError(f"{self._where(j)} did not start within {timeout:.0f} s")
-            kind, value = conn.recv()
+            while True:
+                if not conn.poll(max(0.0, deadline - time.monotonic())):
+                    self._failed = (f"{self._where(j)} did not answer within {timeout:.0f} s; "
+                                    "the array cannot go on: start it again")
+                    raise ConvergenceError(self._failed)
+                self._reading = True  # (an interrupt inside recv leaves half a message)
+                got, kind, value = conn.recv()
+                self._reading = False
+                if got == tag:
+                    break
         except (EOFError, OSError):
             try:
                 code = self._procs[j].wait(1.0)
@@ -243,27 +298,43 @@ class PartitionedArrayTracker:
         return value
 
     def _ask(self, commands: Sequence[tuple], local):
-        """Send each worker its command, run ``local()`` on part 0 meanwhile, gather all."""
+        """
+        Send each worker its command, run ``local()`` on part 0 meanwhile, gather all.
+
+        The first error is raised once every answer is read. Every command carries a tag
+        that its answer repeats: answers left unread by an interrupt (Ctrl-C) are skipped by
+        the next call. An interrupt while an answer is being read leaves its connection
+        unusable: the array then fails for good (ConvergenceError), as when a worker is gone.
+        """
         if self._failed is not None:
             raise ConvergenceError(self._failed)
-        for j, (conn, command) in enumerate(zip(self._conns, commands)):
-            try:
-                conn.send(command)
-            except (OSError, ValueError):
-                self._failed = (f"{self._where(j)} is gone; the array cannot go on: start it "
-                                "again")
-                raise ConvergenceError(self._failed) from None
+        self._tag += 1
+        tag = self._tag
+        self._reading = False
         error = None
         answers = []
         try:
-            answers.append(local())
-        except Exception as exc:  # noqa: BLE001 - raised once every worker has answered
-            error = exc
-        for j in range(len(self._conns)):
+            for j, (conn, command) in enumerate(zip(self._conns, commands)):
+                try:
+                    conn.send((tag,) + tuple(command))
+                except (OSError, ValueError):
+                    self._failed = (f"{self._where(j)} is gone; the array cannot go on: start "
+                                    "it again")
+                    raise ConvergenceError(self._failed) from None
             try:
-                answers.append(self._answer(j))
-            except Exception as exc:  # noqa: BLE001 - the first error is raised
-                error = error or exc
+                answers.append(local())
+            except Exception as exc:  # noqa: BLE001 - raised once every worker has answered
+                error = exc
+            for j in range(len(self._conns)):
+                try:
+                    answers.append(self._answer(j, _ANSWER_TIMEOUT, tag))
+                except Exception as exc:  # noqa: BLE001 - the first error is raised
+                    error = error or exc
+        except BaseException:
+            if self._reading and self._failed is None:
+                self._failed = ("a tick was interrupted while reading a worker process's "
+                                "answer; the array cannot go on: start it again")
+            raise
         if error is not None:
             raise error
         return answers
