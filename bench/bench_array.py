@@ -230,6 +230,37 @@ def _points_in_contact(tracker, counts) -> None:
             counts[n] = counts.get(n, 0) + 1
 
 
+def _lockstep(runs, whisk, ticks: int, dt: float, each) -> list:
+    """
+    Step two array trackers on the same ticks, one after the other in alternating order.
+
+    ``each(steps)`` sees every tick's two results; returns the two runs' tick times [s].
+    """
+    times = [[], []]
+    for k in range(1, ticks + 1):
+        steps = [None, None]
+        for j in ((0, 1) if k % 2 else (1, 0)):
+            t0 = time.perf_counter()
+            steps[j] = runs[j].step(HEAD, whisk.angle(k * dt))
+            times[j].append(time.perf_counter() - t0)
+        each(steps)
+    return [np.array(t) for t in times]
+
+
+def _print_lockstep(labels, times, details=("", ""), after="", versus=None) -> None:
+    """Print two lockstep runs' tick times, and the second's against the first (``versus``)."""
+    width = max(len(label) for label in labels)
+    for label, t, detail in zip(labels, times, details):
+        print(f"   {label:>{width}s}: tick median {np.median(t) * 1e3:.3f} ms "
+              f"({1.0 / np.median(t):,.0f} ticks/s), mean {t.mean() * 1e3:.3f}, p99 "
+              f"{_pct(t, 99):.2f}{detail}")
+    ratio = times[1] / times[0]
+    versus = versus or f"{labels[1]} / {labels[0]}"
+    print(f"   {versus}: per-tick ratio median {np.median(ratio):.3f}; medians "
+          f"{np.median(times[1]) / np.median(times[0]):.3f}; means "
+          f"{times[1].mean() / times[0].mean():.3f}{after}")
+
+
 def tolerance_lockstep(side: str, cycles: float, tolerance: float, dt: float = 1e-3) -> None:
     """
     Print the array at the default points_tolerance against ``tolerance``, in lockstep.
@@ -244,17 +275,13 @@ def tolerance_lockstep(side: str, cycles: float, tolerance: float, dt: float = 1
     runs = [ArrayTracker(array, scene, HEAD, whisk.angle(0.0)),
             ArrayTracker(array, scene, HEAD, whisk.angle(0.0), points_tolerance=tolerance)]
     ticks = int(round(cycles / whisk.frequency / dt))
-    times = [[], []]
     counts = [{}, {}]
     force, moment, differ = [0.0, 0.0], [0.0, 0.0], 0
     # per whisker: the largest difference and the largest value of |F| and |M| over the run
     own = np.zeros((4, len(array)))
-    for k in range(1, ticks + 1):
-        steps = [None, None]
-        for j in ((0, 1) if k % 2 else (1, 0)):
-            t0 = time.perf_counter()
-            steps[j] = runs[j].step(HEAD, whisk.angle(k * dt))
-            times[j].append(time.perf_counter() - t0)
+
+    def compare(steps):
+        nonlocal force, moment, differ, own
         for j in (0, 1):
             _points_in_contact(runs[j], counts[j])
         a, b = steps
@@ -269,20 +296,15 @@ def tolerance_lockstep(side: str, cycles: float, tolerance: float, dt: float = 1
             np.abs(a.moment_base).max(axis=1)]))
         events = [[(e.whisker, e.kind, e.obstacle) for e in st.events] for st in steps]
         differ += events[0] != events[1] or not np.array_equal(a.contacts, b.contacts)
-    times = [np.array(t) for t in times]
+
+    times = _lockstep(runs, whisk, ticks, dt, compare)
     print(f"\n== {side} side(s): {len(array)} whiskers, {ticks} ticks of 1 ms in lockstep, "
           f"points_tolerance 1e-11 (default) against {tolerance:g}")
-    for j, label in enumerate(("1e-11", f"{tolerance:g}")):
-        t = times[j]
-        print(f"   {label:>7s}: tick median {np.median(t) * 1e3:.3f} ms "
-              f"({1.0 / np.median(t):,.0f} ticks/s), mean {t.mean() * 1e3:.3f}, p99 "
-              f"{_pct(t, 99):.2f}; evaluations {_evaluations(runs[j]):,}, factorizations "
-              f"{_factorizations(runs[j]):,}; points per segment in contact "
-              f"{dict(sorted(counts[j].items()))}")
-    ratio = times[1] / times[0]
-    print(f"   {tolerance:g} / default: per-tick ratio median {np.median(ratio):.3f}; medians "
-          f"{np.median(times[1]) / np.median(times[0]):.3f}; means "
-          f"{times[1].mean() / times[0].mean():.3f}")
+    _print_lockstep(("1e-11", f"{tolerance:g}"), times, [
+        f"; evaluations {_evaluations(runs[j]):,}, factorizations "
+        f"{_factorizations(runs[j]):,}; points per segment in contact "
+        f"{dict(sorted(counts[j].items()))}" for j in (0, 1)],
+        versus=f"{tolerance:g} / default")
     print(f"   base force off by {force[0]:.2e} N at most ({force[0] / force[1]:.1e} of the "
           f"largest, {force[1]:.2e} N); base moment by {moment[0]:.2e} N m "
           f"({moment[0] / moment[1]:.1e} of {moment[1]:.2e} N m); ticks whose events or "
@@ -313,34 +335,25 @@ def workers_lockstep(side: str, cycles: float, workers: int, dt: float = 1e-3) -
     start = time.perf_counter() - t0
     runs = [ArrayTracker(array, scene, HEAD, whisk.angle(0.0)), many]
     ticks = int(round(cycles / whisk.frequency / dt))
-    times = [[], []]
     differ = 0
+
+    def compare(steps):
+        nonlocal differ
+        a, b = steps
+        differ += not (all(np.array_equal(getattr(a, f), getattr(b, f)) for f in
+                           ("force", "moment", "force_base", "moment_base", "tip",
+                            "contacts", "contact_point", "contact_s", "contact_f"))
+                       and a.events == b.events and a.errors == b.errors)
+
     try:
-        for k in range(1, ticks + 1):
-            steps = [None, None]
-            for j in ((0, 1) if k % 2 else (1, 0)):
-                t0 = time.perf_counter()
-                steps[j] = runs[j].step(HEAD, whisk.angle(k * dt))
-                times[j].append(time.perf_counter() - t0)
-            a, b = steps
-            differ += not (all(np.array_equal(getattr(a, f), getattr(b, f)) for f in
-                               ("force", "moment", "force_base", "moment_base", "tip",
-                                "contacts", "contact_point", "contact_s", "contact_f"))
-                           and a.events == b.events and a.errors == b.errors)
+        times = _lockstep(runs, whisk, ticks, dt, compare)
     finally:
         many.close()
-    times = [np.array(t) for t in times]
     print(f"\n== {side} side(s): {len(array)} whiskers, {ticks} ticks of 1 ms in lockstep, one "
           f"process against {workers} parts (workers started in {start:.1f} s)")
-    for j, label in enumerate(("one process", f"{workers} parts")):
-        t = times[j]
-        print(f"   {label:>11s}: tick median {np.median(t) * 1e3:.3f} ms "
-              f"({1.0 / np.median(t):,.0f} ticks/s), mean {t.mean() * 1e3:.3f}, p99 "
-              f"{_pct(t, 99):.2f}")
-    ratio = times[1] / times[0]
-    print(f"   {workers} parts / one: per-tick ratio median {np.median(ratio):.3f}; medians "
-          f"{np.median(times[1]) / np.median(times[0]):.3f}; means "
-          f"{times[1].mean() / times[0].mean():.3f}; ticks whose results differ: {differ}")
+    _print_lockstep(("one process", f"{workers} parts"), times,
+                    after=f"; ticks whose results differ: {differ}",
+                    versus=f"{workers} parts / one")
 
 
 def plain_steps(names, cycles: float, repeats: int, dt: float = 1e-3) -> None:

@@ -52,6 +52,7 @@ from ..errors import ConvergenceError, InvalidPoseError, ParameterError
 from ..rod3d.pose import BasePose
 from .array import WhiskerArray
 from .tracker import ArrayStep, ArrayTracker, _as_head, _scene_in_metres
+from .whisking import protraction_angles
 
 #: the most worker processes (parts) an array is split into
 MAX_WORKERS = 64
@@ -242,16 +243,8 @@ class PartitionedArrayTracker:
 
     # -- the parts ------------------------------------------------------------------------------
     def _protraction(self, protraction) -> np.ndarray:
-        """Return the angles, one per whisker, checked before any part moves (Whisking's words)."""
-        k = len(self.array)
-        theta = np.array(protraction, dtype=float)
-        if theta.ndim == 0:
-            theta = np.full(k, float(theta))
-        if theta.shape != (k,) or not np.all(np.isfinite(theta)):
-            raise ParameterError(f"protraction = {np.asarray(protraction).tolist()!r} is not "
-                                 f"allowed; it is one finite angle [rad] or {k} of them, one "
-                                 "per whisker")
-        return theta
+        """Return the angles, one per whisker, checked before any part moves."""
+        return protraction_angles(protraction, len(self.array))
 
     def _first_named(self, exc: Exception) -> int:
         """Return the index of the whisker an error names ("whisker RC2: ..."), else the end."""

@@ -88,6 +88,39 @@ def emergence_angles(R, side: str = "right") -> Tuple[float, float, float]:
     return a + _RIGHT_ANGLE, -b, c
 
 
+def protraction_angles(protraction, size: int) -> np.ndarray:
+    """
+    Return the protraction angles of ``size`` whiskers, checked: one for all, or one each.
+
+    Parameters
+    ----------
+    protraction : float or array_like
+        [rad].
+    size : int
+        The number of whiskers.
+
+    Returns
+    -------
+    numpy.ndarray
+        (size,) a new, writeable array (a read-only one would compile a second version of the
+        kernels that take it).
+
+    Raises
+    ------
+    ParameterError
+        When an angle is not finite or there is neither one nor ``size`` of them.
+
+    """
+    theta = np.array(protraction, dtype=float)
+    if theta.ndim == 0:
+        theta = np.full(size, float(theta))
+    if theta.shape != (size,) or not np.all(np.isfinite(theta)):
+        raise ParameterError(f"protraction = {np.asarray(protraction).tolist()!r} is not "
+                             f"allowed; it is one finite angle [rad] or {size} of them, one "
+                             "per whisker")
+    return theta
+
+
 def _rotations(a, b, c) -> np.ndarray:
     """Return Rz(a) Ry(b) Rx(c) for arrays of angles (k,), shape (k, 3, 3)."""
     ca, sa, cb, sb, cc, sc = np.cos(a), np.sin(a), np.cos(b), np.sin(b), np.cos(c), np.sin(c)
@@ -162,14 +195,7 @@ class Whisking:
             When ``protraction`` is not finite or has the wrong length.
 
         """
-        # (a copy: a read-only array would compile a second version of the kernel)
-        theta = np.array(protraction, dtype=float)
-        if theta.ndim == 0:
-            theta = np.full(self.size, float(theta))
-        if theta.shape != (self.size,) or not np.all(np.isfinite(theta)):
-            raise ParameterError(f"protraction = {np.asarray(protraction).tolist()!r} is not "
-                                 f"allowed; it is one finite angle [rad] or {self.size} of them, "
-                                 "one per whisker")
+        theta = protraction_angles(protraction, self.size)
         if _jit.ENABLED:  # one compiled call (the same operations)
             if not _jit.WARM:
                 _jit.warm_up()
