@@ -715,3 +715,56 @@ def test_finite_checks_every_float_field_of_every_row_and_no_other():
                 # as a received cloud's rows are: read-only, from the message's bytes
                 assert not finite(np.frombuffer(broken.tobytes(), dtype=ARRAY_DTYPE))
                 assert not finite(broken[i:i + 1]) and finite(np.delete(broken, i))
+
+
+def test_reset_starts_the_array_again_after_a_worker_process_ended(monkeypatch):
+    import os
+    import signal
+
+    from vibrissa_ros.core.errors import ConvergenceError, InvalidPoseError
+    from vibrissa_ros.node.array import ArrayPipeline
+
+    values = dict(_shipped(), **{"scene.file": str(ROOT / "config" / "scene_peg_array_m.yaml"),
+                                 "array.side": "right", "solver.workers": 2})
+    config = build_array_config(values)
+    pipeline = ArrayPipeline(config)
+    one = ArrayTracker(config.array, config.scene, config.head, pipeline.theta)
+    try:
+        whisk = config.whisk
+        for k in range(1, 6):
+            pipeline.theta = np.full(len(config.array), whisk.angle(k * 1e-3))
+            pipeline.tick()
+        os.kill(pipeline.tracker._procs[0].pid, signal.SIGKILL)
+        pipeline.tracker._procs[0].wait()
+        for k in (6, 7):  # every tick fails, saying what to do
+            pipeline.theta = np.full(len(config.array), whisk.angle(k * 1e-3))
+            with pytest.raises(ConvergenceError, match="whiskers RA1, .*~/reset starts it again"):
+                pipeline.tick()
+        # a restart that fails (a whisker on an obstacle) is said, and the request is done
+        real = pipeline.tracker.restart
+
+        def cut(*args, **kwargs):
+            raise InvalidPoseError("whisker RB1: cuts the peg")
+
+        monkeypatch.setattr(pipeline.tracker, "restart", cut)
+        pipeline.request_reset()
+        with pytest.raises(InvalidPoseError, match="RB1"):
+            pipeline.tick()
+        with pytest.raises(ConvergenceError, match="~/reset starts it again"):
+            pipeline.tick()
+        monkeypatch.setattr(pipeline.tracker, "restart", real)
+        pipeline.request_reset()
+        placed = pipeline.tick()  # every whisker unloaded at this tick's pose
+        assert pipeline.tracker.failed is None
+        assert {e.kind for e in placed.events} == {"reset"} and len(placed.events) == 30
+        assert "the array started again (the array's worker process 1" in placed.events[0].reason
+        one.reset()
+        want = one.step(config.head, pipeline.theta)
+        assert np.array_equal(want.force, placed.force) and not placed.in_contact
+        for k in range(8, 60):  # and on as one process goes
+            pipeline.theta = np.full(len(config.array), whisk.angle(k * 1e-3))
+            got, want = pipeline.tick(), one.step(config.head, pipeline.theta)
+            assert np.array_equal(got.force, want.force)
+            assert np.array_equal(got.moment, want.moment)
+    finally:
+        pipeline.close()

@@ -3,7 +3,7 @@
 import math
 import os
 import signal
-from dataclasses import fields
+from dataclasses import fields, replace
 from pathlib import Path
 
 import numpy as np
@@ -156,3 +156,82 @@ def test_the_workers_end_with_the_tracker_even_unclosed():
     del many
     gc.collect()
     assert all(p.poll() is not None for p in procs)
+
+
+def test_restart_after_a_worker_ended_places_every_whisker_unloaded_at_the_pose_given():
+    array = rat_array("right")
+    many = PartitionedArrayTracker(array, Scene3D((PEG,)), HEAD, WHISK.angle(0.0), workers=2)
+    try:
+        for k in range(1, 30):  # RB1 in contact
+            many.step(HEAD, WHISK.angle(k * 1e-3))
+        contacts = many.state.contacts.copy()
+        assert many.failed is None and contacts.any()
+        os.kill(many._procs[0].pid, signal.SIGKILL)
+        many._procs[0].wait()
+        failure = r"whiskers RA1, .*; the array cannot go on: restart\(\) it"
+        with pytest.raises(ConvergenceError, match=failure):
+            many.step(HEAD, WHISK.angle(0.030))
+        assert many.failed.startswith("the array's worker process 1 (whiskers RA1, ")
+        # where a whisker would cut the peg unloaded, nothing changes: still failed
+        pressed = WHISK.angle(0.037)
+        with pytest.raises(InvalidPoseError, match="^whisker RB1:"):
+            many.restart(HEAD, pressed)
+        assert many.failed is not None and many._procs[0].poll() is not None
+        with pytest.raises(ConvergenceError, match="worker process 1"):
+            many.step(HEAD, WHISK.angle(0.031))
+        # off the peg: every whisker unloaded there, as a new array placed there
+        theta = WHISK.angle(0.0)
+        old = list(many._procs)
+        placed = many.restart(HEAD, theta, reason="back")
+        assert many.failed is None and all(p.poll() is not None for p in old)
+        fresh = ArrayTracker(array, Scene3D((PEG,)), HEAD, theta)
+        _same(replace(fresh.state, events=placed.events), placed)
+        want = [(n, "reset", int(c), 0, "back") for n, c in zip(array.names, contacts)]
+        assert [(e.whisker, e.kind, e.contacts_before, e.contacts_after, e.reason)
+                for e in placed.events] == want
+        for k in range(1, 40):  # and it goes on as that array does
+            theta = WHISK.angle(k * 1e-3)
+            _same(fresh.step(HEAD, theta), many.step(HEAD, theta))
+        assert fresh.state.in_contact
+    finally:
+        many.close()
+    with pytest.raises(ConvergenceError, match="closed; .* start it again"):
+        many.restart(HEAD, 0.0)
+
+
+def test_restart_of_a_running_array_that_fails_leaves_it_running(monkeypatch):
+    array = rat_array("right")
+    with PartitionedArrayTracker(array, Scene3D((PEG,)), HEAD, WHISK.angle(0.0),
+                                 workers=2) as many:
+        one = ArrayTracker(array, Scene3D((PEG,)), HEAD, WHISK.angle(0.0))
+        for k in range(1, 35):
+            _same(one.step(HEAD, WHISK.angle(k * 1e-3)), many.step(HEAD, WHISK.angle(k * 1e-3)))
+        procs = list(many._procs)
+        with pytest.raises(InvalidPoseError, match="^whisker RB1:"):
+            many.restart(HEAD, WHISK.angle(0.037))
+        assert many.failed is None and many._procs == procs and procs[0].poll() is None
+        for k in range(35, 45):
+            _same(one.step(HEAD, WHISK.angle(k * 1e-3)), many.step(HEAD, WHISK.angle(k * 1e-3)))
+
+
+def test_poses_clearance_and_trackers_as_one_process_gives_them():
+    array = rat_array("right")
+    one = ArrayTracker(array, Scene3D((PEG,)), HEAD, WHISK.angle(0.0))
+    with PartitionedArrayTracker(array, Scene3D((PEG,)), HEAD, WHISK.angle(0.0),
+                                 workers=3) as many:
+        theta = np.linspace(-0.3, 0.2, len(array))
+        for a, b in zip(one.whisker_poses(HEAD, theta), many.whisker_poses(HEAD, theta)):
+            assert np.array_equal(a.position, b.position) and np.array_equal(a.q, b.q)
+        step = one.step(HEAD, WHISK.angle(0.02))
+        many.step(HEAD, WHISK.angle(0.02))
+        R, p = step.base_rotation, step.base_position
+        assert np.array_equal(one.clearance(R, p), many.clearance(R, p))
+        with pytest.raises(ParameterError, match=r"need \(30, 3, 3\) and \(30, 3\)"):
+            many.clearance(R[:3], p[:3])
+        local = many.tracker(array.names[3])  # whisker 3: part 0 of 3
+        assert local.pose == one.tracker(array.names[3]).pose
+        with pytest.raises(ParameterError, match=f"whisker {array.names[4]} is stepped in the "
+                                                 "array's worker process 1"):
+            many.tracker(array.names[4])
+        with pytest.raises(KeyError):
+            many.tracker("ZZ9")

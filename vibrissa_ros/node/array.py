@@ -23,7 +23,7 @@ import numpy as np
 
 from ..core.arrays import ArrayStep, ArrayTracker, CosineWhisk, WhiskerArray
 from ..core.arrays.partition import MAX_WORKERS, PartitionedArrayTracker
-from ..core.errors import ParameterError
+from ..core.errors import ConvergenceError, ParameterError
 from ..core.rod3d import BasePose, Scene3D
 from ..core.rod3d.model import POINTS_TOLERANCE, POINTS_TOLERANCE_RANGE
 from .config import resolve_scene_file
@@ -506,6 +506,11 @@ class ArrayPipeline:
         pose of the last tick (:meth:`ArrayTracker.reset`), then steps the array: its answer
         carries an event ``reset`` per whisker re-placed, and an error for each whisker that
         would cut an obstacle unloaded there (a whisker pressed on one), which keeps its state.
+        Where a worker process of the array has ended (``solver.workers`` > 1), the next tick
+        starts the parts afresh instead, every whisker unloaded at that tick's pose
+        (:meth:`PartitionedArrayTracker.restart`); where a whisker would cut an obstacle there,
+        that tick fails saying so, and the request is done (ask again once the whisk has
+        taken the whisker off the obstacle).
         """
         self._reset = True
 
@@ -519,9 +524,22 @@ class ArrayPipeline:
 
     def tick(self) -> ArrayStep:
         """Step the array to the current head pose and protraction (after a requested reset)."""
+        failed = getattr(self.tracker, "failed", None)  # (a worker process ended)
         if not self._reset:
-            return self.tracker.step(self.head, self.theta)
+            if failed is None:
+                try:
+                    return self.tracker.step(self.head, self.theta)
+                except ConvergenceError:
+                    failed = getattr(self.tracker, "failed", None)
+                    if failed is None:
+                        raise
+            # (said in the node's words: the core's say restart())
+            raise ConvergenceError(f"{failed}; the array cannot go on: ~/reset starts it "
+                                   "again, every whisker unloaded, in new worker processes")
         self._reset = False
+        if failed is not None:
+            return self.tracker.restart(self.head, self.theta, reason=(
+                f"reset on request, the array started again ({failed})"))
         placed = self.tracker.reset()
         step = self.tracker.step(self.head, self.theta)
         return replace(step, events=placed.events + step.events,

@@ -270,10 +270,16 @@ class ArrayNode(Node):
             recorder.reset(self._next_log_ns(), pose_key="wrenches")
         self._pipeline.request_reset()
         response.success = True
-        response.message = (
-            "before the next tick every whisker is re-placed unloaded at its pose of the last "
-            "tick, forgetting its history (a whisker that would cut an obstacle there, one "
-            "pressed on it, keeps its state and reports an error)")
+        if getattr(self._pipeline.tracker, "failed", None) is not None:
+            response.message = (
+                "the array's worker processes start again before the next tick, every whisker "
+                "unloaded at that tick's pose (where one would cut an obstacle there, that "
+                "tick fails saying so: ask again once the whisk has taken it off)")
+        else:
+            response.message = (
+                "before the next tick every whisker is re-placed unloaded at its pose of the "
+                "last tick, forgetting its history (a whisker that would cut an obstacle "
+                "there, one pressed on it, keeps its state and reports an error)")
         self.get_logger().info(f"~/reset: {response.message}")
         return response
 

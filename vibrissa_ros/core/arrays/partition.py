@@ -25,7 +25,9 @@ A worker ignores SIGINT and SIGTERM (the caller decides when the run ends) and e
 caller closes it (:meth:`PartitionedArrayTracker.close`), the tracker is garbage, or the
 caller is gone. An error of a whisker is that whisker's, as in one process; a worker that ends
 otherwise, or does not answer within two minutes, makes every later tick raise
-:class:`~vibrissa_ros.core.errors.ConvergenceError`, naming its whiskers. The protraction is
+:class:`~vibrissa_ros.core.errors.ConvergenceError`, naming its whiskers, until
+:meth:`PartitionedArrayTracker.restart` starts the parts afresh (every whisker unloaded at the
+pose it is given, in new worker processes; array_node's ``~/reset`` does it). The protraction is
 checked before any part moves. A Ctrl-C during a tick leaves the parts at different ticks, as
 it leaves an ArrayTracker's whiskers (every command's answer carries its tag, so an answer left
 unread is skipped); one that comes while an answer is being read (a few microseconds of a tick)
@@ -42,16 +44,17 @@ import subprocess
 import sys
 import time
 import weakref
-from dataclasses import fields
+from dataclasses import fields, replace
 from multiprocessing.connection import Connection
-from typing import List, Optional, Sequence
+from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
 
 from ..errors import ConvergenceError, InvalidPoseError, ParameterError
 from ..rod3d.pose import BasePose
+from ..rod3d.tracker import RodTracker
 from .array import WhiskerArray
-from .tracker import ArrayStep, ArrayTracker, _as_head, _scene_in_metres
+from .tracker import ArrayStep, ArrayTracker, WhiskerEvent, _as_head, _scene_in_metres
 from .whisking import protraction_angles
 
 #: the most worker processes (parts) an array is split into
@@ -66,6 +69,8 @@ _START_TIMEOUT = 600.0
 #: how long a worker may take to answer a tick (each whisker's step is bounded by its budget
 #: of evaluations: ~seconds at the very worst) [s]
 _ANSWER_TIMEOUT = 120.0
+#: what a failed array's error says can be done
+_RESTART = "restart() it (every whisker unloaded, in fresh worker processes) or start it again"
 
 
 # the worker process: it ignores SIGINT and SIGTERM before anything else (its imports take a
@@ -109,6 +114,10 @@ def serve(fd: int) -> None:
                     answer = tracker.step(command[2], command[3])
                 elif kind == "reset":
                     answer = tracker.reset()
+                elif kind == "poses":
+                    answer = tracker.whisker_poses(command[2], command[3])
+                elif kind == "clearance":
+                    answer = tracker.clearance(command[2], command[3])
                 else:  # "centerlines"
                     answer = tracker.centerlines(command[2])
             except Exception as exc:  # noqa: BLE001 - the caller raises it, as in one process
@@ -203,9 +212,31 @@ class PartitionedArrayTracker:
         # lists, not the object)
         self._finalizer = weakref.finalize(self, _end_workers, self._conns, self._procs)
         self._failed: Optional[str] = None
+        self._options = options
         self._tag = 0  # the last command's tag (0: the start)
         self._reading = False  # inside a connection's recv
-        first = self._parts[0]
+        self._closed = False
+        try:
+            self._local, conns, procs, states = self._spawn(scene, head, theta)
+        except BaseException:
+            self.close()
+            raise
+        self._conns.extend(conns)
+        self._procs.extend(procs)
+        self._scene = scene
+        self._state = self._merge(states)
+
+    def _spawn(self, scene, head: BasePose, theta: np.ndarray):
+        """
+        Start the parts at a pose: part 0's ArrayTracker here, a worker process for each other.
+
+        Returns (part 0's tracker, the workers' connections and processes, the parts' initial
+        states); on any failure the workers started are ended and the error raised (a whisker
+        cutting an obstacle: the first in the array's order, as one process names it).
+        """
+        array, first = self.array, self._parts[0]
+        conns: List[Connection] = []
+        procs: List[subprocess.Popen] = []
         try:
             for part in self._parts[1:]:
                 ours, theirs = socket.socketpair()
@@ -217,29 +248,30 @@ class PartitionedArrayTracker:
                     raise ConvergenceError(f"cannot start the array's worker process: {exc}")
                 finally:
                     theirs.close()
-                self._conns.append(Connection(ours.detach()))
-                self._procs.append(proc)
-                self._conns[-1].send((tuple(array.whiskers[i] for i in part),
-                                      array.description, scene, head, theta[part], options))
+                conns.append(Connection(ours.detach()))
+                procs.append(proc)
+                conns[-1].send((tuple(array.whiskers[i] for i in part),
+                                array.description, scene, head, theta[part], self._options))
             failures, states = [], []
+            local = None
             try:
-                self._local = ArrayTracker(
+                local = ArrayTracker(
                     WhiskerArray(tuple(array.whiskers[i] for i in first), array.description),
-                    scene, head, theta[first], **options)
-                states.append(self._local.state)
+                    scene, head, theta[first], **self._options)
+                states.append(local.state)
             except InvalidPoseError as exc:
                 failures.append(exc)
-            for j in range(len(self._conns)):
+            for j, conn in enumerate(conns):
                 try:
-                    states.append(self._answer(j, _START_TIMEOUT))
+                    states.append(self._answer(j, _START_TIMEOUT, conn=conn, proc=procs[j]))
                 except InvalidPoseError as exc:
                     failures.append(exc)
             if failures:  # the whisker nearest the array's start, as one process names it
                 raise min(failures, key=self._first_named)
         except BaseException:
-            self.close()
+            _end_workers(conns, procs)
             raise
-        self._state = self._merge(states)
+        return local, conns, procs, states
 
     # -- the parts ------------------------------------------------------------------------------
     def _protraction(self, protraction) -> np.ndarray:
@@ -258,21 +290,29 @@ class PartitionedArrayTracker:
         names = [self.names[i] for i in self._parts[j + 1]]
         return f"the array's worker process {j + 1} (whiskers {', '.join(names)})"
 
-    def _answer(self, j: int, timeout: float, tag: int = 0):
+    def _failure(self) -> str:
+        """Return the error of a failed array: why, and what can be done."""
+        if self._closed:
+            return f"{self._failed}; the array cannot go on: start it again"
+        return f"{self._failed}; the array cannot go on: {_RESTART}"
+
+    def _answer(self, j: int, timeout: float, tag: int = 0, conn: Optional[Connection] = None,
+                proc: Optional[subprocess.Popen] = None):
         """
         Return worker j's answer to the command ``tag``, or raise its error.
 
         Answers to earlier commands (left unread by an interrupt) are skipped. A failure for
-        good (the worker gone, or silent for ``timeout`` s) is a ConvergenceError.
+        good (the worker gone, or silent for ``timeout`` s) is a ConvergenceError. ``conn`` and
+        ``proc``: a worker being started (default: worker j of the running array).
         """
-        conn = self._conns[j]
+        conn = self._conns[j] if conn is None else conn
+        proc = self._procs[j] if proc is None else proc
         deadline = time.monotonic() + timeout
         try:
             while True:
                 if not conn.poll(max(0.0, deadline - time.monotonic())):
-                    self._failed = (f"{self._where(j)} did not answer within {timeout:.0f} s; "
-                                    "the array cannot go on: start it again")
-                    raise ConvergenceError(self._failed)
+                    self._failed = f"{self._where(j)} did not answer within {timeout:.0f} s"
+                    raise ConvergenceError(self._failure())
                 self._reading = True  # (an interrupt inside recv leaves half a message)
                 got, kind, value = conn.recv()
                 self._reading = False
@@ -280,12 +320,11 @@ class PartitionedArrayTracker:
                     break
         except (EOFError, OSError):
             try:
-                code = self._procs[j].wait(1.0)
+                code = proc.wait(1.0)
             except subprocess.TimeoutExpired:
                 code = None
-            self._failed = (f"{self._where(j)} ended (exit code {code}); the array cannot go "
-                            "on: start it again")
-            raise ConvergenceError(self._failed) from None
+            self._failed = f"{self._where(j)} ended (exit code {code})"
+            raise ConvergenceError(self._failure()) from None
         if kind == "error":
             raise value
         return value
@@ -300,7 +339,7 @@ class PartitionedArrayTracker:
         unusable: the array then fails for good (ConvergenceError), as when a worker is gone.
         """
         if self._failed is not None:
-            raise ConvergenceError(self._failed)
+            raise ConvergenceError(self._failure())
         self._tag += 1
         tag = self._tag
         self._reading = False
@@ -311,9 +350,8 @@ class PartitionedArrayTracker:
                 try:
                     conn.send((tag,) + tuple(command))
                 except (OSError, ValueError):
-                    self._failed = (f"{self._where(j)} is gone; the array cannot go on: start "
-                                    "it again")
-                    raise ConvergenceError(self._failed) from None
+                    self._failed = f"{self._where(j)} is gone"
+                    raise ConvergenceError(self._failure()) from None
             try:
                 answers.append(local())
             except Exception as exc:  # noqa: BLE001 - raised once every worker has answered
@@ -326,7 +364,7 @@ class PartitionedArrayTracker:
         except BaseException:
             if self._reading and self._failed is None:
                 self._failed = ("a tick was interrupted while reading a worker process's "
-                                "answer; the array cannot go on: start it again")
+                                "answer")
             raise
         if error is not None:
             raise error
@@ -402,9 +440,159 @@ class PartitionedArrayTracker:
                           lambda: self._local.centerlines(n))
         return np.concatenate(lines)[self._order]
 
+    @property
+    def failed(self) -> Optional[str]:
+        """
+        Return why the array cannot go on (a worker ended, or it was closed), or None.
+
+        While it is not None, every call but :meth:`restart` and :meth:`close` raises a
+        ConvergenceError that says it.
+        """
+        return self._failed
+
+    def restart(self, head: BasePose, protraction=0.0,
+                reason: str = "the array restarted") -> ArrayStep:
+        """
+        Start every part afresh, each whisker unloaded at a pose: after a worker process ended.
+
+        Fresh worker processes take the place of the old ones, which are ended once the new
+        parts are placed. Every whisker forgets its history, as :meth:`reset` forgets it, but is
+        placed at the pose given (the last tick's pose is where a failed array stopped, and the
+        whisking has gone on since).
+
+        Parameters
+        ----------
+        head : BasePose
+            The head pose in the world (position [m]).
+        protraction : float or array_like, optional
+            The protraction [rad] (one for all, or one per whisker).
+        reason : str
+            Why, carried by each whisker's event ``reset``.
+
+        Returns
+        -------
+        ArrayStep
+            The unloaded array at that pose, with an event ``reset`` per whisker (its contacts
+            before: the last tick's).
+
+        Raises
+        ------
+        InvalidPoseError
+            When an unloaded whisker would cut an obstacle there (the first in the array's
+            order is named); the array stays as it was (failed, if it had failed).
+        ConvergenceError
+            When the array was closed, or a new worker process could not be started.
+
+        """
+        if self._closed:
+            raise ConvergenceError("the array's worker processes were closed; it cannot be "
+                                   "restarted: start it again")
+        head = _as_head(head)
+        theta = self._protraction(protraction)
+        failed = self._failed
+        try:
+            local, conns, procs, states = self._spawn(self._scene, head, theta)
+        except BaseException:
+            self._failed = failed  # (a new worker's failure is not the running array's)
+            raise
+        old_conns, old_procs = list(self._conns), list(self._procs)
+        self._conns[:], self._procs[:] = conns, procs  # (the lists the finalizer holds)
+        _end_workers(old_conns, old_procs)
+        self._local = local
+        self._failed = None
+        before = self._state.contacts.tolist()
+        events = tuple(WhiskerEvent(name, "reset", None, None, int(before[i]), 0, reason)
+                       for i, name in enumerate(self.names))
+        self._state = replace(self._merge(states), events=events)
+        return self._state
+
+    def whisker_poses(self, head: BasePose, protraction=0.0) -> Tuple[BasePose, ...]:
+        """
+        Return every whisker's base pose in its own units (:meth:`ArrayTracker.whisker_poses`).
+
+        Parameters
+        ----------
+        head : BasePose
+            The head pose (position [m]).
+        protraction : float or array_like, optional
+            [rad], one for all or one per whisker.
+
+        Returns
+        -------
+        tuple of BasePose
+            Position [L of that whisker], world orientation.
+
+        """
+        head = _as_head(head)
+        theta = self._protraction(protraction)
+        parts = self._parts
+        poses = self._ask([("poses", head, theta[p]) for p in parts[1:]],
+                          lambda: self._local.whisker_poses(head, theta[parts[0]]))
+        joined = [pose for part in poses for pose in part]
+        return tuple(joined[i] for i in self._order)
+
+    def clearance(self, R: np.ndarray, p: np.ndarray) -> np.ndarray:
+        """
+        Return each unloaded whisker's sampled distance to the scene (as ArrayTracker's).
+
+        Parameters
+        ----------
+        R : numpy.ndarray
+            (k, 3, 3) base frames in the world.
+        p : numpy.ndarray
+            (k, 3) base points in the world [m].
+
+        Returns
+        -------
+        numpy.ndarray
+            (k,) the smallest signed distance of the samples [m].
+
+        """
+        R = np.asarray(R, dtype=float)
+        p = np.asarray(p, dtype=float)
+        k = len(self.array)
+        if R.shape != (k, 3, 3) or p.shape != (k, 3):
+            raise ParameterError(f"R of shape {R.shape} and p of shape {p.shape} are not "
+                                 f"allowed; need ({k}, 3, 3) and ({k}, 3)")
+        parts = self._parts
+        d = self._ask([("clearance", R[q], p[q]) for q in parts[1:]],
+                      lambda: self._local.clearance(R[parts[0]], p[parts[0]]))
+        return np.concatenate(d)[self._order]
+
+    def tracker(self, name: str) -> RodTracker:
+        """
+        Return the single-whisker tracker of a whisker stepped in this process (part 0).
+
+        Parameters
+        ----------
+        name : str
+            The whisker's name.
+
+        Returns
+        -------
+        RodTracker
+            Its tracker (:meth:`ArrayTracker.tracker`).
+
+        Raises
+        ------
+        KeyError
+            When no whisker has that name.
+        ParameterError
+            When it is stepped in a worker process (whose tracker is not in this one).
+
+        """
+        i = self._state.index(name)
+        part = i % len(self._parts)
+        if part:
+            raise ParameterError(f"whisker {name} is stepped in {self._where(part - 1)}: its "
+                                 "tracker is not in this process (workers=1 keeps every one "
+                                 "here)")
+        return self._local.tracker(name)
+
     def close(self) -> None:
         """End the worker processes (at once if they do not end within a few seconds)."""
         self._finalizer()
+        self._closed = True
         if self._failed is None and len(self._parts) > 1:
             self._failed = "the array's worker processes were closed"
 
