@@ -768,3 +768,70 @@ def test_reset_starts_the_array_again_after_a_worker_process_ended(monkeypatch):
             assert np.array_equal(got.moment, want.moment)
     finally:
         pipeline.close()
+
+
+def test_a_worker_process_that_ends_is_reported_and_reset_starts_the_array_again(
+        installed, ros_env, rcl_context, tmp_path):
+    import os
+    import signal
+
+    values = dict(_shipped(), **{"whisk.source": "external", "diagnostics.period": 0.3,
+                                 "solver.workers": 2})
+    proc = start_installed_node(installed, write_params(tmp_path / "p.yaml", values), ros_env,
+                                namespace="/dead", executable="array_node")
+    probe = ArrayProbe(rcl_context, "/dead/array_node")
+    t = 1_000_000_000
+    try:
+        first = _joints(["whisk"], [math.radians(-20.0)], t)
+        end = time.monotonic() + 30.0  # handshake: until the node answers
+        while not probe.got["wrenches"] and time.monotonic() < end:
+            probe.whisk.publish(first)
+            probe.spin_until(lambda: bool(probe.got["wrenches"]), 0.2)
+        assert probe.got["wrenches"], "array_node never answered"
+        for k in range(1, 4):
+            t += 1_000_000
+            probe.send(_joints(["whisk"], [math.radians(-20.0 + k)], t))
+        (worker, _), = [c for c in _children(proc.pid) if "partition" in c[1]]
+        os.kill(worker, signal.SIGKILL)
+        before = len(probe.got["diagnostics"])
+        for k in range(4, 6):  # every tick dropped, saying what to do; the node goes on
+            t += 1_000_000
+            probe.expect_no_answer(_joints(["whisk"], [math.radians(-20.0 + k)], t), 0.3)
+        status = probe.status(before + 1)
+        assert int(status["dropped_not_converged"]) >= 2
+        assert "whiskers RA1, " in status["last_drop"]
+        assert "~/reset starts it again" in status["last_drop"]
+        reset = probe.call_reset()
+        assert reset.success and "worker processes start again" in reset.message
+        # at -14 degrees RB2 would cut the peg unloaded: that tick is dropped saying so, and
+        # the request is done
+        before = len(probe.got["diagnostics"])
+        t += 1_000_000
+        probe.expect_no_answer(_joints(["whisk"], [math.radians(-14.0)], t), 5.0)
+        status = probe.status(before + 1)
+        assert int(status["dropped_inside_obstacle"]) == 1
+        assert status["last_drop"].startswith("tick dropped (inside_obstacle): whisker RB2:")
+        t += 1_000_000
+        probe.expect_no_answer(_joints(["whisk"], [math.radians(-19.0)], t), 0.3)
+        probe.call_reset()
+        t += 1_000_000
+        probe.send(_joints(["whisk"], [math.radians(-19.0)], t), timeout=60.0)
+
+        def restarted():
+            events = [json.loads(m.data) for m in probe.got["events"]]
+            return [e for e in events if e["kind"] == "reset"]
+
+        probe.spin_until(lambda: len(restarted()) >= 30, 10.0)
+        resets = restarted()
+        assert len(resets) == 30
+        assert "the array started again (the array's worker process 1" in resets[0]["reason"]
+        for k in range(2, 5):  # and on
+            t += 1_000_000
+            probe.send(_joints(["whisk"], [math.radians(-20.0 + k)], t))
+        new = [c for c in _children(proc.pid) if "partition" in c[1]]
+        assert len(new) == 1 and new[0][0] != worker
+    finally:
+        probe.destroy()
+        code = stop(proc)
+    assert code == 0
+    assert not Path(f"/proc/{new[0][0]}").exists()
