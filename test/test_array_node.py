@@ -755,6 +755,12 @@ def test_reset_starts_the_array_again_after_a_worker_process_ended(monkeypatch):
         monkeypatch.setattr(pipeline.tracker, "restart", real)
         pipeline.request_reset()
         placed = pipeline.tick()  # every whisker unloaded at this tick's pose
+        # a reset requested before any tick saw the worker end: the same tick starts it again
+        os.kill(pipeline.tracker._procs[0].pid, signal.SIGKILL)
+        pipeline.tracker._procs[0].wait()
+        assert pipeline.tracker.failed is None
+        pipeline.request_reset()
+        placed = pipeline.tick()
         assert pipeline.tracker.failed is None
         assert {e.kind for e in placed.events} == {"reset"} and len(placed.events) == 30
         assert "the array started again (the array's worker process 1" in placed.events[0].reason

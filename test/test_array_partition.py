@@ -235,3 +235,56 @@ def test_poses_clearance_and_trackers_as_one_process_gives_them():
             many.tracker(array.names[4])
         with pytest.raises(KeyError):
             many.tracker("ZZ9")
+
+
+def test_a_worker_that_does_not_start_leaves_the_array_as_it_was(monkeypatch):
+    from vibrissa_ros.core.arrays import partition
+
+    array = rat_array("right")
+    with PartitionedArrayTracker(array, Scene3D((PEG,)), HEAD, WHISK.angle(0.0),
+                                 workers=2) as many:
+        one = ArrayTracker(array, Scene3D((PEG,)), HEAD, WHISK.angle(0.0))
+        for k in range(1, 30):
+            _same(one.step(HEAD, WHISK.angle(k * 1e-3)), many.step(HEAD, WHISK.angle(k * 1e-3)))
+        monkeypatch.setattr(partition, "_WORKER_MAIN", "import sys; sys.exit(3)")
+        with pytest.raises(ConvergenceError, match=r"ended \(exit code 3\) while it was being "
+                                                   "started; nothing was started$"):
+            many.restart(HEAD, WHISK.angle(0.0))
+        assert many.failed is None
+        for k in range(30, 35):  # the running array goes on
+            _same(one.step(HEAD, WHISK.angle(k * 1e-3)), many.step(HEAD, WHISK.angle(k * 1e-3)))
+    # nor is an array that cannot start its workers told to restart()
+    with pytest.raises(ConvergenceError, match="while it was being started; nothing was"):
+        PartitionedArrayTracker(array, Scene3D((PEG,)), HEAD, WHISK.angle(0.0), workers=2)
+
+
+def test_an_interrupt_while_restart_ends_the_old_workers_leaves_the_new_array_whole(
+        monkeypatch):
+    from vibrissa_ros.core.arrays import partition
+
+    array = rat_array("right")
+    with PartitionedArrayTracker(array, Scene3D((PEG,)), HEAD, WHISK.angle(0.0),
+                                 workers=2) as many:
+        for k in range(1, 30):
+            many.step(HEAD, WHISK.angle(k * 1e-3))
+        old = list(many._procs)
+        real = partition._end_workers
+
+        def ctrl_c(conns, procs):
+            raise KeyboardInterrupt
+
+        monkeypatch.setattr(partition, "_end_workers", ctrl_c)
+        theta = WHISK.angle(0.0)
+        try:
+            with pytest.raises(KeyboardInterrupt):
+                many.restart(HEAD, theta)
+        finally:
+            monkeypatch.setattr(partition, "_end_workers", real)
+            for proc in old:
+                proc.kill()
+                proc.wait()
+        assert many.failed is None and many._procs[0] not in old
+        fresh = ArrayTracker(array, Scene3D((PEG,)), HEAD, theta)
+        _same(fresh.state, replace(many.state, events=()))
+        for k in range(1, 40):
+            _same(fresh.step(HEAD, WHISK.angle(k * 1e-3)), many.step(HEAD, WHISK.angle(k * 1e-3)))

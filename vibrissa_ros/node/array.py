@@ -460,6 +460,10 @@ def finite(rows: np.ndarray) -> bool:
 
 
 # -- the pipeline ---------------------------------------------------------------------------------
+#: what the node's error says can be done when a worker process of the array ended
+_RESET_STARTS = "~/reset starts it again, every whisker unloaded, in new worker processes"
+
+
 class ArrayPipeline:
     """
     The node's state without ROS: the tracker, the head pose and the protraction so far.
@@ -533,14 +537,22 @@ class ArrayPipeline:
                     failed = getattr(self.tracker, "failed", None)
                     if failed is None:
                         raise
-            # (said in the node's words: the core's say restart())
-            raise ConvergenceError(f"{failed}; the array cannot go on: ~/reset starts it "
-                                   "again, every whisker unloaded, in new worker processes")
+            raise ConvergenceError(f"{failed}; the array cannot go on: {_RESET_STARTS}")
         self._reset = False
+        if failed is None:
+            try:
+                placed = self.tracker.reset()
+            except ConvergenceError:  # (a worker ended since the last tick: started again)
+                failed = getattr(self.tracker, "failed", None)
+                if failed is None:
+                    raise
         if failed is not None:
-            return self.tracker.restart(self.head, self.theta, reason=(
-                f"reset on request, the array started again ({failed})"))
-        placed = self.tracker.reset()
+            try:
+                return self.tracker.restart(self.head, self.theta, reason=(
+                    f"reset on request, the array started again ({failed})"))
+            except ConvergenceError as exc:  # (a new worker that did not start)
+                raise ConvergenceError(f"{exc}; the array cannot go on: {_RESET_STARTS}"
+                                       ) from None
         step = self.tracker.step(self.head, self.theta)
         return replace(step, events=placed.events + step.events,
                        errors=placed.errors + step.errors)

@@ -50,7 +50,7 @@ from ..node.array import (
     output_rows,
 )
 from ..node.edge import BadInput
-from ..core.errors import interrupted
+from ..core.errors import VibrissaError, interrupted
 from ..node.pipeline import drop_reason
 from . import array_messages as am
 from . import messages as m
@@ -342,9 +342,16 @@ class ArrayNode(Node):
                 np.vstack(([head.position], step.base_position)),
                 np.vstack(([head.quaternion], step.base_quaternion))), self._next_log_ns())
         if recording or self._pub["shapes"].get_subscription_count():
-            lines = self._pipeline.tracker.centerlines(int(self.config.values["display.points"]))
-            self._send_serialized("shapes", am.shapes_cdr(stamp, self._world, self._names,
-                                                          lines, step.contacts))
+            try:
+                lines = self._pipeline.tracker.centerlines(
+                    int(self.config.values["display.points"]))
+            except VibrissaError:
+                # (a worker process of the array ended since the tick's step: no shapes this
+                # time, and the next tick is dropped saying so)
+                lines = None
+            if lines is not None:
+                self._send_serialized("shapes", am.shapes_cdr(stamp, self._world, self._names,
+                                                              lines, step.contacts))
         if recording or self._pub["contacts"].get_subscription_count():
             self._send("contacts", am.contacts_cloud(stamp, self._world, step, rows))
 

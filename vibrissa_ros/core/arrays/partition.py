@@ -296,23 +296,32 @@ class PartitionedArrayTracker:
             return f"{self._failed}; the array cannot go on: start it again"
         return f"{self._failed}; the array cannot go on: {_RESTART}"
 
+    def _lost(self, why: str, starting: bool) -> str:
+        """Return the error of a worker lost for good; a running array's fails the array."""
+        if starting:
+            return f"{why} while it was being started; nothing was started"
+        self._failed = why
+        return self._failure()
+
     def _answer(self, j: int, timeout: float, tag: int = 0, conn: Optional[Connection] = None,
                 proc: Optional[subprocess.Popen] = None):
         """
         Return worker j's answer to the command ``tag``, or raise its error.
 
         Answers to earlier commands (left unread by an interrupt) are skipped. A failure for
-        good (the worker gone, or silent for ``timeout`` s) is a ConvergenceError. ``conn`` and
-        ``proc``: a worker being started (default: worker j of the running array).
+        good (the worker gone, or silent for ``timeout`` s) is a ConvergenceError, and fails
+        the array. ``conn`` and ``proc``: a worker being started (its failure is only the
+        start's: the running array, if any, goes on).
         """
+        starting = conn is not None
         conn = self._conns[j] if conn is None else conn
         proc = self._procs[j] if proc is None else proc
         deadline = time.monotonic() + timeout
         try:
             while True:
                 if not conn.poll(max(0.0, deadline - time.monotonic())):
-                    self._failed = f"{self._where(j)} did not answer within {timeout:.0f} s"
-                    raise ConvergenceError(self._failure())
+                    raise ConvergenceError(self._lost(
+                        f"{self._where(j)} did not answer within {timeout:.0f} s", starting))
                 self._reading = True  # (an interrupt inside recv leaves half a message)
                 got, kind, value = conn.recv()
                 self._reading = False
@@ -323,8 +332,8 @@ class PartitionedArrayTracker:
                 code = proc.wait(1.0)
             except subprocess.TimeoutExpired:
                 code = None
-            self._failed = f"{self._where(j)} ended (exit code {code})"
-            raise ConvergenceError(self._failure()) from None
+            raise ConvergenceError(self._lost(f"{self._where(j)} ended (exit code {code})",
+                                              starting)) from None
         if kind == "error":
             raise value
         return value
@@ -445,8 +454,9 @@ class PartitionedArrayTracker:
         """
         Return why the array cannot go on (a worker ended, or it was closed), or None.
 
-        While it is not None, every call but :meth:`restart` and :meth:`close` raises a
-        ConvergenceError that says it.
+        While it is not None, :meth:`step`, :meth:`reset`, :meth:`centerlines`,
+        :meth:`whisker_poses` and :meth:`clearance` raise a ConvergenceError that says it
+        (``state`` and :meth:`tracker` still give the last tick's).
         """
         return self._failed
 
@@ -485,8 +495,8 @@ class PartitionedArrayTracker:
 
         """
         if self._closed:
-            raise ConvergenceError("the array's worker processes were closed; it cannot be "
-                                   "restarted: start it again")
+            raise ConvergenceError("the array was closed; it cannot be restarted: start it "
+                                   "again")
         head = _as_head(head)
         theta = self._protraction(protraction)
         failed = self._failed
@@ -495,15 +505,17 @@ class PartitionedArrayTracker:
         except BaseException:
             self._failed = failed  # (a new worker's failure is not the running array's)
             raise
+        before = self._state.contacts.tolist()
+        events = tuple(WhiskerEvent(name, "reset", None, None, int(before[i]), 0, str(reason))
+                       for i, name in enumerate(self.names))
+        state = replace(self._merge(states), events=events)
+        # the new parts in place first, then the old workers ended: an interrupt while they end
+        # leaves the new array whole (an old worker not ended then ends when its connection,
+        # left to the garbage collector, is closed)
         old_conns, old_procs = list(self._conns), list(self._procs)
         self._conns[:], self._procs[:] = conns, procs  # (the lists the finalizer holds)
+        self._local, self._state, self._failed = local, state, None
         _end_workers(old_conns, old_procs)
-        self._local = local
-        self._failed = None
-        before = self._state.contacts.tolist()
-        events = tuple(WhiskerEvent(name, "reset", None, None, int(before[i]), 0, reason)
-                       for i, name in enumerate(self.names))
-        self._state = replace(self._merge(states), events=events)
         return self._state
 
     def whisker_poses(self, head: BasePose, protraction=0.0) -> Tuple[BasePose, ...]:
