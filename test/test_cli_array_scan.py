@@ -293,3 +293,20 @@ def test_head_pose_is_yaw_then_pitch_then_roll():
     want = rot(2, 30.0) @ rot(1, -20.0) @ rot(0, 10.0)
     assert np.abs(pose.rotation - want).max() < 1e-15
     assert pose.position == (0.01, 0.02, 0.03)
+
+
+def test_workers_deal_the_whiskers_to_processes_with_the_same_rows(tmp_path, files, capsys):
+    out = str(tmp_path / "two.csv")
+    assert main(["scan", "--array", files["array"], "--scene", files["scene"], *WHISK,
+                 "--workers", "2", "--out", out]) == 0
+    assert open(out).read() == open(files["csv"]).read()
+    capsys.readouterr()
+    assert _main(["scan", "--array", files["array"], "--scene", files["scene"], *WHISK,
+                  "--workers", "5", "--out", out]) == 2
+    assert "--workers 5: need 1 to 4 (the array's 4 whiskers" in capsys.readouterr().err
+    assert _main(["scan", "--array", files["array"], "--scene", files["scene"], *WHISK,
+                  "--workers", "0", "--out", out]) == 2
+    assert "--workers" in capsys.readouterr().err
+    assert main(["scan", "--profile", "parabola", "--param", "p0=0.3", "--from", "1", "--to",
+                 "-1", "--step", "0.5", "--csv", "-", "--workers", "2"]) == 2
+    assert "--workers applies to a whisker array" in capsys.readouterr().err

@@ -282,6 +282,9 @@ def build_parser() -> argparse.ArgumentParser:
     arr.add_argument("--out", metavar="OUT.parquet",
                      help="the rows (one per whisker and tick): Parquet for *.parquet (needs "
                      "pyarrow), else CSV ('-' for standard output)")
+    arr.add_argument("--workers", type=_workers, metavar="W",
+                     help="deal the whiskers to W processes (whisker i to i mod W; the same "
+                     "results): for a long run on a machine with W cores to spare (default 1)")
     arr.add_argument("--plot-tick", type=_nonnegative, metavar="T",
                      help="the time [s] whose whisker shapes --plot draws (default: the first "
                      "tick with the most whiskers in contact)")
@@ -645,7 +648,8 @@ def _is_3d_run(args) -> bool:
 
 
 #: the options of an array run only
-_ARRAY_OPTIONS = ("side", "duration", "rate", "head", "velocity", "out", "plot_tick")
+_ARRAY_OPTIONS = ("side", "duration", "rate", "head", "velocity", "out", "plot_tick",
+                  "workers")
 
 
 def _cmd_scan(args) -> int:
@@ -985,6 +989,7 @@ def _check_array_options(args) -> None:
 
 def _cmd_scan_array(args) -> int:
     """``vibrissa scan --array A.yaml --scene S.yaml``: every whisker of an array, SI units."""
+    from .core.arrays.partition import MAX_WORKERS
     from .core.arrays.whisking import CosineWhisk
     from .scan.array_file import load_array
     from .scan.array_scan import (head_pose, plan_array_scan, read_head_poses_csv, timed_path,
@@ -999,6 +1004,10 @@ def _cmd_scan_array(args) -> int:
                 raise VibrissaError(f"--side {args.side}: {args.array} has no whisker on that "
                                     "side")
             array = array.side(args.side)
+        if args.workers is not None and args.workers > min(MAX_WORKERS, len(array)):
+            raise VibrissaError(f"--workers {args.workers}: need 1 to "
+                                f"{min(MAX_WORKERS, len(array))} (the array's {len(array)} "
+                                f"whiskers, at most {MAX_WORKERS})")
         scene = load_scene3d(args.scene)
         whisk = None
         if args.whisk is not None:
@@ -1027,7 +1036,11 @@ def _cmd_scan_array(args) -> int:
         if args.plot_tick is not None:
             times = path.times
             shape_tick = min(range(len(times)), key=lambda i: abs(times[i] - args.plot_tick))
-    result = plan.run(shape_tick=shape_tick)
+    try:
+        result = plan.run(shape_tick=shape_tick, workers=args.workers or 1)
+    except VibrissaError as exc:  # (a worker process that did not start, or ended)
+        print(f"vibrissa scan: error: {exc}", file=sys.stderr)
+        return 1
     try:
         write_array_scan(result, args.out)
         if args.events:

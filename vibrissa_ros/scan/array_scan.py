@@ -45,6 +45,7 @@ from typing import IO, Callable, Dict, List, Optional, Sequence, Tuple
 import numpy as np
 
 from ..core.arrays.array import WhiskerArray
+from ..core.arrays.partition import PartitionedArrayTracker
 from ..core.arrays.tracker import ArrayStep, ArrayTracker
 from ..core.arrays.whisking import CosineWhisk
 from ..core.errors import ParameterError, VibrissaError
@@ -316,13 +317,19 @@ class ArrayScan:
     protraction: np.ndarray
     points_tolerance: float = POINTS_TOLERANCE
 
-    def tracker(self) -> ArrayTracker:
+    def tracker(self, workers: int = 1):
         """
         Return the tracker with every whisker unloaded at the first tick.
 
+        Parameters
+        ----------
+        workers : int, optional
+            Deal the whiskers to this many processes (:class:`PartitionedArrayTracker`, the
+            same results; close it when done); 1: an :class:`ArrayTracker` in this process.
+
         Returns
         -------
-        ArrayTracker
+        ArrayTracker or PartitionedArrayTracker
             The tracker.
 
         Raises
@@ -332,13 +339,18 @@ class ArrayScan:
 
         """
         try:
+            if workers > 1:
+                return PartitionedArrayTracker(
+                    self.array, self.scene, self.path.heads[0], self.protraction[0],
+                    workers=workers, points_tolerance=self.points_tolerance)
             return ArrayTracker(self.array, self.scene, self.path.heads[0], self.protraction[0],
                                 points_tolerance=self.points_tolerance)
         except VibrissaError as exc:
             raise type(exc)(f"{self.path.describe(0)}: {exc}") from None
 
     def run(self, shape_tick: Optional[int] = None, shape_points: int = 41,
-            progress: Optional[Callable[[int], None]] = None) -> "ArrayScanResult":
+            progress: Optional[Callable[[int], None]] = None,
+            workers: int = 1) -> "ArrayScanResult":
         """
         Step the array through every tick.
 
@@ -351,6 +363,9 @@ class ArrayScan:
             Points per kept centerline.
         progress : callable, optional
             Called with the number of ticks done after each tick.
+        workers : int, optional
+            Deal the whiskers to this many processes (whisker i to part i mod workers; the
+            same results): for a long run on a machine with cores to spare.
 
         Returns
         -------
@@ -361,19 +376,25 @@ class ArrayScan:
         ------
         InvalidPoseError
             When an unloaded whisker cuts an obstacle at the first tick.
+        ConvergenceError
+            With ``workers`` > 1, when a worker process does not start or ends.
 
         """
-        tracker = self.tracker()
-        steps = [tracker.state]
-        best = (-1, None, None)
-        if shape_tick is not None:
-            best = self._keep(tracker, 0, shape_tick, shape_points, best)
-        for i in range(1, len(self.path.times)):
-            steps.append(tracker.step(self.path.heads[i], self.protraction[i]))
+        tracker = self.tracker(workers)
+        try:
+            steps = [tracker.state]
+            best = (-1, None, None)
             if shape_tick is not None:
-                best = self._keep(tracker, i, shape_tick, shape_points, best)
-            if progress is not None:
-                progress(i)
+                best = self._keep(tracker, 0, shape_tick, shape_points, best)
+            for i in range(1, len(self.path.times)):
+                steps.append(tracker.step(self.path.heads[i], self.protraction[i]))
+                if shape_tick is not None:
+                    best = self._keep(tracker, i, shape_tick, shape_points, best)
+                if progress is not None:
+                    progress(i)
+        finally:
+            if isinstance(tracker, PartitionedArrayTracker):
+                tracker.close()
         return ArrayScanResult(self.array, self.path.times, tuple(steps), best[1], best[2],
                                self.points_tolerance)
 
