@@ -63,6 +63,14 @@ class ArrayProbe:
         self.executor = SingleThreadedExecutor(context=context)
         self.executor.add_node(n)
 
+    def handshake(self, first, timeout=30.0):
+        """Publish ``first`` until the node answers (graph matching alone loses messages)."""
+        end = time.monotonic() + timeout
+        while not self.got["wrenches"] and time.monotonic() < end:
+            self.whisk.publish(first)
+            self.spin_until(lambda: bool(self.got["wrenches"]), 0.2)
+        assert self.got["wrenches"], "array_node never answered"
+
     def call_reset(self, timeout=20.0):
         """Call ``~/reset`` and return its response."""
         assert self.reset.wait_for_service(timeout_sec=timeout), "no ~/reset service"
@@ -143,12 +151,7 @@ def external(installed, ros_env, rcl_context, tmp_path_factory):
     t = 1_000_000_000
     inputs, bad = [], {}
     try:
-        first = _joints(["whisk"], [math.radians(-20.0)], t)
-        end = time.monotonic() + 30.0  # handshake: until the node answers
-        while not probe.got["wrenches"] and time.monotonic() < end:
-            probe.whisk.publish(first)
-            probe.spin_until(lambda: bool(probe.got["wrenches"]), 0.2)
-        assert probe.got["wrenches"], "array_node never answered"
+        probe.handshake(_joints(["whisk"], [math.radians(-20.0)], t))
         probe.spin_until(lambda: False, 0.3)
         for k, theta in enumerate(np.linspace(-20.0, 20.0, 60)[1:], start=1):
             t += 1_000_000
@@ -788,12 +791,7 @@ def test_a_worker_process_that_ends_is_reported_and_reset_starts_the_array_again
     probe = ArrayProbe(rcl_context, "/dead/array_node")
     t = 1_000_000_000
     try:
-        first = _joints(["whisk"], [math.radians(-20.0)], t)
-        end = time.monotonic() + 30.0  # handshake: until the node answers
-        while not probe.got["wrenches"] and time.monotonic() < end:
-            probe.whisk.publish(first)
-            probe.spin_until(lambda: bool(probe.got["wrenches"]), 0.2)
-        assert probe.got["wrenches"], "array_node never answered"
+        probe.handshake(_joints(["whisk"], [math.radians(-20.0)], t))
         for k in range(1, 4):
             t += 1_000_000
             probe.send(_joints(["whisk"], [math.radians(-20.0 + k)], t))

@@ -69,6 +69,8 @@ _START_TIMEOUT = 600.0
 #: how long a worker may take to answer a tick (each whisker's step is bounded by its budget
 #: of evaluations: ~seconds at the very worst) [s]
 _ANSWER_TIMEOUT = 120.0
+#: the ArrayTracker methods a worker answers (a command names one)
+_METHODS = frozenset(("step", "reset", "centerlines", "whisker_poses", "clearance"))
 #: what a failed array's error says can be done
 _RESTART = "restart() it (every whisker unloaded, in fresh worker processes) or start it again"
 
@@ -110,16 +112,9 @@ def serve(fd: int) -> None:
             if kind == "close":
                 return
             try:
-                if kind == "step":
-                    answer = tracker.step(command[2], command[3])
-                elif kind == "reset":
-                    answer = tracker.reset()
-                elif kind == "poses":
-                    answer = tracker.whisker_poses(command[2], command[3])
-                elif kind == "clearance":
-                    answer = tracker.clearance(command[2], command[3])
-                else:  # "centerlines"
-                    answer = tracker.centerlines(command[2])
+                if kind not in _METHODS:
+                    raise ValueError(f"the array's worker has no command {kind!r}")
+                answer = getattr(tracker, kind)(*command[2:])  # (this part's arguments)
             except Exception as exc:  # noqa: BLE001 - the caller raises it, as in one process
                 _send_error(conn, tag, exc)
                 continue
@@ -379,6 +374,17 @@ class PartitionedArrayTracker:
             raise error
         return answers
 
+    def _each(self, method: str, args=lambda part: ()) -> list:
+        """
+        Call an ArrayTracker method on every part, part 0 here: the answers in the parts' order.
+
+        ``args(part)`` gives a part's arguments from its whiskers' indices (:meth:`_ask`: the
+        first error is raised once every part has answered).
+        """
+        parts = self._parts
+        return self._ask([(method,) + tuple(args(part)) for part in parts[1:]],
+                         lambda: getattr(self._local, method)(*args(parts[0])))
+
     def _merge(self, steps: Sequence[ArrayStep]) -> ArrayStep:
         """One ArrayStep of the parts' steps, in the array's order (the same bits as one)."""
         if len(steps) == 1:
@@ -431,23 +437,17 @@ class PartitionedArrayTracker:
         """
         head = _as_head(head)
         theta = self._protraction(protraction)
-        parts = self._parts
-        steps = self._ask([("step", head, theta[p]) for p in parts[1:]],
-                          lambda: self._local.step(head, theta[parts[0]]))
-        self._state = self._merge(steps)
+        self._state = self._merge(self._each("step", lambda part: (head, theta[part])))
         return self._state
 
     def reset(self) -> ArrayStep:
         """Re-place every whisker unloaded at its last tick's pose (:meth:`ArrayTracker.reset`)."""
-        steps = self._ask([("reset",)] * len(self._conns), self._local.reset)
-        self._state = self._merge(steps)
+        self._state = self._merge(self._each("reset"))
         return self._state
 
     def centerlines(self, n: int = 21) -> np.ndarray:
         """Return every whisker's centerline (k, n, 3) [m] (:meth:`ArrayTracker.centerlines`)."""
-        lines = self._ask([("centerlines", n)] * len(self._conns),
-                          lambda: self._local.centerlines(n))
-        return np.concatenate(lines)[self._order]
+        return np.concatenate(self._each("centerlines", lambda part: (n,)))[self._order]
 
     @property
     def failed(self) -> Optional[str]:
@@ -537,9 +537,7 @@ class PartitionedArrayTracker:
         """
         head = _as_head(head)
         theta = self._protraction(protraction)
-        parts = self._parts
-        poses = self._ask([("poses", head, theta[p]) for p in parts[1:]],
-                          lambda: self._local.whisker_poses(head, theta[parts[0]]))
+        poses = self._each("whisker_poses", lambda part: (head, theta[part]))
         joined = [pose for part in poses for pose in part]
         return tuple(joined[i] for i in self._order)
 
@@ -566,9 +564,7 @@ class PartitionedArrayTracker:
         if R.shape != (k, 3, 3) or p.shape != (k, 3):
             raise ParameterError(f"R of shape {R.shape} and p of shape {p.shape} are not "
                                  f"allowed; need ({k}, 3, 3) and ({k}, 3)")
-        parts = self._parts
-        d = self._ask([("clearance", R[q], p[q]) for q in parts[1:]],
-                      lambda: self._local.clearance(R[parts[0]], p[parts[0]]))
+        d = self._each("clearance", lambda part: (R[part], p[part]))
         return np.concatenate(d)[self._order]
 
     def tracker(self, name: str) -> RodTracker:
