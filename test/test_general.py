@@ -25,7 +25,11 @@ from vibrissa_ros.core import (
 from vibrissa_ros.core.checks.general_shooting import shoot_state
 from vibrissa_ros.core.errors import ModelAssumptionError, ParameterError
 from vibrissa_ros.core.scan import run_poses
-from vibrissa_ros.core.general.model import GeneralWhiskerModel, WhiskerShape
+from vibrissa_ros.core.general.model import (
+    GeneralWhiskerModel,
+    WhiskerShape,
+    free_centerline,
+)
 from vibrissa_ros.core.exact.models import ElasticaModel
 
 FIELDS = ("alpha", "s1", "tip_slope", "f", "fx", "fy", "m0")
@@ -219,6 +223,67 @@ def test_closed_forms_refuse_a_side_first_touch():
     with pytest.raises(ModelAssumptionError, match="side"):
         tracker.step(FootPose(0.0, 0.0))
     assert tracker.state.phase == Phase.FREE
+
+
+@pytest.mark.parametrize("shape", [WhiskerShape(1 / 15, 1.0, 0.5), WhiskerShape(0.3, -0.8, 0.3),
+                                   WhiskerShape(0.5, 2.5, -1.0)])
+def test_free_point_agrees_with_the_free_centerline(shape):
+    # the Chebyshev series (a touch search's single points) against Gauss-Legendre quadrature
+    model = GeneralWhiskerModel(shape)
+    s = np.linspace(0.0, 1.0, 1001)
+    points = np.array([model.free_point(float(u)) for u in s])
+    assert np.max(np.abs(points - free_centerline(shape, s))) < 1e-14
+    x, y, slope = model.free_tip()
+    assert (x, y) == pytest.approx(tuple(free_centerline(shape, [1.0])[0]), abs=1e-14)
+    assert slope == pytest.approx(shape.k0 + 0.5 * shape.k1, abs=1e-15)
+
+
+@pytest.mark.parametrize("shape", [WhiskerShape(), WhiskerShape(1 / 15, 1.0, 0.5),
+                                   WhiskerShape(0.5, 2.5, -1.0)])
+@pytest.mark.parametrize("r", [0.0, 0.05])
+def test_peg_clearance_bound_is_a_tight_lower_bound(shape, r):
+    # the coarse clearance that lets a free step skip the exact one: never above the gap
+    # (else a touch could be stepped over), and within a few 1e-4 of it
+    rng = np.random.default_rng(7)
+    dense = free_centerline(shape, np.linspace(0.0, 1.0, 200001))
+    tracker = QuasistaticTracker(Peg(0.0, 0.6, r), FootPose(2.0, 0.0),
+                                 model=GeneralWhiskerModel(shape))
+    tight = 0
+    for _ in range(300):
+        pose = FootPose(*rng.uniform(-0.6, 0.6, 2), math.pi / 2 + rng.uniform(-1.0, 1.0))
+        beta = pose.heading - math.pi / 2
+        c, sn = math.cos(beta), math.sin(beta)
+        wx = pose.x + c * dense[:, 0] - sn * dense[:, 1]
+        wy = pose.y + sn * dense[:, 0] + c * dense[:, 1]
+        gap = float(np.min(np.hypot(wx, wy - 0.6))) - r
+        bound, s = tracker._peg_clearance_bound(pose.x, pose.y, c, sn)
+        assert bound <= gap + 1e-12
+        assert gap - bound < 1e-3
+        tight += gap - bound < 1e-9 if shape.k0 == shape.k1 == 0.0 else 1
+        assert 0.0 <= s <= 1.0
+    assert tight == 300  # a straight whisker's chords are the whisker: the bound is the gap
+
+
+@pytest.mark.parametrize("steps", [1, 1000])
+def test_a_free_whisker_whisked_in_small_steps_touches_a_peg_where_one_step_does(steps):
+    # free steps near the peg are certified by the coarse bound: none may step over the touch
+    shape = WhiskerShape(1 / 15, 1.0, 0.5)
+    peg = Peg(0.0, 0.6, 0.05)
+    start = FootPose(0.3, 0.0, math.pi / 2 + 0.6)
+    probe = QuasistaticTracker(peg, start, model=GeneralWhiskerModel(shape))
+    touch = [e for e in probe.step(FootPose(0.3, 0.0, math.pi / 2 - 0.6)).events
+             if e.kind == "touch"][0]
+    h0 = touch.pose.heading + 0.02
+    tracker = QuasistaticTracker(peg, start, model=GeneralWhiskerModel(shape))
+    tracker.step(FootPose(0.3, 0.0, h0))
+    found = []
+    for i in range(steps):
+        result = tracker.step(FootPose(0.3, 0.0, h0 - 0.021 * (i + 1) / steps))
+        found += [e for e in result.events if e.kind == "touch"]
+        if not found:
+            assert result.state.phase == Phase.FREE
+    assert len(found) == 1
+    assert found[0].pose.heading == pytest.approx(touch.pose.heading, abs=1e-12)
 
 
 def test_peg_parameters():

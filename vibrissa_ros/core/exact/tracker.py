@@ -195,6 +195,7 @@ class QuasistaticTracker:
         self._shape_mode = (hasattr(profile, "signed_distance")
                             or not getattr(self.model, "is_straight", True))
         self._free_nodes = None
+        self._free_chords = None
         pose = _as_pose(pose)
         self._work = 0
         self._budget = self.options.max_evaluations
@@ -718,6 +719,13 @@ class QuasistaticTracker:
             return 0.0, s
         return self.model.free_point(s)
 
+    def _free_slope(self, s: float) -> float:
+        """Slope of the unloaded whisker at arc length s relative to its heading [rad]."""
+        if getattr(self.model, "is_straight", True):
+            return 0.0
+        shape = self.model.shape  # its intrinsic_slope, on a float
+        return shape.k0 * s + 0.5 * shape.k1 * s * s
+
     def _free_sample(self):
         if self._free_nodes is None:
             s = 0.5 - 0.5 * np.cos(np.linspace(0.0, math.pi, 41))
@@ -740,17 +748,23 @@ class QuasistaticTracker:
         Return (smallest gap along the unloaded whisker, its arc length).
 
         For a peg the gap is the Euclidean distance to the peg; for a curved whisker against a
-        convex profile the vertical gap. ``coarse`` (pegs): far from the peg, a lower bound from
-        the samples is enough. The samples bound the gap from below to within half their
-        spacing (it is 1-Lipschitz in s), so every sampled local minimum that could hide the
-        smallest gap is refined, not only the lowest one.
+        convex profile the vertical gap. ``coarse`` (pegs): farther than 1e-3 from the peg, a
+        lower bound from the samples' chords is enough (:meth:`_peg_clearance_bound`). The
+        samples bound the gap from below to within half their spacing (it is 1-Lipschitz in s),
+        so every sampled local minimum that could hide the smallest gap is refined, not only the
+        lowest one.
         """
         s, pts = self._free_sample()
         beta = pose.heading - HALF_PI
         c, sn = math.cos(beta), math.sin(beta)
+        signed_distance = getattr(self.profile, "signed_distance", None)
+        if coarse and signed_distance is not None:
+            self._spend()
+            bound, s_near = self._peg_clearance_bound(pose.x, pose.y, c, sn)
+            if bound > 1e-3:
+                return bound, s_near
         wx = pose.x + c * pts[:, 0] - sn * pts[:, 1]
         wy = pose.y + sn * pts[:, 0] + c * pts[:, 1]
-        signed_distance = getattr(self.profile, "signed_distance", None)
         if signed_distance is not None:
             self._spend()
             d = signed_distance(wx, wy)
@@ -758,11 +772,6 @@ class QuasistaticTracker:
             d = np.array([self._gap(x, y) for x, y in zip(wx, wy)])
         i = int(np.argmin(d))
         best, s_best = float(d[i]), float(s[i])
-        if coarse and signed_distance is not None:
-            # the distance is 1-Lipschitz in s: nodes 0.04 apart bound it from below to within 0.02
-            bound = best - _NODE_SLACK
-            if bound > 1e-3:
-                return bound, s_best
         fun = lambda u: self._world_gap(pose, *self._free_point(u))  # noqa: E731
         last = len(s) - 1
         # the sampled local minima within the samples' slack of the lowest one, lowest first
@@ -784,6 +793,36 @@ class QuasistaticTracker:
                 best, s_best = value, refined
         return best, s_best
 
+    def _peg_clearance_bound(self, x: float, y: float, c: float, sn: float):
+        """
+        Return (a lower bound on the peg's gap from the unloaded whisker, a node's s near it).
+
+        The whisker's foot at (x, y), its frame turned by (cos, sin) = (c, sn). Between two
+        samples h apart in arc length a curve of curvature at most kappa keeps within
+        kappa h^2 / 8 of their chord (the sagitta of a circular arc bounds it), so the peg
+        centre's distance from the samples' polyline, less that and the peg's radius, bounds
+        the gap from below (within ~3e-4 L; the samples alone bound it within 0.02).
+        """
+        if self._free_chords is None:
+            s, pts = self._free_sample()
+            edges = np.diff(pts, axis=0)
+            h = np.diff(s)
+            shape = getattr(self.model, "shape", None)
+            kappa = (0.0 if getattr(self.model, "is_straight", True)
+                     else max(abs(shape.k0), abs(shape.k0 + shape.k1)))
+            # the polyline of a straight whisker is the whisker; a rounding margin either way
+            slack = kappa * float(np.max(h)) ** 2 / 8.0 + 1e-12
+            self._free_chords = (pts[:-1], edges, np.einsum("ij,ij->i", edges, edges), slack)
+        starts, edges, lengths2, slack = self._free_chords
+        dx, dy = self.profile.x - x, self.profile.y - y
+        # the peg's centre in the foot frame
+        cx, cy = c * dx + sn * dy, -sn * dx + c * dy
+        wx, wy = cx - starts[:, 0], cy - starts[:, 1]
+        along = np.clip((wx * edges[:, 0] + wy * edges[:, 1]) / lengths2, 0.0, 1.0)
+        d = np.hypot(wx - along * edges[:, 0], wy - along * edges[:, 1])
+        j = int(np.argmin(d))
+        return float(d[j]) - slack - self.profile.r, float(self._free_sample()[0][j])
+
     def _peg_nearest(self, pose: FootPose, s: float, lo: float, hi: float) -> Optional[float]:
         """
         Find the arc length in (lo, hi) of the unloaded whisker's point nearest to the peg centre.
@@ -799,7 +838,7 @@ class QuasistaticTracker:
         shape = None if straight else self.model.shape
         for _ in range(8):
             px, py = self._free_point(s)
-            th = HALF_PI + (0.0 if straight else float(shape.intrinsic_slope(s)))
+            th = HALF_PI + self._free_slope(s)
             k = 0.0 if straight else shape.k0 + shape.k1 * s
             tx, ty = math.cos(th), math.sin(th)
             rx, ry = px - cx, py - cy
@@ -825,8 +864,7 @@ class QuasistaticTracker:
         if not 0.0 < s < 1.0:
             return 0
         fx, fy = self._free_point(s)
-        slope = (0.0 if getattr(self.model, "is_straight", True)
-                 else float(self.model.shape.intrinsic_slope(s)))
+        slope = self._free_slope(s)
         beta = pose.heading - HALF_PI
         cb, sb = math.cos(beta), math.sin(beta)
         px, py = pose.x + cb * fx - sb * fy, pose.y + sb * fx + cb * fy
@@ -912,8 +950,7 @@ class QuasistaticTracker:
     def _free_point_world(self, pose: FootPose, s: float):
         """Return the unloaded whisker's point and unit tangent at arc length s, world frame."""
         fx, fy = self._free_point(s)
-        slope = (0.0 if getattr(self.model, "is_straight", True)
-                 else float(self.model.shape.intrinsic_slope(s)))
+        slope = self._free_slope(s)
         beta = pose.heading - HALF_PI
         cb, sb = math.cos(beta), math.sin(beta)
         th = pose.heading + slope

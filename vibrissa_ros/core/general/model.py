@@ -315,6 +315,7 @@ class GeneralWhiskerModel:
         self._memo: Dict[tuple, _Solution] = {}
         self._mirror: Optional["GeneralWhiskerModel"] = None
         self._free_series = None
+        self._free_tip: Optional[Tuple[float, float, float]] = None
         taper = self.shape.taper
         self._s1_max = 1.05 if taper == 1.0 else min(1.05, 1.0 + 0.5 * taper / (1.0 - taper))
         #: solutions of reported states (contact_quantities), to redraw their centerlines later
@@ -614,8 +615,10 @@ class GeneralWhiskerModel:
 
     def free_tip(self) -> Tuple[float, float, float]:
         """Tip of the unloaded whisker in the foot frame and its slope relative to the heading."""
-        x, y = _intrinsic_offset(self.shape, 0.0, HALF_PI, 1.0)
-        return x, y, float(self.shape.intrinsic_slope(1.0))
+        if self._free_tip is None:
+            x, y = _intrinsic_offset(self.shape, 0.0, HALF_PI, 1.0)
+            self._free_tip = (x, y, float(self.shape.intrinsic_slope(1.0)))
+        return self._free_tip
 
     @property
     def is_straight(self) -> bool:
@@ -665,16 +668,29 @@ class GeneralWhiskerModel:
         return pts
 
     def free_point(self, s: float) -> Tuple[float, float]:
-        """Return the unloaded whisker's point at arc length s, foot frame (Chebyshev, ~1e-15)."""
+        """
+        Return the unloaded whisker's point at arc length s, foot frame (Chebyshev, ~1e-15).
+
+        Both series by one Clenshaw recurrence on Python floats, their coefficients below
+        rounding dropped: a touch search asks for single points many times, and numpy's
+        chebval costs ~15 us a call on a scalar, this ~2 us for both.
+        """
         if self._free_series is None:
             x, S, Vinv = chebyshev_operators(48)
             th = HALF_PI + self.shape.intrinsic_slope(0.5 * (x + 1.0))
             cx = C.chebint(Vinv @ (0.5 * np.cos(th)), lbnd=-1.0)
             cy = C.chebint(Vinv @ (0.5 * np.sin(th)), lbnd=-1.0)
-            self._free_series = (cx, cy)
-        cx, cy = self._free_series
-        u = 2.0 * s - 1.0
-        return float(C.chebval(u, cx)), float(C.chebval(u, cy))
+            # |x|, |y| <= 1 on the whisker: coefficients below 1e-18 are below its rounding
+            big = np.nonzero(np.maximum(np.abs(cx), np.abs(cy)) > 1e-18)[0]
+            m = int(big[-1]) + 1 if big.size else 1
+            self._free_series = tuple(zip(cx[m - 1::-1].tolist(), cy[m - 1::-1].tolist()))
+        u2 = 4.0 * s - 2.0  # 2 u, u = 2 s - 1 on the series' [-1, 1]
+        bx1 = bx2 = by1 = by2 = 0.0
+        for ax, ay in self._free_series[:-1]:  # Clenshaw, from the highest degree down to 1
+            bx1, bx2 = ax + u2 * bx1 - bx2, bx1
+            by1, by2 = ay + u2 * by1 - by2, by1
+        ax, ay = self._free_series[-1]
+        return ax + 0.5 * u2 * bx1 - bx2, ay + 0.5 * u2 * by1 - by2
 
     def free_centerline(self, n: int) -> np.ndarray:
         return free_centerline(self.shape, np.linspace(0.0, 1.0, n))
