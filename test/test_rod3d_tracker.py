@@ -434,6 +434,25 @@ def test_a_probe_that_cannot_be_solved_leaves_the_event_at_the_start(monkeypatch
     assert tracker._first_event(path, 0.0, 0.5, [("release", 0)], []) == 0.0
 
 
+def test_a_solve_within_a_sub_step_that_lands_on_another_branch_is_not_taken(monkeypatch):
+    # an event is located from solves within the sub-step; one that Newton carries to another
+    # branch is judged as a trial step is (_off_branch), and is a ConvergenceError
+    tracker, path = _pressed_sphere_tracker()
+    solved = tracker._solved
+    on = tracker._solve_at(path, 0.0, 0.5, solved)
+    change = float(np.max(np.abs(on.vec - solved.vec)))  # (the force: 0.034)
+    assert 0.0 < change < 0.1
+    real = RodSolver.solve
+
+    def far(self, modes, pose, guess, *args, **kwargs):
+        found = real(self, modes, pose, guess, *args, **kwargs)
+        return type(found)(found.vec + 4.0 * change, found.lu, found.sens)
+
+    monkeypatch.setattr(RodSolver, "solve", far)
+    with pytest.raises(ConvergenceError, match="another branch"):
+        tracker._solve_at(path, 0.0, 0.5, solved)
+
+
 def test_an_event_never_located_shortens_the_sub_step_until_the_step_fails(monkeypatch):
     """Rule 4 is bounded: each retry quarters the sub-step; below 1e-12 the step fails."""
     from vibrissa_ros.core.rod3d import tracker as rod_tracker

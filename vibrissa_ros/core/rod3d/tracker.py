@@ -954,13 +954,23 @@ class RodTracker:
         self._solved, self._vec, self._pose = solved, solved.vec, pose
 
     def _solve_at(self, path, t, t_new, solved, exact=True):
-        """Solve at t_new from the solution at t (``exact``: the Jacobian at the solution)."""
+        """
+        Solve at t_new from the solution at t (``exact``: the Jacobian at the solution).
+
+        Within a sub-step already taken, to locate an event in it. A solution off the branch
+        of the one at t (:func:`_off_branch`, as a trial step is judged) is a ConvergenceError,
+        as where Newton fails: the event is then not located from it.
+        """
         pose = path.pose(t)
         tan = self.solver.tangent(solved, path.rate(pose))
         guess = solved.vec + (t_new - t) * tan
         pose_new = path.pose(t_new)
-        return self.solver.solve(self._modes, pose_new, guess, start=solved, max_step=0.5,
-                                 exact_jacobian=exact)
+        found = self.solver.solve(self._modes, pose_new, guess, start=solved, max_step=0.5,
+                                  exact_jacobian=exact)
+        if _off_branch(found.vec, guess, solved.vec):
+            raise ConvergenceError("3D whisker: a solve within the sub-step landed on another "
+                                   "branch")
+        return found
 
     def _event_values(self, path, t, vec, lu):
         """Named inequality values (>= 0 admissible) of the configuration at (t, vec)."""
