@@ -129,6 +129,13 @@ _SWEEP = [("move", np.zeros(3), np.array([0.0, 0.0, 1.0]), 0.0, math.radians(3.0
          obstacle=Sphere((0.027, -0.018, 0.0), 0.004, "ball"),
          history=_SWEEP + [(t[0], t[1], t[2], t[3], -t[4], t[5]) for t in _SWEEP],
          start=-25.0)
+@example(names=("RA1", "RB1", "RB0"),  # RB0, skipped and placed, then refused (a line contact)
+         obstacle=Plane((0.038, -0.021, 0.0), (-0.9828721869343219, -0.18428853505018536, 0.0),
+                        "wall"),
+         history=[(t[0], t[1], t[2], t[3], d, t[5])
+                  for t, d in zip(_SWEEP, (0.026179938779914945,) * 3 + (
+                      -0.004363323129985824, 0.5235987755982988, 0.026179938779914945))],
+         start=-12.0)
 @given(names=st.lists(st.sampled_from(NAMES), min_size=2, max_size=4, unique=True).map(tuple),
        obstacle=obstacles(), history=st.lists(ticks(), min_size=4, max_size=20),
        start=st.floats(-35.0, 0.0))

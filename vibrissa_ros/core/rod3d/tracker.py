@@ -856,7 +856,10 @@ class RodTracker:
         """Move the free whisker as far as it stays clear; on a touch, add the contact."""
         pose = path.pose(t)
         cached = self._gap_cache
-        gap = cached[1] if cached is not None and cached[0] is pose else self._free_gap(pose)[0]
+        # (computed as the cache's was: the same first sub-step whether the whisker was stepped
+        # here or placed here, as the array places the whiskers it skipped)
+        gap = (cached[1] if cached is not None and cached[0] is pose
+               else self._free_gap(pose, certify=True)[0])
         for _ in range(_MAX_SUBSTEPS):
             self._check_budget()
             self.solver.evaluations += 1
