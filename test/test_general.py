@@ -23,7 +23,7 @@ from vibrissa_ros.core import (
     scan_grid,
 )
 from vibrissa_ros.core.checks.general_shooting import shoot_state
-from vibrissa_ros.core.errors import ModelAssumptionError, ParameterError
+from vibrissa_ros.core.errors import InvalidPoseError, ModelAssumptionError, ParameterError
 from vibrissa_ros.core.scan import run_poses
 from vibrissa_ros.core.general.model import (
     GeneralWhiskerModel,
@@ -284,6 +284,33 @@ def test_a_free_whisker_whisked_in_small_steps_touches_a_peg_where_one_step_does
             assert result.state.phase == Phase.FREE
     assert len(found) == 1
     assert found[0].pose.heading == pytest.approx(touch.pose.heading, abs=1e-12)
+
+
+@pytest.mark.parametrize("recover", [False, True])
+def test_a_foot_driven_into_or_through_a_peg_is_refused_at_once(recover):
+    # (such a step once crept for ~45 s: the contact pressed by the foot slides toward the
+    # foot, s1 -> 0, and the continuation's sub-steps shrink with it, 20,000 of them)
+    from vibrissa_ros.core import TrackerOptions
+
+    peg = Peg(0.0, 0.5, 0.1)
+    tracker = QuasistaticTracker(peg, FootPose(0.3, 0.2), model=GeneralWhiskerModel(
+        WhiskerShape(0.5, 0.3, 0.0)), options=TrackerOptions(recover=recover))
+    tracker.step(FootPose(0.1, 0.2))
+    before = tracker.state
+    assert before.phase == Phase.TANGENTIAL
+    with pytest.raises(InvalidPoseError, match="foot inside the obstacle"):
+        tracker.step(FootPose(0.0, 0.45))
+    assert tracker.state is before
+    through = FootPose(-0.3, 0.8)
+    if not recover:
+        with pytest.raises(ModelAssumptionError, match="passes through the obstacle"):
+            tracker.step(through)
+        assert tracker.state is before
+        return
+    result = tracker.step(through)  # re-placed unloaded at the target, where it is clear
+    assert [e.kind for e in result.events] == ["reset"]
+    assert "passes through the obstacle" in result.events[0].reason
+    assert result.evaluations < 1000
 
 
 def test_peg_parameters():

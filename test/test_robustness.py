@@ -363,3 +363,64 @@ def test_a_whisker_released_exactly_at_a_pose_does_not_touch_again_when_it_moves
         assert result.evaluations < 5_000
     assert kinds == ["touch", "phase", "snap", "release"]
     assert tracker.state.phase == Phase.FREE
+
+
+@st.composite
+def peg_moves(draw):
+    """Draw a move of a curved whisker's foot near a peg: a walk with a turn, or a jump."""
+    if draw(st.sampled_from(["walk", "walk", "walk", "jump"])) == "walk":
+        # long walks, and short ones whose touch a free step's clearance must not step over
+        scale = draw(st.sampled_from([1.0, 0.05, 0.003]))
+        return ("walk", scale * draw(st.floats(-0.15, 0.15)),
+                scale * draw(st.floats(-0.15, 0.15)), scale * draw(st.floats(-0.5, 0.5)))
+    return ("to", draw(st.floats(-0.8, 0.8)), draw(st.floats(-0.6, 0.4)),
+            HALF_PI + draw(st.floats(-1.2, 1.2)))
+
+
+@settings(derandomize=True, database=None, deadline=None, max_examples=80,
+          suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
+@given(taper=st.floats(0.05, 1.0), k0=st.floats(-1.5, 1.5), k1=st.floats(-1.5, 1.5),
+       peg=st.tuples(st.floats(-0.4, 0.4), st.floats(0.2, 0.9), st.sampled_from([0.0, 0.02, 0.1])),
+       path=st.lists(peg_moves(), min_size=1, max_size=16))
+def test_a_curved_tapered_whisker_near_a_peg_is_valid_after_every_step_or_refused(
+        taper, k0, k1, peg, path):
+    # a free state never overlaps the peg (the unloaded whisker checked densely), a loaded one
+    # keeps outside it, a refusal keeps the state; it found a foot driven through the peg that
+    # took ~45 s to refuse (test_general.py)
+    from vibrissa_ros.core.general.model import (GeneralWhiskerModel, WhiskerShape,
+                                                 free_centerline)
+    from vibrissa_ros.core.profiles import Peg
+
+    shape = WhiskerShape(taper, k0, k1)
+    obstacle = Peg(*peg)
+    dense = free_centerline(shape, np.linspace(0.0, 1.0, 4001))
+    try:
+        tracker = QuasistaticTracker(obstacle, FootPose(0.0, -0.9, HALF_PI),
+                                     model=GeneralWhiskerModel(shape))
+    except (InvalidPoseError, ModelAssumptionError):
+        assume(False)
+    pose = tracker.state.pose
+    for move in path:
+        target = _apply(pose, move)
+        before = tracker.state
+        try:
+            result = tracker.step(target)
+        except VibrissaError:
+            assert tracker.state is before  # the state is kept
+            continue
+        assert result.evaluations <= STEP_WORK_BOUND
+        state = result.state
+        assert all(math.isfinite(v) for v in (state.f, state.fx, state.fy, state.m0))
+        if state.phase == Phase.FREE:
+            assert state.f == state.fx == state.fy == state.m0 == 0.0
+            beta = state.pose.heading - HALF_PI
+            c, s = math.cos(beta), math.sin(beta)
+            x = state.pose.x + c * dense[:, 0] - s * dense[:, 1]
+            y = state.pose.y + s * dense[:, 0] + c * dense[:, 1]
+            line = np.column_stack((x, y))
+        else:
+            assert state.f > 0.0
+            line = state.centerline(401)
+        assert np.min(np.hypot(line[:, 0] - obstacle.x, line[:, 1] - obstacle.y)) >= (
+            obstacle.r - 1e-9)
+        pose = state.pose

@@ -453,6 +453,29 @@ def test_a_solve_within_a_sub_step_that_lands_on_another_branch_is_not_taken(mon
         tracker._solve_at(path, 0.0, 0.5, solved)
 
 
+@pytest.mark.parametrize("recover", [False, True])
+def test_a_base_driven_into_or_through_an_obstacle_is_reported_as_such(recover):
+    # such a step fails on its budget (~1 s); the failure then names the base's path as its
+    # cause: inside at the target an InvalidPoseError, through on the way a ModelAssumptionError
+    scene = Scene3D((Cylinder((0.0, 0.4, 0.0), (0, 0, 1), 0.1, "peg"),))
+    q = (math.cos(math.pi / 4), 0.0, 0.0, math.sin(math.pi / 4))  # the whisker along +y
+    tracker = RodTracker(scene, BasePose((0.3, 0.2, 0.0), q), recover=recover)
+    tracker.step(BasePose((0.1, 0.2, 0.0), q))
+    before = tracker.state
+    with pytest.raises(InvalidPoseError, match="base inside peg"):
+        tracker.step(BasePose((0.0, 0.4, 0.0), q))
+    assert tracker.state is before
+    through = BasePose((-0.3, 0.7, 0.0), q)
+    if not recover:
+        with pytest.raises(ModelAssumptionError, match="passes through peg"):
+            tracker.step(through)
+        assert tracker.state is before
+        return
+    result = tracker.step(through)  # re-placed unloaded at the target, where it is clear
+    assert [e.kind for e in result.events] == ["reset"]
+    assert "base's path" in result.events[0].reason
+
+
 def test_an_event_never_located_shortens_the_sub_step_until_the_step_fails(monkeypatch):
     """Rule 4 is bounded: each retry quarters the sub-step; below 1e-12 the step fails."""
     from vibrissa_ros.core.rod3d import tracker as rod_tracker
