@@ -7,6 +7,7 @@ events; friction must stay in its cone, oppose the slip and dissipate over a clo
 """
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -163,3 +164,29 @@ def test_conical_whiskers_slip_off_a_pole_later_with_friction_cylinders_never():
         snaps.append(events[0][1] - events[-1][1])  # the push angle at the slip-off
         assert [k for k, _ in _whisk_events(1.0, mu)] == ["touch"]
     assert 35.0 < snaps[0] < snaps[1] < snaps[2] < 60.0
+
+
+@pytest.mark.parametrize("recover", [False, True])
+def test_a_foot_driven_into_or_through_an_obstacle_is_reported_as_such(recover):
+    # such a step fails on the budget (~1.5 s); the failure then names the foot's path
+    from vibrissa_ros.core import FootPose
+    from vibrissa_ros.core.errors import InvalidPoseError, ModelAssumptionError
+    from vibrissa_ros.scan.scene_file import load_scene
+
+    scene = load_scene(str(Path(__file__).resolve().parents[1] / "config"
+                           / "scene_two_pegs.yaml"))
+    tracker = SceneTracker(scene.obstacles, FootPose(0.1, 0.0), recover=recover)
+    tracker.step(FootPose(0.05, 0.0))
+    before = tracker.state
+    with pytest.raises(InvalidPoseError, match="inside peg0"):
+        tracker.step(FootPose(0.0, 0.4))
+    assert tracker.state is before
+    through = FootPose(-0.2, 0.9)
+    if not recover:
+        with pytest.raises(ModelAssumptionError, match="passes through peg1"):
+            tracker.step(through)
+        assert tracker.state is before
+        return
+    result = tracker.step(through)  # re-placed unloaded at the target, where it is clear
+    assert [e.kind for e in result.events] == ["reset"]
+    assert "foot's path" in result.events[0].reason

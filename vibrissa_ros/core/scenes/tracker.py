@@ -368,9 +368,11 @@ class SceneTracker:
         Raises
         ------
         InvalidPoseError
-            The pose is not valid input (the state is kept).
+            The pose is not valid input, or a step that fails puts the foot inside an obstacle
+            (the state is kept).
         ModelAssumptionError, ConvergenceError
-            The step cannot be followed and the unloaded whisker would cut an obstacle at
+            The step cannot be followed (the reason names the foot's path where it passes
+            through an obstacle) and the unloaded whisker would cut an obstacle at
             ``pose``, or ``recover`` is off; the state is kept. When the whisker is free there it
             is re-placed instead, and the result has one event ``reset``
             (doc/mechanics/decisions.md, "Recovery").
@@ -381,6 +383,11 @@ class SceneTracker:
         try:
             return self._step_checked(target)
         except (ModelAssumptionError, ConvergenceError) as exc:
+            cause = self._foot_path_cause(target, exc)
+            if cause is not exc:
+                if isinstance(cause, InvalidPoseError) or not self.recover:
+                    raise cause from None
+                exc = cause
             if not self.recover:
                 raise
             spent = self._spent()
@@ -389,6 +396,32 @@ class SceneTracker:
             except InvalidPoseError:
                 raise exc from None
             return SceneStepResult(result.state, result.events, 0, spent + result.evaluations)
+
+    def _foot_path_cause(self, target: FootPose, exc: VibrissaError) -> VibrissaError:
+        """
+        Return the error a failed step is reported with: the foot's own path, where it is to blame.
+
+        As the 3D whisker's (:meth:`RodTracker._base_path_cause
+        <vibrissa_ros.core.rod3d.tracker.RodTracker._base_path_cause>`): looked at only once a
+        step has failed, at 33 points of the foot's straight path; a foot inside an obstacle at
+        the target is an InvalidPoseError, one that passes through an obstacle on the way a
+        ModelAssumptionError that says so (it used to fail on the budget, saying only that).
+        """
+        a, b = np.array([self._pose.x, self._pose.y]), np.array([target.x, target.y])
+        points = a + np.linspace(0.0, 1.0, 33)[:, None] * (b - a)
+        for ob in self.obstacles:
+            try:
+                d = np.asarray(ob.signed_distance(points), dtype=float)
+            except _NUMERICAL_ERRORS:
+                continue
+            if d[-1] < 0.0:
+                return InvalidPoseError(f"the foot pose {target} is inside {ob.name} "
+                                        f"({-float(d[-1]):.3g} L deep)")
+            if np.any(d < 0.0):
+                return ModelAssumptionError(
+                    f"the foot's path from {self._pose} to {target} passes through {ob.name}: "
+                    f"a foot cannot move through an obstacle ({exc})")
+        return exc
 
     def reset(self, pose=None, reason: str = "reset on request") -> SceneStepResult:
         """
