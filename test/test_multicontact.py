@@ -190,3 +190,15 @@ def test_a_foot_driven_into_or_through_an_obstacle_is_reported_as_such(recover):
     result = tracker.step(through)  # re-placed unloaded at the target, where it is clear
     assert [e.kind for e in result.events] == ["reset"]
     assert "foot's path" in result.events[0].reason
+
+
+@pytest.mark.parametrize("recover", [False, True])
+def test_a_foot_ending_inside_an_obstacle_is_invalid_whatever_it_crossed_before(recover):
+    from vibrissa_ros.core import FootPose
+    from vibrissa_ros.core.errors import InvalidPoseError
+    from vibrissa_ros.core.scenes.scene import PegObstacle
+
+    pegs = [PegObstacle(0.0, -0.3, 0.05, "A"), PegObstacle(0.0, -0.6, 0.05, "B")]
+    tracker = SceneTracker(pegs, FootPose(0.0, 0.0), recover=recover)
+    with pytest.raises(InvalidPoseError, match="inside B"):
+        tracker.step(FootPose(0.0, -0.6))

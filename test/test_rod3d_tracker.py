@@ -457,8 +457,14 @@ def test_a_solve_within_a_sub_step_that_lands_on_another_branch_is_not_taken(mon
 def test_a_base_driven_into_or_through_an_obstacle_is_reported_as_such(recover):
     # such a step fails on its budget (~1 s); the failure then names the base's path as its
     # cause: inside at the target an InvalidPoseError, through on the way a ModelAssumptionError
-    scene = Scene3D((Cylinder((0.0, 0.4, 0.0), (0, 0, 1), 0.1, "peg"),))
     q = (math.cos(math.pi / 4), 0.0, 0.0, math.sin(math.pi / 4))  # the whisker along +y
+    # a base ending inside one obstacle is invalid, whatever the path crossed before it
+    two = Scene3D((Cylinder((0.0, -0.3, 0.0), (0, 0, 1), 0.05, "A"),
+                   Cylinder((0.0, -0.6, 0.0), (0, 0, 1), 0.05, "B")))
+    with pytest.raises(InvalidPoseError, match="base inside B"):
+        RodTracker(two, BasePose((0.0, 0.0, 0.0), q), recover=recover).step(
+            BasePose((0.0, -0.6, 0.0), q))
+    scene = Scene3D((Cylinder((0.0, 0.4, 0.0), (0, 0, 1), 0.1, "peg"),))
     tracker = RodTracker(scene, BasePose((0.3, 0.2, 0.0), q), recover=recover)
     tracker.step(BasePose((0.1, 0.2, 0.0), q))
     before = tracker.state

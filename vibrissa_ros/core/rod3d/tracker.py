@@ -650,16 +650,21 @@ class RodTracker:
         """
         a, b = np.array(self._pose.position), np.array(target.position)
         points = a + np.linspace(0.0, 1.0, 33)[:, None] * (b - a)
+        distances = []
         for k, ob in enumerate(self.obstacles):
             try:
-                d = ob.signed_distance(points)
+                distances.append((k, np.asarray(ob.signed_distance(points), dtype=float)))
             except _NUMERICAL_ERRORS:
                 continue
-            if d[-1] < 0.0:
+        # (inside at the target first, whatever the path crossed before it; placement's
+        # tolerance _CUT, so that a base a placement allows is not called inside)
+        for k, d in distances:
+            if d[-1] < _CUT:
                 return InvalidPoseError(
                     f"the pose {target.position} (quaternion {target.quaternion}) puts the "
                     f"whisker's base inside {self._name(k)} ({-float(d[-1]):.3g} L deep)")
-            if np.any(d < 0.0):
+        for k, d in distances:
+            if np.any(d < _CUT):
                 return ModelAssumptionError(
                     f"the base's path from {self._pose.position} to {target.position} passes "
                     f"through {self._name(k)}: a base cannot move through an obstacle ({exc})")

@@ -409,15 +409,20 @@ class SceneTracker:
         """
         a, b = np.array([self._pose.x, self._pose.y]), np.array([target.x, target.y])
         points = a + np.linspace(0.0, 1.0, 33)[:, None] * (b - a)
+        distances = []
         for ob in self.obstacles:
             try:
-                d = np.asarray(ob.signed_distance(points), dtype=float)
+                distances.append((ob, np.asarray(ob.signed_distance(points), dtype=float)))
             except _NUMERICAL_ERRORS:
                 continue
-            if d[-1] < 0.0:
+        # (inside at the target first, whatever the path crossed before it; placement's
+        # tolerance _CUT, so that a foot a placement allows is not called inside)
+        for ob, d in distances:
+            if d[-1] < _CUT:
                 return InvalidPoseError(f"the foot pose {target} is inside {ob.name} "
                                         f"({-float(d[-1]):.3g} L deep)")
-            if np.any(d < 0.0):
+        for ob, d in distances:
+            if np.any(d < _CUT):
                 return ModelAssumptionError(
                     f"the foot's path from {self._pose} to {target} passes through {ob.name}: "
                     f"a foot cannot move through an obstacle ({exc})")
