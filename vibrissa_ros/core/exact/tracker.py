@@ -429,8 +429,8 @@ class QuasistaticTracker:
         """
         if not hasattr(self.profile, "signed_distance"):
             return
-        peg = self.profile
-        if self._gap(path.p1.x, path.p1.y) <= 0.0:
+        peg = self.profile  # (its signed distance, in floats: this runs at every step)
+        if math.hypot(path.p1.x - peg.x, path.p1.y - peg.y) <= peg.r:
             raise InvalidPoseError(f"{_describe_pose(path.p1)} puts the whisker's foot inside "
                                    f"the obstacle ({peg.describe()})")
         # the foot's nearest approach to the peg's centre along the straight path
@@ -842,8 +842,9 @@ class QuasistaticTracker:
                      else max(abs(shape.k0), abs(shape.k0 + shape.k1)))
             # the polyline of a straight whisker is the whisker; a rounding margin either way
             slack = kappa * float(np.max(h)) ** 2 / 8.0 + 1e-12
-            self._free_chords = (pts[:-1], edges, np.einsum("ij,ij->i", edges, edges), slack)
-        starts, edges, lengths2, slack = self._free_chords
+            self._free_chords = (s, pts[:-1], edges, np.einsum("ij,ij->i", edges, edges),
+                                 slack)
+        s, starts, edges, lengths2, slack = self._free_chords
         dx, dy = self.profile.x - x, self.profile.y - y
         # the peg's centre in the foot frame
         cx, cy = c * dx + sn * dy, -sn * dx + c * dy
@@ -851,7 +852,7 @@ class QuasistaticTracker:
         along = np.clip((wx * edges[:, 0] + wy * edges[:, 1]) / lengths2, 0.0, 1.0)
         d = np.hypot(wx - along * edges[:, 0], wy - along * edges[:, 1])
         j = int(np.argmin(d))
-        return float(d[j]) - slack - self.profile.r, float(self._free_sample()[0][j])
+        return float(d[j]) - slack - self.profile.r, float(s[j])
 
     def _peg_nearest(self, pose: FootPose, s: float, lo: float, hi: float) -> Optional[float]:
         """
@@ -971,7 +972,8 @@ class QuasistaticTracker:
         gap, s = self._free_clearance(pose, coarse)
         if coarse and gap > 1e-3 and (gap > reach or gap >= _PEG_NEAR):
             return gap, s, None
-        if coarse:
+        if coarse and gap > 1e-3:
+            # (the coarse clearance is a bound only above 1e-3; below, it was the exact one)
             gap, s = self._free_clearance(pose)
         wx, wy, tx, ty = self._free_point_world(pose, s)
         side = tx * (self.profile.y - wy) - ty * (self.profile.x - wx)

@@ -59,6 +59,7 @@ from .model import (
     POINTS_TOLERANCE, TAIL_SAMPLES, RodContactMode, RodSolver, _lu_factor, _lu_solve, _settled,
     kernel_geometry, kernel_obstacles,
 )
+from ..path_check import obstacle_on_path
 from .pose import BasePose, _relative, quat_matrix, quat_multiply
 from .shape import RodShape
 
@@ -648,27 +649,17 @@ class RodTracker:
         placement), one that passes through an obstacle on the way a ModelAssumptionError that
         says so; otherwise ``exc`` itself.
         """
-        a, b = np.array(self._pose.position), np.array(target.position)
-        points = a + np.linspace(0.0, 1.0, 33)[:, None] * (b - a)
-        distances = []
-        for k, ob in enumerate(self.obstacles):
-            try:
-                distances.append((k, np.asarray(ob.signed_distance(points), dtype=float)))
-            except _NUMERICAL_ERRORS:
-                continue
-        # (inside at the target first, whatever the path crossed before it; placement's
-        # tolerance _CUT, so that a base a placement allows is not called inside)
-        for k, d in distances:
-            if d[-1] < _CUT:
-                return InvalidPoseError(
-                    f"the pose {target.position} (quaternion {target.quaternion}) puts the "
-                    f"whisker's base inside {self._name(k)} ({-float(d[-1]):.3g} L deep)")
-        for k, d in distances:
-            if np.any(d < _CUT):
-                return ModelAssumptionError(
-                    f"the base's path from {self._pose.position} to {target.position} passes "
-                    f"through {self._name(k)}: a base cannot move through an obstacle ({exc})")
-        return exc
+        found = obstacle_on_path(self._pose.position, target.position, self.obstacles, _CUT)
+        if found is None:
+            return exc
+        k, at_end, depth = found
+        if at_end:
+            return InvalidPoseError(
+                f"the pose {target.position} (quaternion {target.quaternion}) puts the "
+                f"whisker's base inside {self._name(k)} ({depth:.3g} L deep)")
+        return ModelAssumptionError(
+            f"the base's path from {self._pose.position} to {target.position} passes "
+            f"through {self._name(k)}: a base cannot move through an obstacle ({exc})")
 
     def reset(self, pose: Optional[BasePose] = None, reason: str = "reset on request"
               ) -> RodStepResult:

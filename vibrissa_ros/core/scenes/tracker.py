@@ -49,6 +49,7 @@ from ..errors import (
     VibrissaError,
 )
 from ..general.model import WhiskerShape
+from ..path_check import obstacle_on_path
 from .multicontact import ContactMode, MultiContactSolver
 from ..state import FootPose, Phase
 from ..exact.tracker import _Path, _as_pose
@@ -407,26 +408,18 @@ class SceneTracker:
         the target is an InvalidPoseError, one that passes through an obstacle on the way a
         ModelAssumptionError that says so (it used to fail on the budget, saying only that).
         """
-        a, b = np.array([self._pose.x, self._pose.y]), np.array([target.x, target.y])
-        points = a + np.linspace(0.0, 1.0, 33)[:, None] * (b - a)
-        distances = []
-        for ob in self.obstacles:
-            try:
-                distances.append((ob, np.asarray(ob.signed_distance(points), dtype=float)))
-            except _NUMERICAL_ERRORS:
-                continue
-        # (inside at the target first, whatever the path crossed before it; placement's
-        # tolerance _CUT, so that a foot a placement allows is not called inside)
-        for ob, d in distances:
-            if d[-1] < _CUT:
-                return InvalidPoseError(f"the foot pose {target} is inside {ob.name} "
-                                        f"({-float(d[-1]):.3g} L deep)")
-        for ob, d in distances:
-            if np.any(d < _CUT):
-                return ModelAssumptionError(
-                    f"the foot's path from {self._pose} to {target} passes through {ob.name}: "
-                    f"a foot cannot move through an obstacle ({exc})")
-        return exc
+        found = obstacle_on_path((self._pose.x, self._pose.y), (target.x, target.y),
+                                 self.obstacles, _CUT)
+        if found is None:
+            return exc
+        k, at_end, depth = found
+        name = self.obstacles[k].name
+        if at_end:
+            return InvalidPoseError(f"the foot pose {target} is inside {name} "
+                                    f"({depth:.3g} L deep)")
+        return ModelAssumptionError(
+            f"the foot's path from {self._pose} to {target} passes through {name}: a foot "
+            f"cannot move through an obstacle ({exc})")
 
     def reset(self, pose=None, reason: str = "reset on request") -> SceneStepResult:
         """
